@@ -1,0 +1,373 @@
+"""The MJCF model of the gymnast: build it from parameters, load it, read it back.
+
+The MuJoCo model is the single source of truth. ``models/gymnast.xml`` (Table 1
+of the paper) and ``models/example2.xml`` (Table 2) are written by
+:func:`mjcf_from_params`; any other parameter set gives a model of the same
+shape, and any model of that shape is read back into :class:`RobotParams` by
+:func:`params_from_model` from the *compiled* ``MjModel`` (masses, inertias,
+body and COM positions).
+
+The shape (PAA_MODEL.md section 1): three bodies in a chain hanging from the
+world at the bar, one hinge per body at its origin, all hinge axes parallel and
+perpendicular to gravity, every link pointing straight up at q = 0, a ``<motor>``
+with gear 1 on joints 2 (shoulders) and 3 (hips), joint 1 (hands) passive, no
+damping, armature, friction loss, stiffness or contact.
+"""
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from .errors import PaaError
+from .params import RobotParams
+
+def _models_dir() -> Path:
+    # Installed, ``models/`` is the package ``paa_mj.models``; in a plain
+    # checkout it sits beside the package.
+    try:
+        from . import models as _models  # type: ignore[attr-defined]
+        return Path(_models.__file__).resolve().parent
+    except ImportError:
+        return Path(__file__).resolve().parent.parent / "models"
+
+
+MODELS_DIR = _models_dir()
+NAMED_ROBOTS = ("gymnast", "example2")
+
+_TEMPLATE = """\
+<mujoco model="{name}">
+  <!--
+    Three-link gymnast on a high bar (Liu & Xin 2015, PAA_MODEL.md section 1).
+    {title}
+    Joint 1 (hands on the bar) is passive; joints 2 (shoulders) and 3 (hips) carry motors.
+    q = 0 is every link straight up; the bar is at the world origin so that MuJoCo's
+    potential energy equals the paper's P(q) of (7).
+    Masses and inertias come from <inertial> alone: geoms are visual only.
+    m  = {m}  kg
+    l  = {l}  m
+    lc = {lc}  m
+    J  = {J}  kg m^2
+  -->
+  <compiler angle="radian" autolimits="true"/>
+  <option timestep="0.001" integrator="RK4" gravity="0 0 -{g}">
+    <flag energy="enable" contact="disable"/>
+  </option>
+
+  <visual>
+    <global offwidth="1280" offheight="960" azimuth="90" elevation="0"/>
+    <headlight ambient="0.35 0.35 0.35" diffuse="0.5 0.5 0.5" specular="0.1 0.1 0.1"/>
+    <quality shadowsize="2048"/>
+  </visual>
+
+  <asset>
+    <texture name="sky" type="skybox" builtin="gradient" rgb1="0.55 0.7 0.9" rgb2="0.15 0.2 0.3" width="256" height="256"/>
+    <texture name="grid" type="2d" builtin="checker" rgb1="0.75 0.75 0.72" rgb2="0.62 0.62 0.6" width="256" height="256"/>
+    <material name="floor" texture="grid" texrepeat="{texrepeat} {texrepeat}" reflectance="0.1"/>
+    <material name="steel" rgba="0.75 0.75 0.8 1" specular="0.8" shininess="0.8"/>
+    <material name="arms" rgba="0.85 0.33 0.2 1"/>
+    <material name="trunk" rgba="0.2 0.45 0.8 1"/>
+    <material name="legs" rgba="0.25 0.65 0.3 1"/>
+  </asset>
+
+  <worldbody>
+    <light name="key" pos="{light_x} -{light_y} {light_z}" dir="-0.3 0.6 -1" directional="true" castshadow="true"/>
+    <geom name="floor" type="plane" pos="0 0 -{floor}" size="{floor_size} {floor_size} 0.1" material="floor" contype="0" conaffinity="0" group="0"/>
+    <geom name="bar" type="cylinder" fromto="0 -{bar_half} 0 0 {bar_half} 0" size="{bar_radius}" material="steel" contype="0" conaffinity="0" group="0"/>
+    <geom name="post_left" type="cylinder" fromto="0 -{bar_half} 0 0 -{bar_half} -{floor}" size="{post_radius}" material="steel" contype="0" conaffinity="0" group="0"/>
+    <geom name="post_right" type="cylinder" fromto="0 {bar_half} 0 0 {bar_half} -{floor}" size="{post_radius}" material="steel" contype="0" conaffinity="0" group="0"/>
+    <camera name="side" pos="0 -{cam_dist} {cam_z}" xyaxes="1 0 0 0 0 1" fovy="45"/>
+
+    <body name="link1">
+      <joint name="hands" type="hinge" axis="0 1 0"/>
+      <inertial pos="0 0 {lc1}" mass="{m1}" diaginertia="{J1} {J1} {Jz1}"/>
+      <geom name="arms" type="capsule" fromto="0 0 0 0 0 {l1}" size="{r1}" material="arms" contype="0" conaffinity="0" group="1"/>
+      <body name="link2" pos="0 0 {l1}">
+        <joint name="shoulders" type="hinge" axis="0 1 0"/>
+        <inertial pos="0 0 {lc2}" mass="{m2}" diaginertia="{J2} {J2} {Jz2}"/>
+        <geom name="trunk" type="capsule" fromto="0 0 0 0 0 {l2}" size="{r2}" material="trunk" contype="0" conaffinity="0" group="1"/>
+        <body name="link3" pos="0 0 {l2}">
+          <joint name="hips" type="hinge" axis="0 1 0"/>
+          <inertial pos="0 0 {lc3}" mass="{m3}" diaginertia="{J3} {J3} {Jz3}"/>
+          <geom name="legs" type="capsule" fromto="0 0 0 0 0 {l3}" size="{r3}" material="legs" contype="0" conaffinity="0" group="1"/>
+          <site name="feet" pos="0 0 {l3}" size="{site_size}" rgba="1 1 0 1" group="2"/>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+
+  <actuator>
+    <motor name="shoulder" joint="shoulders" gear="1"/>
+    <motor name="hip" joint="hips" gear="1"/>
+  </actuator>
+{custom}</mujoco>
+"""
+
+_GAINS_TEMPLATE = """
+  <custom>
+    <!-- Default gains kD, kP, kV of controller (40) for this robot. -->
+    <numeric name="paa_gains" data="{kD} {kP} {kV}"/>
+  </custom>
+"""
+
+
+def _num(x):
+    return repr(float(x))
+
+
+def mjcf_from_params(params: RobotParams, name: str = "gymnast", title: str = "", gains=None) -> str:
+    """Return the MJCF text of the gymnast with the given parameters.
+
+    Parameters
+    ----------
+    params : RobotParams
+        Link masses, lengths, COM distances and inertias.
+    name : str
+        The MJCF ``model`` attribute.
+    title : str
+        One line for the header comment (for example where the numbers come from).
+    gains : dict, optional
+        Default gains ``{"kD", "kP", "kV"}`` of controller (40), stored as a
+        ``<custom><numeric name="paa_gains">`` so they travel with the model.
+    """
+    params.validate()
+    total = float(np.sum(params.l))
+    radius = [max(0.012, 0.035 * li) for li in params.l]
+    subs = dict(
+        name=name, title=title or "Parameters given by the user.", g=_num(params.g),
+        m=" ".join(_num(x) for x in params.m), l=" ".join(_num(x) for x in params.l),
+        lc=" ".join(_num(x) for x in params.lc), J=" ".join(_num(x) for x in params.J),
+        floor=_num(round(1.12 * total, 3)), floor_size=_num(round(3 * total, 3)),
+        texrepeat=_num(max(2, round(3 * total))),
+        bar_half=_num(round(0.25 * total, 3)), bar_radius=_num(round(0.012 * total, 4)),
+        post_radius=_num(round(0.008 * total, 4)),
+        cam_dist=_num(round(3.1 * total, 3)), cam_z=_num(round(-0.05 * total, 3)),
+        light_x=_num(round(total, 3)), light_y=_num(round(2 * total, 3)), light_z=_num(round(3 * total, 3)),
+        site_size=_num(round(0.02 * total, 4)),
+        custom=_GAINS_TEMPLATE.format(**{k: _num(gains[k]) for k in ("kD", "kP", "kV")}) if gains else "",
+    )
+    for i in range(3):
+        subs[f"m{i + 1}"] = _num(params.m[i])
+        subs[f"l{i + 1}"] = _num(params.l[i])
+        subs[f"lc{i + 1}"] = _num(params.lc[i])
+        subs[f"J{i + 1}"] = _num(params.J[i])
+        # The inertia about the link's own axis plays no part in planar motion; a
+        # small positive value keeps the inertia tensor physical.
+        subs[f"Jz{i + 1}"] = _num(params.J[i] / 100)
+        subs[f"r{i + 1}"] = _num(round(radius[i], 4))
+    return _TEMPLATE.format(**subs)
+
+
+def robot_path(robot: str | os.PathLike) -> Path:
+    """Resolve a robot name (``gymnast``, ``example2``) or an MJCF path to a file path."""
+    text = str(robot)
+    if text in NAMED_ROBOTS:
+        return MODELS_DIR / f"{text}.xml"
+    path = Path(text)
+    if path.suffix.lower() != ".xml" and not path.exists():
+        raise PaaError(f"unknown robot {text!r}: use one of {', '.join(NAMED_ROBOTS)} or a path to an MJCF .xml file")
+    if not path.exists():
+        raise PaaError(f"model file not found: {path}")
+    if not path.is_file():
+        raise PaaError(f"model path is not a file: {path}")
+    return path
+
+
+def _one_line(message: str) -> str:
+    return " ".join(str(message).split())
+
+
+def load_model(robot: str | os.PathLike) -> mujoco.MjModel:
+    """Compile a named robot or an MJCF file, checking that it has the gymnast's shape.
+
+    Raises
+    ------
+    PaaError
+        Unknown name, missing or unreadable file, malformed XML, or a model that is
+        not three hinges with motors on joints 2 and 3.
+    """
+    path = robot_path(robot)
+    try:
+        xml = path.read_text()
+    except (OSError, UnicodeDecodeError) as err:
+        raise PaaError(f"cannot read model file {path}: {_one_line(err)}") from None
+    model = model_from_xml(xml, source=str(path))
+    return model
+
+
+def model_from_xml(xml: str, source: str = "<string>") -> mujoco.MjModel:
+    """Compile MJCF text and check its shape (see :func:`params_from_model`)."""
+    try:
+        model = mujoco.MjModel.from_xml_string(xml)
+    except ValueError as err:
+        raise PaaError(f"malformed MJCF in {source}: {_one_line(err)}") from None
+    params_from_model(model, source=source)
+    return model
+
+
+def model_from_params(params: RobotParams, name: str = "custom") -> mujoco.MjModel:
+    """Compile the gymnast with the given parameters."""
+    return model_from_xml(mjcf_from_params(params, name=name), source=f"parameters {name}")
+
+
+def _shape_error(source, what):
+    return PaaError(f"{source} is not the 3-link gymnast: {what}")
+
+
+def _axis_inertia(model, body, axis):
+    """Moment of inertia of ``body`` about ``axis`` (body frame) through its COM [kg m^2]."""
+    rot = np.empty(9)
+    mujoco.mju_quat2Mat(rot, model.body_iquat[body])
+    rot = rot.reshape(3, 3)
+    inertia = rot @ np.diag(model.body_inertia[body]) @ rot.T
+    return float(axis @ inertia @ axis)
+
+
+def params_from_model(model: mujoco.MjModel, source: str = "model") -> RobotParams:
+    """Read the paper's parameters back from a compiled gymnast model.
+
+    Reads masses (``body_mass``), COM distances (``|body_ipos|``, or 0 where the
+    compiler merged the inertial frame into the body frame), link lengths
+    (child body offsets; link 3 from its ``feet`` site, or the farthest geom
+    or site of link 3 when that site is missing), inertias about the hinge axis
+    through the COM (``body_inertia`` rotated by ``body_iquat``) and gravity.
+
+    Raises
+    ------
+    PaaError
+        If the model is not of the gymnast's shape (module docstring) or its
+        parameters are not physical.
+    """
+    if model.nbody != 4 or list(model.body_parentid[1:]) != [0, 1, 2]:
+        raise _shape_error(source, f"needs a chain of 3 bodies under the world, found {model.nbody - 1} bodies")
+    if model.njnt != 3 or model.nv != 3 or np.any(model.jnt_type != mujoco.mjtJoint.mjJNT_HINGE):
+        raise _shape_error(source, f"needs exactly 3 hinge joints, found {model.njnt} joints with {model.nv} DoF")
+    if list(model.jnt_bodyid) != [1, 2, 3]:
+        raise _shape_error(source, "needs one hinge on each link")
+    if np.any(np.abs(model.jnt_pos) > 1e-12):
+        raise _shape_error(source, "each hinge must sit at its body's origin")
+    for body in (1, 2, 3):
+        if not np.allclose(model.body_quat[body], [1, 0, 0, 0], atol=1e-12):
+            raise _shape_error(source, "link bodies must not be rotated (q = 0 is every link straight up)")
+    axis = model.jnt_axis[0] / np.linalg.norm(model.jnt_axis[0])
+    if not np.allclose(model.jnt_axis, axis, atol=1e-9):
+        raise _shape_error(source, "the three hinge axes must be the same")
+    g_vec = model.opt.gravity
+    g = float(np.linalg.norm(g_vec))
+    if g <= 0:
+        raise PaaError(f"non-physical parameters in {source}: gravity is zero")
+    up = -g_vec / g
+    if abs(axis @ up) > 1e-9:
+        raise _shape_error(source, "hinge axes must be horizontal (perpendicular to gravity)")
+    if model.nu != 2:
+        raise _shape_error(source, f"needs 2 motors (shoulder, hip), found {model.nu} actuators")
+    driven = []
+    for act in range(model.nu):
+        if model.actuator_trntype[act] != mujoco.mjtTrn.mjTRN_JOINT:
+            raise _shape_error(source, f"actuator {act} must act on a joint")
+        is_motor = (model.actuator_gaintype[act] == mujoco.mjtGain.mjGAIN_FIXED
+                    and model.actuator_biastype[act] == mujoco.mjtBias.mjBIAS_NONE
+                    and model.actuator_dyntype[act] == mujoco.mjtDyn.mjDYN_NONE
+                    and abs(model.actuator_gainprm[act, 0] - 1) < 1e-12
+                    and abs(model.actuator_gear[act, 0] - 1) < 1e-12)
+        if not is_motor:
+            raise _shape_error(source, f"actuator {act} must be a <motor> with gear 1")
+        driven.append(int(model.actuator_trnid[act, 0]))
+    if driven != [1, 2]:
+        raise _shape_error(source, f"motors must drive joints 2 and 3 in that order (joint 1 passive), found joints {[d + 1 for d in driven]}")
+    for what, values in (("damping", model.dof_damping), ("armature", model.dof_armature),
+                         ("frictionloss", model.dof_frictionloss), ("stiffness", model.jnt_stiffness)):
+        if np.any(values != 0):
+            raise _shape_error(source, f"joint {what} is not part of the paper's model")
+    contacts_on = not (model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_CONTACT)
+    if contacts_on and np.any((model.geom_contype | model.geom_conaffinity)[np.isin(model.geom_bodyid, [1, 2, 3])] != 0):
+        raise _shape_error(source, "link geoms must not collide (contype = conaffinity = 0, or contacts disabled)")
+
+    m = model.body_mass[1:4].copy()
+    lc = np.linalg.norm(model.body_ipos[1:4], axis=1)
+    # MuJoCo's compiler snaps an inertial frame within ~1e-6 of the body frame onto it
+    # (body_sameframe = 1) and then simulates the COM at the joint: read what it runs.
+    lc[model.body_sameframe[1:4] == mujoco.mjtSameFrame.mjSAMEFRAME_BODY] = 0.0
+    lengths = [float(np.linalg.norm(model.body_pos[2])), float(np.linalg.norm(model.body_pos[3]))]
+    for i, offset in enumerate((model.body_pos[2], model.body_pos[3])):
+        if lengths[i] <= 0 or np.linalg.norm(offset / lengths[i] - up) > 1e-9:
+            raise _shape_error(source, f"link {i + 1} must point straight up at q = 0 (next joint on the +z axis)")
+    for i in range(3):
+        if lc[i] > 0 and np.linalg.norm(model.body_ipos[i + 1] / lc[i] - up) > 1e-9:
+            raise _shape_error(source, f"link {i + 1}'s centre of mass must lie on the link, between its joints")
+    lengths.append(_link3_length(model, up))
+    J = np.array([_axis_inertia(model, b, axis) for b in (1, 2, 3)])
+    name = model.names.split(b"\0", 1)[0].decode() or "model"
+    return RobotParams(m=m, l=np.array(lengths), lc=lc, J=J, g=g, name=name)
+
+
+def _link3_length(model, up):
+    feet = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, "feet")
+    if feet >= 0 and model.site_bodyid[feet] == 3:
+        return float(model.site_pos[feet] @ up)
+    reach = [model.site_pos[s] @ up for s in range(model.nsite) if model.site_bodyid[s] == 3]
+    reach += [model.geom_pos[g] @ up + model.geom_rbound[g] for g in range(model.ngeom) if model.geom_bodyid[g] == 3]
+    if not reach:
+        raise _shape_error("model", "link 3 needs a 'feet' site (or a geom) to give its length")
+    return float(max(reach))
+
+
+def load_params(robot) -> tuple[mujoco.MjModel, RobotParams]:
+    """Load a robot and read its parameters back from the compiled model."""
+    model = load_model(robot)
+    return model, params_from_model(model, source=str(robot))
+
+
+def default_gains(model: mujoco.MjModel):
+    """The gains stored in the model's ``paa_gains`` numeric, or None."""
+    idx = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_NUMERIC, "paa_gains")
+    if idx < 0:
+        return None
+    adr, size = model.numeric_adr[idx], model.numeric_size[idx]
+    if size != 3:
+        raise PaaError("the model's paa_gains numeric needs 3 values: kD kP kV")
+    kD, kP, kV = (float(v) for v in model.numeric_data[adr:adr + size])
+    return {"kD": kD, "kP": kP, "kV": kV}
+
+
+@dataclass
+class Robot:
+    """A loaded robot: the MuJoCo model, its parameters read back, the analytic model.
+
+    Attributes
+    ----------
+    name : str
+    model : mujoco.MjModel
+    params : RobotParams
+    analytic : paa_mj.dynamics.AnalyticModel
+    gains : dict or None
+        Default gains of controller (40) stored in the model file.
+    """
+
+    name: str
+    model: mujoco.MjModel
+    params: RobotParams
+    analytic: "object"
+    gains: dict | None
+
+    def resolve_gains(self, kD=None, kP=None, kV=None):
+        """Gains given by the user, falling back on the model's defaults for the rest."""
+        given = {"kD": kD, "kP": kP, "kV": kV}
+        base = self.gains or {}
+        missing = [k for k, v in given.items() if v is None and k not in base]
+        if missing:
+            raise PaaError(f"robot {self.name} stores no default gains: give {', '.join('--' + k for k in missing)}")
+        return {k: float(base[k] if v is None else v) for k, v in given.items()}
+
+
+def load_robot(robot) -> Robot:
+    """Load a named robot or an MJCF file into a :class:`Robot`."""
+    from .dynamics import AnalyticModel
+
+    model, params = load_params(robot)
+    name = str(robot) if str(robot) in NAMED_ROBOTS else params.name
+    return Robot(name=name, model=model, params=params, analytic=AnalyticModel.from_params(params),
+                 gains=default_gains(model))

@@ -1,0 +1,38 @@
+#!/usr/bin/env bash
+# Make the project runnable on a fresh Debian/Ubuntu machine: the Debian packages for
+# headless rendering (EGL through Mesa, OSMesa), a virtual environment in .venv and the
+# package with its extras. Safe to run again: it only adds what is missing.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+debian_packages=(libosmesa6 libegl1 libegl-mesa0 libgl1-mesa-dri libglx-mesa0)
+missing=()
+if command -v dpkg >/dev/null 2>&1; then
+  for pkg in "${debian_packages[@]}"; do
+    dpkg -s "$pkg" >/dev/null 2>&1 || missing+=("$pkg")
+  done
+fi
+if [ ${#missing[@]} -gt 0 ]; then
+  if [ "$(id -u)" = 0 ]; then sudo=""; elif command -v sudo >/dev/null 2>&1; then sudo="sudo -n"; else sudo="none"; fi
+  if [ "$sudo" = none ]; then
+    echo "setup: cannot install ${missing[*]} (not root, no sudo); video rendering may be unavailable" >&2
+  else
+    echo "setup: installing Debian packages: ${missing[*]}"
+    $sudo apt-get update -qq || true
+    DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null \
+      || echo "setup: apt-get could not install ${missing[*]}; video rendering may be unavailable" >&2
+  fi
+fi
+
+python=${PYTHON:-python3}
+if ! "$python" -c 'import sys; sys.exit(sys.version_info < (3, 10))'; then
+  echo "setup: Python >= 3.10 is needed, $python is $("$python" --version 2>&1)" >&2
+  exit 1
+fi
+if [ ! -x .venv/bin/python ]; then
+  echo "setup: creating .venv"
+  "$python" -m venv .venv
+fi
+.venv/bin/python -m pip install -q --disable-pip-version-check --upgrade pip 2>&1 | grep -v '^WARNING: Location' || true
+.venv/bin/python -m pip install -q --disable-pip-version-check -e ".[dev]" 2>&1 | grep -v '^WARNING: Location' || true
+.venv/bin/python -c "import paa_mj, mujoco" || { echo "setup: the install failed" >&2; exit 1; }

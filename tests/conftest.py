@@ -1,0 +1,26 @@
+import numpy as np
+import pytest
+
+from paa_mj.model import load_robot
+
+# The paper's values, used only to check what the package computes.
+TABLE1 = dict(m=[5.4, 29.5, 18.5], l=[0.58, 0.50, 0.79], lc=[0.31, 0.20, 0.33], J=[0.15, 1.93, 1.03])
+TABLE2 = dict(m=[1.0, 0.5, 0.5], l=[3.0, 0.5, 0.5], lc=[1.5, 0.25, 0.25],
+              J=[1.0 * 9 / 12, 0.5 * 0.25 / 12, 0.5 * 0.25 / 12])
+GAINS1 = dict(kD=4550.0, kP=16000.0, kV=5000.0)
+GAINS2 = dict(kD=31.0, kP=90.0, kV=90.0)
+
+
+@pytest.fixture(scope="session")
+def gymnast():
+    return load_robot("gymnast")
+
+
+@pytest.fixture(scope="session")
+def example2():
+    return load_robot("example2")
+
+
+@pytest.fixture
+def rng():
+    return np.random.default_rng(1234)

@@ -1,0 +1,119 @@
+"""The paper's theory made computable, checked against the paper's Table 1 numbers."""
+import numpy as np
+import pytest
+
+from paa_mj import theory
+from paa_mj.theory import constraint_54, eta1_function, eta2_function, kd_bound_function, thresholds
+
+from .conftest import GAINS1, GAINS2
+
+
+def test_beta_and_E_r_table1(gymnast):
+    # the paper: b1 = 289.5323 J, b2 = 148.6215 J, b3 = 59.8901 J
+    np.testing.assert_allclose(gymnast.analytic.beta, [289.5323, 148.6215, 59.8901], atol=5e-5)
+    assert gymnast.analytic.E_r > 0
+
+
+def test_beta_table2(example2):
+    # the paper: b1 = 44.1450, b2 = 3.6788, b3 = 1.2263 J
+    np.testing.assert_allclose(example2.analytic.beta, [44.1450, 3.6788, 1.2263], atol=5e-5)
+    assert example2.analytic.E_r > 0
+
+
+def test_thresholds_table1_match_the_paper(gymnast):
+    kd, e1, e2 = thresholds(gymnast.analytic)
+    # the paper: kD > 4503 (41), kP > 15863 (62), kP > 3591 (63)
+    assert kd.value == pytest.approx(4503, rel=1e-3)
+    assert e1.value == pytest.approx(15863, rel=1e-3)
+    assert e2.value == pytest.approx(3591, rel=1e-3)
+
+
+@pytest.mark.parametrize("robot", ["gymnast", "example2"])
+def test_maxima_are_accurate_to_1e4_against_a_fine_brute_force_grid(robot, request):
+    am = request.getfixturevalue(robot).analytic
+    kd, e1, e2 = thresholds(am)
+    y = np.linspace(0, 2 * np.pi, 1501)
+    Y, Z = np.meshgrid(y, y, indexing="ij")
+    fine = np.max(kd_bound_function(am, Y, Z))
+    assert fine <= kd.value * (1 + 1e-12)
+    assert kd.value <= fine * (1 + 1e-4)
+    Y, Z = np.meshgrid(np.linspace(0, np.pi, 1501), y, indexing="ij")
+    fine = np.max(eta1_function(am, Y, Z))
+    assert fine <= e1.value * (1 + 1e-12) and e1.value <= fine * (1 + 1e-4)
+    z = np.linspace(np.pi, 2 * np.pi, 200001)
+    fine = np.max(eta2_function(am, z))
+    assert fine <= e2.value * (1 + 1e-12) and e2.value <= fine * (1 + 1e-4)
+
+
+def test_refined_maximum_equals_function_at_argmax(gymnast):
+    kd, e1, _ = thresholds(gymnast.analytic)
+    assert kd_bound_function(gymnast.analytic, *kd.argmax) == pytest.approx(kd.value, rel=1e-14)
+    assert eta1_function(gymnast.analytic, *e1.argmax) == pytest.approx(e1.value, rel=1e-14)
+
+
+def test_constraint_54_table1_holds_with_f_between_0_and_1(gymnast):
+    c = constraint_54(gymnast.analytic)
+    assert c.holds
+    assert 0 < c.f_min < c.f_max < 1  # the paper's Fig. 5
+
+
+def test_constraint_54_table2_fails_at_z_0(example2):
+    c = constraint_54(example2.analytic)
+    assert not c.holds
+    assert c.closest_to_one < 1e-12
+    assert min(c.z_closest, 2 * np.pi - c.z_closest) < 1e-6  # f = 1 at z = 0 and 2 pi (Fig. 11)
+    assert theory.f54(example2.analytic, 0.0) == pytest.approx(1.0, abs=1e-12)
+
+
+def test_deltabar_zero_exactly_where_54_fails(example2, gymnast):
+    """(54) and (30) both describe the frozen Acrobot: f(z) = 1 where deltabar(z) = 0."""
+    assert abs(theory.deltabar(example2.analytic, 0.0)) < 1e-9
+    z = np.linspace(0, 2 * np.pi, 1001)
+    assert np.all(theory.deltabar(gymnast.analytic, z) > 0)
+
+
+@pytest.mark.parametrize("robot", ["gymnast", "example2"])
+def test_udd_linearly_controllable_and_lqr_stabilises(robot, request):
+    am = request.getfixturevalue(robot).analytic
+    assert theory.udd_controllability(am).controllable
+    A, B = theory.udd_linearization(am)
+    K = theory.lqr_gain(am)
+    assert K.shape == (2, 6)
+    assert np.max(np.linalg.eigvals(A - B @ K).real) < 0
+    assert np.max(np.linalg.eigvals(A).real) > 0  # UDD is open-loop unstable
+
+
+def test_uncontrollable_pair_is_detected(gymnast):
+    """The rank and PBH tests fail when one mode is out of the motors' reach."""
+    A, B = theory.udd_linearization(gymnast.analytic)
+    A_big = np.block([[A, np.zeros((6, 2))], [np.zeros((2, 6)), np.array([[0.0, 1.0], [3.0, 0.0]])]])
+    B_big = np.vstack([B, np.zeros((2, 2))])
+    result = theory.linear_controllability(A_big, B_big)
+    assert not result.controllable
+    assert result.rank == 6
+
+
+def test_linearisation_matches_finite_differences(gymnast):
+    am = gymnast.analytic
+    A, B = theory.udd_linearization(am)
+
+    def field(x, tau=np.zeros(2)):
+        q = x[:3] + theory.Q_UDD
+        return np.concatenate([x[3:], am.acceleration(q, x[3:], tau)])
+
+    J = theory.closed_loop_jacobian(field, np.zeros(6))
+    np.testing.assert_allclose(A, J, atol=1e-7)
+
+
+def test_duu_is_unstable_in_closed_loop_table1(gymnast):
+    eig, poly = theory.duu_eigenvalues(gymnast.analytic, **GAINS1)
+    assert len(eig) == 6
+    assert np.max(eig.real) > 0
+    np.testing.assert_allclose(np.sort_complex(np.roots(poly)), np.sort_complex(eig), rtol=1e-6)
+
+
+def test_theory_report_flags_failed_conditions(example2):
+    r = theory.theory_report(example2.analytic, **GAINS2)
+    assert r.theorem1["(54) holds"] is False
+    assert r.theorem1["all hold"] is False
+    assert r.udd_controllable

@@ -1,0 +1,97 @@
+"""``paa-mj simulate`` and ``paa-mj reproduce``: rollouts and the paper redone."""
+from __future__ import annotations
+
+import warnings
+
+from .errors import PaaError
+
+
+def add_simulation_options(p):
+    """Options shared by every command that runs a rollout (simulate, render, view)."""
+    p.add_argument("--robot", default="gymnast",
+                   help="gymnast (Table 1), example2 (Table 2) or a path to an MJCF file of the same shape")
+    p.add_argument("--engine", choices=("mujoco", "analytic"), default="mujoco")
+    p.add_argument("--t-final", type=float, default=30.0, help="duration [s] (default 30)")
+    p.add_argument("--dt", type=float, help="physics time step [s] (default: the model's, 0.001)")
+    p.add_argument("--integrator", help="RK4 (model default), Euler, implicitfast or implicit")
+    p.add_argument("--x0", type=float, nargs=6, metavar="X", help="q1 q2 q3 d1 d2 d3 (default (65): -pi 0 0 0 0 0)")
+    p.add_argument("--kD", type=float)
+    p.add_argument("--kP", type=float)
+    p.add_argument("--kV", type=float)
+    p.add_argument("--no-switch", action="store_true", help="keep controller (40) all the time (no LQR)")
+    p.add_argument("--torque-limit", type=float, help="saturate each torque at this value [N m]")
+    p.add_argument("--sample-dt", type=float, default=0.01, help="recording interval [s]")
+
+
+def run_from_args(args, progress=True):
+    """Build the robot and controller from the options and run the rollout."""
+    from .controllers import SwitchingController
+    from .model import load_robot
+    from .rollout import X0_HANGING, simulate_analytic, simulate_mujoco
+
+    robot = load_robot(args.robot)
+    gains = robot.resolve_gains(args.kD, args.kP, args.kV)
+    if args.torque_limit is not None and not args.torque_limit > 0:
+        raise PaaError(f"--torque-limit must be > 0, got {args.torque_limit}")
+    controller = SwitchingController.for_model(robot.analytic, **gains, torque_limit=args.torque_limit,
+                                               enabled=not args.no_switch)
+    x0 = X0_HANGING if args.x0 is None else args.x0
+    if args.engine == "analytic":
+        if args.dt is not None or args.integrator is not None:
+            warnings.warn("--dt and --integrator do not apply to the analytic engine (continuous-time control)")
+        return robot, simulate_analytic(robot, controller, x0, args.t_final, sample_dt=args.sample_dt,
+                                        progress=progress)
+    return robot, simulate_mujoco(robot, controller, x0, args.t_final, dt=args.dt, integrator=args.integrator,
+                                  sample_dt=args.sample_dt, progress=progress)
+
+
+def cmd_simulate(args):
+    from .errors import SimulationDiverged
+    from .io import dumps
+
+    try:
+        _, traj = run_from_args(args, progress=not args.json)
+    except SimulationDiverged as err:
+        if args.out and err.trajectory is not None and len(err.trajectory):
+            err.trajectory.save(args.out)
+            raise SimulationDiverged(f"{err} (kept {len(err.trajectory)} samples in {args.out})") from None
+        raise
+    if args.out:
+        out = traj.save(args.out)
+        if not args.json:
+            print(f"wrote {out}/trajectory.npz, trajectory.csv, summary.json")
+    summary = traj.summary()
+    if args.json:
+        print(dumps(summary))
+    else:
+        st = summary["switch_time"]
+        print(f"robot {summary['robot']}, {summary['engine']} ({summary['integrator']}, dt = {summary['dt']}),"
+              f" {summary['final_time']:.3f} s")
+        print(f"  switch to LQR at     {'never' if st is None else f'{st:.4f} s'}")
+        print(f"  balanced at UDD      {summary['balanced']}")
+        print(f"  E - E_r at the end   {summary['E_minus_Er_final']:.6g} J")
+        print(f"  V at the end         {summary['V_final']:.6g}")
+        print(f"  max |tau2|, |tau3|   {summary['max_abs_tau'][0]:.2f}, {summary['max_abs_tau'][1]:.2f} N m")
+    return 0
+
+
+def cmd_reproduce(args):
+    from .reproduce import reproduce
+
+    report = reproduce(args.out, quick=args.quick, video=not args.no_video)
+    print(f"report: {report}")
+    return 0
+
+
+def register(sub, parser_class):
+    p = sub.add_parser("simulate", help="run the controller from an initial state")
+    add_simulation_options(p)
+    p.add_argument("--out", help="folder for trajectory.npz, trajectory.csv and summary.json")
+    p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
+    p.set_defaults(func=cmd_simulate)
+
+    p = sub.add_parser("reproduce", help="redo the paper: simulations, figures 5-14, report, video")
+    p.add_argument("--out", default="out/reproduction")
+    p.add_argument("--quick", action="store_true", help="shorter discretisation study (for tests)")
+    p.add_argument("--no-video", action="store_true")
+    p.set_defaults(func=cmd_reproduce)

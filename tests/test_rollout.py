@@ -1,0 +1,126 @@
+"""Rollouts in MuJoCo and of the analytic model: tests (b)-(d) of issue 3, the record and the CLI."""
+import json
+import warnings
+
+import numpy as np
+import pytest
+
+from paa_mj.cli import main
+from paa_mj.controllers import SwitchingController, TheoryWarning
+from paa_mj.errors import PaaError, SimulationDiverged
+from paa_mj.rollout import (X0_HANGING, replay_torques_analytic, replay_torques_mujoco, simulate_analytic,
+                            simulate_mujoco)
+from paa_mj.trajectory import Trajectory
+
+from .conftest import GAINS1, GAINS2
+
+
+@pytest.fixture(scope="module")
+def gymnast_balanced(gymnast):
+    ctrl = SwitchingController.for_model(gymnast.analytic, **GAINS1)
+    return simulate_mujoco(gymnast, ctrl, X0_HANGING, t_final=30.0)
+
+
+def test_V_never_increases_along_the_analytic_solution(gymnast):
+    ctrl = SwitchingController.for_model(gymnast.analytic, **GAINS1, enabled=False)
+    traj = simulate_analytic(gymnast, ctrl, X0_HANGING, t_final=8.0, sample_dt=0.005)
+    increase = np.diff(traj.V)
+    assert np.max(increase) <= 1e-8 * traj.V[0]
+    assert traj.V[-1] < 0.05 * traj.V[0]
+
+
+def test_mujoco_and_analytic_agree_on_the_same_torque_sequence(gymnast):
+    """Same zero-order-hold torques, 2 s: RK4 at 1 ms against an rtol 1e-12 integration."""
+    ctrl = SwitchingController.for_model(gymnast.analytic, **GAINS1)
+    traj = simulate_mujoco(gymnast, ctrl, X0_HANGING, t_final=2.0, sample_dt=0.001)
+    torques = traj.tau[:-1]
+    engine = replay_torques_mujoco(gymnast, X0_HANGING, torques)
+    exact = replay_torques_analytic(gymnast, X0_HANGING, torques, dt=0.001)
+    np.testing.assert_allclose(engine[:, :3], traj.q[1:], atol=1e-12)  # replay reproduces the closed loop
+    err = np.max(np.abs(engine - exact))
+    assert err < 1e-6, err
+
+
+def test_hybrid_controller_balances_table1_in_mujoco(gymnast_balanced):
+    traj = gymnast_balanced
+    assert traj.switch_time is not None
+    assert traj.balanced()
+    assert abs(traj.E_minus_Er[-1]) < 1e-3
+    assert np.all(traj.mode[traj.t >= traj.switch_time + 0.01] == 1)
+    assert np.all(traj.mode[traj.t < traj.switch_time] == 0)
+    # the paper's Fig. 7: link 1 swings through more than 2 pi
+    assert np.ptp(traj.q[:, 0]) > 2 * np.pi - 0.5
+
+
+def test_hybrid_controller_balances_table1_analytic(gymnast):
+    ctrl = SwitchingController.for_model(gymnast.analytic, **GAINS1)
+    traj = simulate_analytic(gymnast, ctrl, X0_HANGING, t_final=20.0)
+    assert traj.switch_time is not None and traj.balanced()
+
+
+def test_table2_never_swings_up(example2):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", TheoryWarning)
+        ctrl = SwitchingController.for_model(example2.analytic, **GAINS2)
+    traj = simulate_mujoco(example2, ctrl, X0_HANGING, t_final=30.0, sample_dt=0.01)
+    assert traj.switch_time is None
+    assert not traj.balanced()
+    assert np.max(np.cos(traj.q[:, 0])) < 0  # link 1 stays below the bar
+    assert abs(traj.E_minus_Er[-1]) > 10 and traj.V[-1] > 100  # neither goes to 0 (Figs. 12-14)
+    # q2 -> -pi, q3 -> 0 and the torques decay (the paper's Figs. 13, 14)
+    assert abs(traj.q[-1, 1] + np.pi) < 0.05 and abs(traj.q[-1, 2]) < 0.05
+    assert np.max(np.abs(traj.tau[-100:])) < 0.1 * np.max(np.abs(traj.tau))
+
+
+def test_divergence_keeps_the_record(gymnast):
+    ctrl = SwitchingController.for_model(gymnast.analytic, **GAINS1)
+    with pytest.raises(SimulationDiverged, match=r"diverged at t = \d") as info:
+        simulate_mujoco(gymnast, ctrl, X0_HANGING, t_final=20.0, dt=0.05, integrator="Euler")
+    traj = info.value.trajectory
+    assert len(traj) > 10 and np.all(np.isfinite(traj.q))
+
+
+def test_save_and_load_round_trip(gymnast_balanced, tmp_path):
+    gymnast_balanced.save(tmp_path)
+    back = Trajectory.load(tmp_path / "trajectory.npz")
+    np.testing.assert_array_equal(back.q, gymnast_balanced.q)
+    assert back.switch_time == gymnast_balanced.switch_time
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["balanced"] is True
+    csv = np.loadtxt(tmp_path / "trajectory.csv", delimiter=",", skiprows=1)
+    np.testing.assert_allclose(csv[:, 1:4], gymnast_balanced.q, rtol=1e-15)
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    (dict(x0=[0, 0, 0]), "6 numbers"),
+    (dict(x0=[0, 0, 0, 0, np.inf, 0]), "finite"),
+    (dict(t_final=0), "final time"),
+    (dict(dt=-1e-3), "time step"),
+    (dict(integrator="Verlet"), "unknown integrator"),
+])
+def test_bad_rollout_input(gymnast, kwargs, message):
+    ctrl = SwitchingController.for_model(gymnast.analytic, **GAINS1)
+    args = dict(x0=X0_HANGING, t_final=1.0)
+    args.update(kwargs)
+    with pytest.raises(PaaError, match=message):
+        simulate_mujoco(gymnast, ctrl, **args)
+
+
+def test_simulate_cli_json_and_files(capsys, tmp_path):
+    code = main(["simulate", "--robot", "gymnast", "--t-final", "1", "--json", "--out", str(tmp_path)])
+    out = capsys.readouterr().out
+    assert code == 0
+    s = json.loads(out)
+    for key in ("switch_time", "balanced", "final_state", "E_minus_Er_final", "V_final", "max_abs_tau"):
+        assert key in s
+    assert s["switch_time"] is None and s["balanced"] is False
+    assert len(s["final_state"]) == 6 and len(s["max_abs_tau"]) == 2
+    assert {p.name for p in tmp_path.iterdir()} == {"trajectory.npz", "trajectory.csv", "summary.json"}
+
+
+def test_simulate_cli_divergence_exit_3(capsys, tmp_path):
+    code = main(["simulate", "--t-final", "20", "--dt", "0.05", "--integrator", "Euler", "--json", "--out", str(tmp_path)])
+    err = capsys.readouterr().err
+    assert code == 3
+    assert "diverged at t =" in err and len(err.strip().splitlines()) == 1
+    assert (tmp_path / "trajectory.npz").exists()

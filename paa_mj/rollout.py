@@ -67,7 +67,8 @@ def mujoco_model_for(robot: Robot, dt=None, integrator=None) -> mujoco.MjModel:
 
 
 def simulate_mujoco(robot: Robot, controller, x0=X0_HANGING, t_final=30.0, dt=None, integrator=None,
-                    sample_dt=0.01, progress=False, stop_on_divergence=True) -> Trajectory:
+                    sample_dt=0.01, progress=False, stop_on_divergence=True,
+                    stop_after_switch=None) -> Trajectory:
     """Run ``controller`` on the MuJoCo model for ``t_final`` seconds.
 
     Parameters
@@ -84,6 +85,9 @@ def simulate_mujoco(robot: Robot, controller, x0=X0_HANGING, t_final=30.0, dt=No
         default: the model's own (RK4 at 1 ms for the named robots).
     sample_dt : float
         Recording interval [s] (rounded to a whole number of steps).
+    stop_after_switch : float, optional
+        End the run this long [s] after the switch to LQR (studies that only
+        need the switch time and whether the balance holds).
 
     Raises
     ------
@@ -120,6 +124,9 @@ def simulate_mujoco(robot: Robot, controller, x0=X0_HANGING, t_final=30.0, dt=No
             if progress and step:
                 bar.update(every)
         if step == n_steps:
+            break
+        if stop_after_switch is not None and switch_time is not None and step * dt >= switch_time + stop_after_switch \
+                and step % every == 0:
             break
         if not (math.isfinite(tau[0]) and math.isfinite(tau[1])):
             failure = "the controller returned a non-finite torque (singular Lambda of (38)?)"

@@ -78,7 +78,15 @@ def cmd_simulate(args):
 def cmd_reproduce(args):
     from .reproduce import reproduce
 
-    report = reproduce(args.out, quick=args.quick, video=not args.no_video)
+    gl_backend = None
+    if not args.no_video:
+        from .gl import select_backend
+
+        try:
+            gl_backend = select_backend(args.gl)
+        except PaaError as err:
+            print(f"paa-mj: warning: no video: {err}")
+    report = reproduce(args.out, quick=args.quick, video=gl_backend is not None)
     print(f"report: {report}")
     return 0
 
@@ -94,4 +102,44 @@ def register(sub, parser_class):
     p.add_argument("--out", default="out/reproduction")
     p.add_argument("--quick", action="store_true", help="shorter discretisation study (for tests)")
     p.add_argument("--no-video", action="store_true")
+    p.add_argument("--gl", default="auto", help="GL backend for the video: auto, egl or osmesa")
     p.set_defaults(func=cmd_reproduce)
+
+    register_render(sub)
+
+
+def cmd_render(args):
+    from .gl import select_backend
+
+    backend = select_backend(args.gl)  # before anything imports mujoco's GL
+    from pathlib import Path
+
+    from .model import load_robot
+    from .trajectory import Trajectory
+    from .video import VIDEO_SUFFIXES, render_trajectory
+
+    out = Path(args.out)
+    if out.suffix.lower() not in VIDEO_SUFFIXES:
+        raise PaaError(f"--out must end in .mp4 or .gif, got {out.name}")
+    if args.from_file:
+        robot = load_robot(args.robot)
+        traj = Trajectory.load(args.from_file)
+    else:
+        robot, traj = run_from_args(args, progress=True)
+    render_trajectory(robot, traj, out, fps=args.fps, width=args.width, height=args.height, camera=args.camera,
+                      progress=True)
+    print(f"wrote {out} ({backend}, {args.fps:g} fps, {args.width}x{args.height})")
+    return 0
+
+
+def register_render(sub):
+    p = sub.add_parser("render", help="offscreen video of a rollout (EGL or OSMesa)")
+    add_simulation_options(p)
+    p.add_argument("--from", dest="from_file", metavar="TRAJ.npz", help="replay a saved trajectory instead of simulating")
+    p.add_argument("--out", required=True, help="FILE.mp4 or FILE.gif")
+    p.add_argument("--fps", type=float, default=30.0)
+    p.add_argument("--width", type=int, default=640)
+    p.add_argument("--height", type=int, default=480)
+    p.add_argument("--gl", default="auto", help="auto (EGL, then OSMesa), egl or osmesa")
+    p.add_argument("--camera", default="side")
+    p.set_defaults(func=cmd_render)

@@ -24,6 +24,10 @@ def ensure_dir(path) -> Path:
     return path
 
 
+_UMASK = os.umask(0)
+os.umask(_UMASK)
+
+
 @contextlib.contextmanager
 def atomic_path(final, suffix=None):
     """Yield a temporary path beside ``final``; rename it onto ``final`` only on success."""
@@ -33,6 +37,7 @@ def atomic_path(final, suffix=None):
     os.close(fd)
     try:
         yield Path(tmp)
+        os.chmod(tmp, 0o666 & ~_UMASK)  # mkstemp makes 0600; give the file the usual mode
         os.replace(tmp, final)
     except BaseException:
         with contextlib.suppress(OSError):

@@ -79,7 +79,7 @@ _TEMPLATE = """\
     <geom name="bar" type="cylinder" fromto="0 -{bar_half} 0 0 {bar_half} 0" size="{bar_radius}" material="steel" contype="0" conaffinity="0" group="0"/>
     <geom name="post_left" type="cylinder" fromto="0 -{bar_half} 0 0 -{bar_half} -{floor}" size="{post_radius}" material="steel" contype="0" conaffinity="0" group="0"/>
     <geom name="post_right" type="cylinder" fromto="0 {bar_half} 0 0 {bar_half} -{floor}" size="{post_radius}" material="steel" contype="0" conaffinity="0" group="0"/>
-    <camera name="side" pos="0 -{cam_dist} {cam_z}" xyaxes="1 0 0 0 0 1" fovy="45"/>
+    <camera name="side" pos="{cam_x} -{cam_y} {cam_z}" xyaxes="{cam_cos} {cam_sin} 0 0 0 1" fovy="45"/>
 
     <body name="link1">
       <joint name="hands" type="hinge" axis="0 1 0"/>
@@ -135,16 +135,21 @@ def mjcf_from_params(params: RobotParams, name: str = "gymnast", title: str = ""
     """
     params.validate()
     total = float(np.sum(params.l))
-    radius = [max(0.012, 0.035 * li) for li in params.l]
+    radius = [0.022 * total] * 3
+    # The side camera looks at the bar 20 degrees off the normal of the plane of motion (so the
+    # posts do not hide the hanging gymnast), from where the whole circle of the feet fits.
+    cam_angle, cam_dist = np.radians(20.0), 2.7 * total
     subs = dict(
         name=name, title=title or "Parameters given by the user.", g=_num(params.g),
         m=" ".join(_num(x) for x in params.m), l=" ".join(_num(x) for x in params.l),
         lc=" ".join(_num(x) for x in params.lc), J=" ".join(_num(x) for x in params.J),
         floor=_num(round(1.12 * total, 3)), floor_size=_num(round(3 * total, 3)),
         texrepeat=_num(max(2, round(3 * total))),
-        bar_half=_num(round(0.25 * total, 3)), bar_radius=_num(round(0.012 * total, 4)),
+        bar_half=_num(round(0.45 * total, 3)), bar_radius=_num(round(0.012 * total, 4)),
         post_radius=_num(round(0.008 * total, 4)),
-        cam_dist=_num(round(3.1 * total, 3)), cam_z=_num(round(-0.05 * total, 3)),
+        cam_x=_num(round(cam_dist * np.sin(cam_angle), 3)), cam_y=_num(round(cam_dist * np.cos(cam_angle), 3)),
+        cam_z=_num(round(-0.05 * total, 3)),
+        cam_cos=_num(round(np.cos(cam_angle), 6)), cam_sin=_num(round(np.sin(cam_angle), 6)),
         light_x=_num(round(total, 3)), light_y=_num(round(2 * total, 3)), light_z=_num(round(3 * total, 3)),
         site_size=_num(round(0.02 * total, 4)),
         custom=_GAINS_TEMPLATE.format(**{k: _num(gains[k]) for k in ("kD", "kP", "kV")}) if gains else "",

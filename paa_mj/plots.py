@@ -56,33 +56,30 @@ def plot_energy(traj, title, path):
     return _save(fig, path)
 
 
-def plot_angles(traj, title, path):
-    """Figs. 7, 9 and 13: q1, q2 + pi, q3 against t."""
+def _plot_series(traj, series, ylabel, title, path):
+    """Several curves against t on one axis, with the switch marked."""
     fig, ax = plt.subplots(figsize=(7, 3.8))
-    ax.plot(traj.t, traj.q[:, 0], label="q$_1$")
-    ax.plot(traj.t, traj.q[:, 1] + np.pi, label="q$_2$ + $\\pi$")
-    ax.plot(traj.t, traj.q[:, 2], label="q$_3$")
+    for values, label in series:
+        ax.plot(traj.t, values, label=label)
     ax.set_xlabel("t [s]")
-    ax.set_ylabel("angle [rad]")
+    ax.set_ylabel(ylabel)
     ax.set_title(title)
     ax.legend(loc="best")
     ax.grid(alpha=0.3)
     _mark_switch(ax, traj)
     return _save(fig, path)
+
+
+def plot_angles(traj, title, path):
+    """Figs. 7, 9 and 13: q1, q2 + pi, q3 against t."""
+    series = [(traj.q[:, 0], "q$_1$"), (traj.q[:, 1] + np.pi, "q$_2$ + $\\pi$"), (traj.q[:, 2], "q$_3$")]
+    return _plot_series(traj, series, "angle [rad]", title, path)
 
 
 def plot_torques(traj, title, path):
     """Figs. 8, 10 and 14: tau2, tau3 against t."""
-    fig, ax = plt.subplots(figsize=(7, 3.8))
-    ax.plot(traj.t, traj.tau[:, 0], label="$\\tau_2$ (shoulder)")
-    ax.plot(traj.t, traj.tau[:, 1], label="$\\tau_3$ (hip)")
-    ax.set_xlabel("t [s]")
-    ax.set_ylabel("torque [N m]")
-    ax.set_title(title)
-    ax.legend(loc="best")
-    ax.grid(alpha=0.3)
-    _mark_switch(ax, traj)
-    return _save(fig, path)
+    series = [(traj.tau[:, 0], "$\\tau_2$ (shoulder)"), (traj.tau[:, 1], "$\\tau_3$ (hip)")]
+    return _plot_series(traj, series, "torque [N m]", title, path)
 
 
 def plot_discretisation(rows, path):

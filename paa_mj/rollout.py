@@ -109,7 +109,7 @@ def simulate_mujoco(robot: Robot, controller, x0=X0_HANGING, t_final=30.0, dt=No
     q, qd = np.empty((n_samples, 3)), np.empty((n_samples, 3))
     tau_rec, mode = np.empty((n_samples, 2)), np.empty(n_samples, np.int8)
     switch_time, k, failure = None, 0, None
-    bar = tqdm(total=n_steps, unit="step", unit_scale=True, disable=not progress, leave=False,
+    bar = tqdm(total=n_steps, unit="step", unit_scale=True, disable=None if progress else True, leave=False,
                desc=f"{robot.name} mujoco")
     for step in range(n_steps + 1):
         tau = controller.torque(data.qpos, data.qvel)
@@ -206,7 +206,7 @@ def simulate_analytic(robot: Robot, controller: SwitchingController, x0=X0_HANGI
     t0, x, switch_time, phase = 0.0, x0, None, 0
     if controller.enabled and entered(0, x0) < 0:
         switch_time, phase = 0.0, 1
-    bar = tqdm(total=t_final, unit="s", disable=not progress, leave=False, desc=f"{robot.name} solve_ivp",
+    bar = tqdm(total=t_final, unit="s", disable=None if progress else True, leave=False, desc=f"{robot.name} solve_ivp",
                bar_format="{l_bar}{bar}| {n:.1f}/{total:.1f} s")
     failure = None
     while True:

@@ -106,6 +106,7 @@ def register(sub, parser_class):
     p.set_defaults(func=cmd_reproduce)
 
     register_render(sub)
+    register_studies(sub)
 
 
 def cmd_render(args):
@@ -143,3 +144,55 @@ def register_render(sub):
     p.add_argument("--gl", default="auto", help="auto (EGL, then OSMesa), egl or osmesa")
     p.add_argument("--camera", default="side")
     p.set_defaults(func=cmd_render)
+
+
+def cmd_bench(args):
+    from .bench import format_bench, run_bench
+    from .io import dumps
+
+    result = run_bench(batch_size=args.batch_size, progress=not args.json)
+    print(dumps(result) if args.json else format_bench(result))
+    return 0
+
+
+def register_studies(sub):
+    p = sub.add_parser("bench", help="costs per step: bare mj_step, closed loop, batch, analytic reference")
+    p.add_argument("--batch-size", type=int, default=1024)
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=cmd_bench)
+
+    p = sub.add_parser("basin", help="outcome over a grid of initial states (two coordinates, others zero)")
+    p.add_argument("--robot", default="gymnast")
+    p.add_argument("--axes", default="q1,q2", help="two of q1 q2 q3 d1 d2 d3 (angles over [-pi, pi], speeds over [-5, 5])")
+    p.add_argument("--grid", type=int, default=64, help="points per axis (cells = grid^2)")
+    p.add_argument("--t-final", type=float, default=30.0)
+    p.add_argument("--kD", type=float)
+    p.add_argument("--kP", type=float)
+    p.add_argument("--kV", type=float)
+    p.add_argument("--out", help="folder for basin.png, basin.npz, summary.json")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=cmd_basin)
+
+
+def cmd_basin(args):
+    from .io import dumps
+    from .model import load_robot
+    from .studies import basin, parse_axes, write_basin
+
+    axes = parse_axes(args.axes)
+    robot = load_robot(args.robot)
+    gains = robot.resolve_gains(args.kD, args.kP, args.kV)
+    summary, arrays = basin(robot, axes, args.grid, args.t_final, gains=[gains["kD"], gains["kP"], gains["kV"]],
+                            progress=not args.json)
+    if args.out:
+        write_basin(args.out, summary, arrays)
+    if args.json:
+        print(dumps(summary))
+    else:
+        print(f"{summary['cells']} cells over ({', '.join(summary['axes'])}): {100 * summary['success_fraction']:.1f} %"
+              f" balanced, median first switch {summary['median_switch_time']} s"
+              + (f"; wrote {args.out}/basin.png, basin.npz, summary.json" if args.out else ""))
+    if summary["interrupted"]:
+        print(f"paa-mj: interrupted at t = {summary['t_reached']:.3f} s; results so far kept", file=__import__("sys").stderr)
+        return 130
+    return 0

@@ -104,3 +104,27 @@ def plot_discretisation(rows, path):
     ax.legend(loc="best", fontsize=8)
     ax.grid(alpha=0.3, which="both")
     return _save(fig, path)
+
+
+def plot_basin(summary, arrays, path):
+    """Heat map of the first switch time over the grid; grey = never switched, x = not balanced."""
+    grid = summary["grid"]
+    xs, ys = arrays["x_values"], arrays["y_values"]
+    switch = arrays["switch_time"].reshape(grid, grid)
+    balanced = arrays["balanced"].reshape(grid, grid)
+    fig, ax = plt.subplots(figsize=(6.4, 5.2))
+    cmap = matplotlib.colormaps["viridis"].with_extremes(bad="0.75")
+    mesh = ax.pcolormesh(xs, ys, np.ma.masked_invalid(switch).T, cmap=cmap, shading="nearest")
+    fig.colorbar(mesh, ax=ax, label="first switch to LQR [s]")
+    X, Y = np.meshgrid(xs, ys, indexing="ij")
+    failed = ~balanced
+    if failed.any():
+        ax.plot(X[failed], Y[failed], "x", color="C3", ms=max(2, 200 / grid), label="not balanced at the end")
+        ax.legend(loc="upper right", fontsize=8)
+    a, b = summary["axes"]
+    unit = lambda name: "[rad]" if name.startswith("q") else "[rad/s]"  # noqa: E731
+    ax.set_xlabel(f"{a} {unit(a)}")
+    ax.set_ylabel(f"{b} {unit(b)}")
+    ax.set_title(f"{summary['robot']}: basin over ({a}, {b}), {summary['cells']} cells, "
+                 f"{100 * summary['success_fraction']:.0f} % balanced")
+    return _save(fig, path)

@@ -21,7 +21,7 @@ import numpy as np
 from mujoco import rollout as mj_rollout
 from tqdm.auto import tqdm
 
-from .controllers import SwitchingController, check_gains, udd_error
+from .controllers import SwitchingController, check_gains, in_switch_region, udd_error
 from .dynamics import AnalyticModel
 from .errors import PaaError
 from .fast import control_batch, kernel_constants
@@ -38,7 +38,9 @@ class BatchResult:
 
     switch_time is NaN where the state never entered region (68); ``diverged``
     marks rollouts stopped for a non-finite or runaway state (their other
-    entries describe the last good state). ``t_reached`` is the simulated time
+    entries describe the last good state). ``held`` marks rollouts under LQR whose
+    final state is still inside region (68), the success criterion when noise keeps
+    the state from settling within 1e-3 of UDD. ``t_reached`` is the simulated time
     (less than t_final if the run was interrupted).
     """
 
@@ -50,6 +52,7 @@ class BatchResult:
     V_final: np.ndarray
     max_abs_tau: np.ndarray
     diverged: np.ndarray
+    held: np.ndarray
     t_reached: float
     interrupted: bool = False
     trajectories: dict | None = None
@@ -64,7 +67,7 @@ class BatchResult:
 
     def arrays(self):
         names = ("x0", "switch_time", "balanced", "final_state", "E_minus_Er_final", "V_final", "max_abs_tau",
-                 "diverged")
+                 "diverged", "held")
         return {n: getattr(self, n) for n in names}
 
 
@@ -79,7 +82,8 @@ def _as_rows(value, n, width, name):
 
 def simulate_batch(robot: Robot, x0, t_final=30.0, gains=None, plant_params=None, controller_params=None,
                    dt=None, integrator=None, torque_limit=None, enabled=True, nthread=None, record=False,
-                   sample_dt=0.01, progress=False, stop_when_settled=True) -> BatchResult:
+                   sample_dt=0.01, progress=False, stop_when_settled=True, noise_std=None, delay_steps=None,
+                   seed=0) -> BatchResult:
     """Closed-loop rollouts of N initial states at once.
 
     Parameters
@@ -94,7 +98,14 @@ def simulate_batch(robot: Robot, x0, t_final=30.0, gains=None, plant_params=None
     plant_params, controller_params : list of RobotParams, optional
         Per rollout: what MuJoCo simulates, and what controller (40) and the LQR
         believe (model error when they differ). Default: the nominal robot.
-    torque_limit : float, optional
+    torque_limit : float or array_like (N,), optional
+        Saturation of each torque [N m], per rollout if an array (inf: none).
+    noise_std : array_like (N, 2), optional
+        Standard deviation of Gaussian measurement noise the controller sees on
+        q [rad] and on qd [rad/s], per rollout (drawn from ``seed``).
+    delay_steps : array_like (N,) of int, optional
+        Control delay in physics steps: the torque computed now is applied this
+        many steps later (zero torque before the first one arrives).
     enabled : bool
         The switch (68) to LQR.
     nthread : int, optional
@@ -119,7 +130,20 @@ def simulate_batch(robot: Robot, x0, t_final=30.0, gains=None, plant_params=None
     base_model = mujoco_model_for(robot, dt, integrator)
     dt = base_model.opt.timestep
     models = _plant_models(base_model, plant_params, n)
-    consts, K = _controller_arrays(robot, controller_params, gains, torque_limit, enabled, n)
+    consts, K = _controller_arrays(robot, controller_params, gains, enabled, n)
+    if torque_limit is not None:
+        from .fast import LIMIT
+
+        consts[:, LIMIT] = np.broadcast_to(np.asarray(torque_limit, dtype=float), (n,))
+        if np.any(~(consts[:, LIMIT] > 0)):
+            raise PaaError("torque limits must be > 0")
+    noise = None if noise_std is None else _as_rows(noise_std, n, 2, "noise_std")
+    delays = np.zeros(n, np.int64) if delay_steps is None else np.broadcast_to(np.asarray(delay_steps), (n,)).astype(np.int64)
+    if np.any(delays < 0):
+        raise PaaError("control delays must be >= 0 steps")
+    rng = np.random.default_rng(seed)
+    delay_buffer = np.zeros((delays.max() + 1, n, 2)) if delays.any() else None
+    measured = np.empty((n, 6))
 
     nthread = nthread or os.cpu_count() or 1
     datas = [mujoco.MjData(base_model) for _ in range(nthread)]
@@ -143,7 +167,19 @@ def simulate_batch(robot: Robot, x0, t_final=30.0, gains=None, plant_params=None
     try:
         with mj_rollout.Rollout(nthread=nthread) as pool:
             for step in range(n_steps + 1):
-                control_batch(state[:, 1:4], state[:, 4:7], ctrl[:, 0, :], consts, K, modes)
+                if noise is None:
+                    control_batch(state[:, 1:4], state[:, 4:7], ctrl[:, 0, :], consts, K, modes)
+                else:
+                    measured[:] = state[:, 1:7]
+                    measured[:, :3] += rng.standard_normal((n, 3)) * noise[:, :1]
+                    measured[:, 3:] += rng.standard_normal((n, 3)) * noise[:, 1:]
+                    control_batch(measured[:, :3], measured[:, 3:], ctrl[:, 0, :], consts, K, modes)
+                if delay_buffer is not None:
+                    # computed now, applied `delay` steps later: a ring buffer indexed by step
+                    slot = step % len(delay_buffer)
+                    delay_buffer[slot] = ctrl[:, 0, :]
+                    ctrl[:, 0, :] = delay_buffer[(step - delays) % len(delay_buffer), np.arange(n)]
+                    ctrl[step < delays, 0, :] = 0.0
                 bad = modes < 0
                 if bad.any():
                     _freeze(bad & ~diverged, diverged, state, last_good, modes, ctrl)
@@ -181,6 +217,7 @@ def simulate_batch(robot: Robot, x0, t_final=30.0, gains=None, plant_params=None
         trajectories = {key: value[:, :k] if value.ndim > 1 else value[:k] for key, value in rec.items()}
     return BatchResult(x0=x0, switch_time=switch_time, balanced=(err < BALANCE_TOL) & ~diverged, final_state=final,
                        E_minus_Er_final=e_err, V_final=V, max_abs_tau=max_tau, diverged=diverged,
+                       held=(modes == 1) & in_switch_region(final[:, :3], final[:, 3:]) & ~diverged,
                        t_reached=step * dt, interrupted=interrupted, trajectories=trajectories,
                        meta={"robot": robot.name, "dt": dt, "t_final": t_final, "nthread": nthread,
                              "integrator": int(base_model.opt.integrator)})
@@ -202,7 +239,7 @@ def _plant_models(base_model, plant_params, n):
     return models
 
 
-def _controller_arrays(robot, controller_params, gains, torque_limit, enabled, n):
+def _controller_arrays(robot, controller_params, gains, enabled, n):
     consts, K = np.empty((n, 15)), np.empty((n, 2, 6))
     cache = {}
     for i in range(n):
@@ -210,8 +247,7 @@ def _controller_arrays(robot, controller_params, gains, torque_limit, enabled, n
         key = (AnalyticModel.from_params(params).key(), tuple(gains[i]))
         if key not in cache:
             am = robot.analytic if controller_params is None else AnalyticModel.from_params(params)
-            ctrl = SwitchingController.for_model(am, *gains[i], torque_limit=torque_limit, enabled=enabled,
-                                                 check=False)
+            ctrl = SwitchingController.for_model(am, *gains[i], enabled=enabled, check=False)
             cache[key] = kernel_constants(ctrl)
         consts[i], K[i] = cache[key]
     if controller_params is not None and len(controller_params) != n:

@@ -173,6 +173,15 @@ def register_studies(sub):
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=cmd_basin)
 
+    p = sub.add_parser("robustness", help="success rate against noise, torque limits, model error and delay")
+    p.add_argument("--robot", default="gymnast")
+    p.add_argument("--trials", type=int, default=64, help="random initial states per level")
+    p.add_argument("--t-final", type=float, default=30.0)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--out", help="folder for one plot per factor, robustness.npz, summary.json")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=cmd_robustness)
+
 
 def cmd_basin(args):
     from .io import dumps
@@ -196,3 +205,26 @@ def cmd_basin(args):
         print(f"paa-mj: interrupted at t = {summary['t_reached']:.3f} s; results so far kept", file=__import__("sys").stderr)
         return 130
     return 0
+
+
+def cmd_robustness(args):
+    from .io import dumps
+    from .model import load_robot
+    from .studies import robustness, write_robustness
+
+    robot = load_robot(args.robot)
+    if not args.t_final > 0:
+        raise PaaError(f"--t-final must be > 0, got {args.t_final}")
+    summary, arrays = robustness(robot, trials=args.trials, t_final=args.t_final, seed=args.seed,
+                                 progress=not args.json)
+    if args.out:
+        write_robustness(args.out, summary, arrays)
+    if args.json:
+        print(dumps(summary))
+    else:
+        print(f"robot {summary['robot']}: success rate over {summary['trials']} random starts per level")
+        for factor, data in summary["factors"].items():
+            cells = ", ".join(f"{'none' if lv['level'] is None else format(lv['level'], 'g')}: "
+                              f"{100 * lv['success_rate']:.0f} %" for lv in data["levels"])
+            print(f"  {factor:<13} ({data['label']}): {cells}")
+    return 130 if summary["interrupted"] else 0

@@ -128,3 +128,20 @@ def plot_basin(summary, arrays, path):
     ax.set_title(f"{summary['robot']}: basin over ({a}, {b}), {summary['cells']} cells, "
                  f"{100 * summary['success_fraction']:.0f} % balanced")
     return _save(fig, path)
+
+
+def plot_robustness(factor, data, summary, path):
+    """Success rate against the levels of one factor."""
+    levels = data["levels"]
+    labels = ["none" if lv["level"] is None else f"{lv['level']:g}" for lv in levels]
+    rates = [100 * lv["success_rate"] for lv in levels]
+    fig, ax = plt.subplots(figsize=(5.5, 3.6))
+    ax.bar(labels, rates, color="C0")
+    for i, r in enumerate(rates):
+        ax.text(i, r + 1, f"{r:.0f} %", ha="center", fontsize=9)
+    ax.set_ylim(0, 110)
+    ax.set_xlabel(data["label"])
+    ax.set_ylabel("held by LQR in region (68) [%]")
+    ax.set_title(f"{summary['robot']}: {factor}, {summary['trials']} random starts each")
+    ax.grid(alpha=0.3, axis="y")
+    return _save(fig, path)

@@ -155,6 +155,22 @@ def cmd_bench(args):
     return 0
 
 
+def _scheduler(args):
+    """--scheduler: inline, local (default when Dask is installed) or a Dask scheduler address."""
+    from .distributed import dask_available
+
+    if args.scheduler is None:
+        return "local" if dask_available() else "inline"
+    if args.scheduler not in ("inline", "local") and "://" not in args.scheduler:
+        raise PaaError(f"--scheduler must be inline, local or an address like tcp://host:8786, got {args.scheduler!r}")
+    return args.scheduler
+
+
+def _add_scheduler(p):
+    p.add_argument("--scheduler", help="inline, local (a local Dask cluster; default when Dask is installed) "
+                                       "or a Dask scheduler address such as tcp://host:8786")
+
+
 def register_studies(sub):
     p = sub.add_parser("bench", help="costs per step: bare mj_step, closed loop, batch, analytic reference")
     p.add_argument("--batch-size", type=int, default=1024)
@@ -170,6 +186,7 @@ def register_studies(sub):
     p.add_argument("--kP", type=float)
     p.add_argument("--kV", type=float)
     p.add_argument("--out", help="folder for basin.png, basin.npz, summary.json")
+    _add_scheduler(p)
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=cmd_basin)
 
@@ -178,7 +195,10 @@ def register_studies(sub):
     p.add_argument("--trials", type=int, default=64, help="random initial states per level")
     p.add_argument("--t-final", type=float, default=30.0)
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--model-error", type=float, nargs="+", metavar="PCT",
+                   help="controller model errors to test [%%] (default 0 2 5 10)")
     p.add_argument("--out", help="folder for one plot per factor, robustness.npz, summary.json")
+    _add_scheduler(p)
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=cmd_robustness)
 
@@ -192,7 +212,7 @@ def cmd_basin(args):
     robot = load_robot(args.robot)
     gains = robot.resolve_gains(args.kD, args.kP, args.kV)
     summary, arrays = basin(robot, axes, args.grid, args.t_final, gains=[gains["kD"], gains["kP"], gains["kV"]],
-                            progress=not args.json)
+                            progress=not args.json, scheduler=_scheduler(args))
     if args.out:
         write_basin(args.out, summary, arrays)
     if args.json:
@@ -216,7 +236,7 @@ def cmd_robustness(args):
     if not args.t_final > 0:
         raise PaaError(f"--t-final must be > 0, got {args.t_final}")
     summary, arrays = robustness(robot, trials=args.trials, t_final=args.t_final, seed=args.seed,
-                                 progress=not args.json)
+                                 progress=not args.json, scheduler=_scheduler(args), model_error=args.model_error)
     if args.out:
         write_robustness(args.out, summary, arrays)
     if args.json:

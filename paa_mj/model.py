@@ -357,6 +357,8 @@ class Robot:
     params: RobotParams
     analytic: "object"
     gains: dict | None
+    xml: str | None = None
+    """The MJCF text the model was compiled from (what a remote worker needs to rebuild it)."""
 
     def resolve_gains(self, kD=None, kP=None, kV=None):
         """Gains given by the user, falling back on the model's defaults for the rest."""
@@ -370,9 +372,19 @@ class Robot:
 
 def load_robot(robot) -> Robot:
     """Load a named robot or an MJCF file into a :class:`Robot`."""
+    path = robot_path(robot)
+    try:
+        xml = path.read_text()
+    except (OSError, UnicodeDecodeError) as err:
+        raise PaaError(f"cannot read model file {path}: {_one_line(err)}") from None
+    return robot_from_xml(xml, name=str(robot) if str(robot) in NAMED_ROBOTS else None, source=str(path))
+
+
+def robot_from_xml(xml: str, name=None, source="<string>") -> Robot:
+    """A :class:`Robot` from MJCF text."""
     from .dynamics import AnalyticModel
 
-    model, params = load_params(robot)
-    name = str(robot) if str(robot) in NAMED_ROBOTS else params.name
-    return Robot(name=name, model=model, params=params, analytic=AnalyticModel.from_params(params),
-                 gains=default_gains(model))
+    model = model_from_xml(xml, source=source)
+    params = params_from_model(model, source=source)
+    return Robot(name=name or params.name, model=model, params=params, analytic=AnalyticModel.from_params(params),
+                 gains=default_gains(model), xml=xml)

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .batch import simulate_batch
+from .distributed import run_rollouts
 from .errors import PaaError
 from .io import ensure_dir, write_json, write_npz
 from .model import Robot
@@ -41,15 +41,20 @@ def basin_grid(axes, grid):
     return x0, xs, ys
 
 
-def basin(robot: Robot, axes=(0, 1), grid=64, t_final=30.0, gains=None, progress=False):
-    """Run the basin study; returns (summary dict, arrays dict)."""
+def basin(robot: Robot, axes=(0, 1), grid=64, t_final=30.0, gains=None, progress=False, scheduler="inline"):
+    """Run the basin study; returns (summary dict, arrays dict).
+
+    ``scheduler``: "inline", "local" (a local Dask cluster) or a Dask scheduler
+    address; the results are identical whichever (:mod:`paa_mj.distributed`).
+    """
     x0, xs, ys = basin_grid(axes, grid)
-    result = simulate_batch(robot, x0, t_final, gains=gains, progress=progress)
+    result = run_rollouts(robot, x0, scheduler=scheduler, progress=progress, t_final=t_final, gains=gains)
     success = result.success()
     switched = result.switch_time[np.isfinite(result.switch_time)]
     summary = {
         "robot": robot.name, "axes": [COORDINATES[a] for a in axes], "grid": grid, "cells": int(grid * grid),
         "t_final": t_final, "t_reached": result.t_reached, "interrupted": result.interrupted,
+        "completed_fraction": float(np.mean(result.meta["completed"])),
         "success_fraction": float(np.mean(success)),
         "switched_fraction": float(np.mean(np.isfinite(result.switch_time))),
         "diverged_fraction": float(np.mean(result.diverged)),
@@ -88,7 +93,8 @@ def random_initial_states(trials, seed=0):
     return x0
 
 
-def robustness(robot: Robot, trials=64, t_final=30.0, seed=0, gains=None, progress=False):
+def robustness(robot: Robot, trials=64, t_final=30.0, seed=0, gains=None, progress=False, scheduler="inline",
+               model_error=None):
     """Success rate against each factor, every level run on the same ``trials`` random initial states.
 
     Success: under LQR and still inside region (68) at the end (noise keeps the
@@ -104,6 +110,11 @@ def robustness(robot: Robot, trials=64, t_final=30.0, seed=0, gains=None, progre
 
     if not (isinstance(trials, (int, np.integer)) and trials >= 1):
         raise PaaError(f"--trials must be a positive integer, got {trials}")
+    factors = {name: dict(spec) for name, spec in ROBUSTNESS_FACTORS.items()}
+    if model_error is not None:
+        if any(not (0 <= e < 100) for e in model_error):
+            raise PaaError(f"--model-error percentages must lie in [0, 100), got {list(model_error)}")
+        factors["model_error"]["levels"] = [float(e) for e in model_error]
     nominal_gains = robot.resolve_gains() if gains is None else gains
     nominal = simulate_mujoco(robot, SwitchingController.for_model(robot.analytic, **nominal_gains), X0_HANGING,
                               t_final)
@@ -111,7 +122,7 @@ def robustness(robot: Robot, trials=64, t_final=30.0, seed=0, gains=None, progre
     base = random_initial_states(trials, seed)
     dt = robot.model.opt.timestep
     x0, noise, limit, believed, delay, index = [], [], [], [], [], []
-    for factor, spec in ROBUSTNESS_FACTORS.items():
+    for factor, spec in factors.items():
         for level_i, level in enumerate(spec["levels"]):
             for trial in range(trials):
                 x0.append(base[trial])
@@ -122,14 +133,15 @@ def robustness(robot: Robot, trials=64, t_final=30.0, seed=0, gains=None, progre
                 delay.append(int(round(level * 1e-3 / dt)) if factor == "delay" else 0)
                 index.append((factor, level_i))
     g = [nominal_gains["kD"], nominal_gains["kP"], nominal_gains["kV"]]
-    result = simulate_batch(robot, np.array(x0), t_final, gains=g, controller_params=believed,
-                            torque_limit=np.array(limit), noise_std=np.array(noise), delay_steps=np.array(delay),
-                            seed=seed, progress=progress)
+    result = run_rollouts(robot, np.array(x0), scheduler=scheduler, progress=progress, t_final=t_final, gains=g,
+                          controller_params=believed, torque_limit=np.array(limit), noise_std=np.array(noise),
+                          delay_steps=np.array(delay), seed=seed)
     success = result.held
     summary = {"robot": robot.name, "trials": trials, "t_final": t_final, "seed": seed,
+               "completed_fraction": float(np.mean(result.meta["completed"])),
                "success": "under LQR (67) and inside region (68) at t_final, without divergence",
                "nominal_peak_torque": peak, "interrupted": result.interrupted, "factors": {}}
-    for factor, spec in ROBUSTNESS_FACTORS.items():
+    for factor, spec in factors.items():
         rates = []
         for level_i, level in enumerate(spec["levels"]):
             rows = [i for i, key in enumerate(index) if key == (factor, level_i)]

@@ -170,7 +170,8 @@ def test_batch_delay_applies_the_torque_computed_d_steps_before(gymnast):
 
 
 def test_robustness_cli(capsys, tmp_path):
-    code = main(["robustness", "--trials", "2", "--t-final", "1", "--json", "--out", str(tmp_path)])
+    code = main(["robustness", "--trials", "2", "--t-final", "1", "--json", "--out", str(tmp_path),
+                 "--model-error", "0", "3", "7", "15", "--scheduler", "inline"])
     s = json.loads(capsys.readouterr().out)
     assert code == 0
     assert set(s["factors"]) == {"noise", "torque_limit", "model_error", "delay"}
@@ -179,3 +180,13 @@ def test_robustness_cli(capsys, tmp_path):
         assert all(0 <= lv["success_rate"] <= 1 for lv in data["levels"])
         assert (tmp_path / f"robustness_{factor}.png").exists()
     assert (tmp_path / "summary.json").exists() and (tmp_path / "robustness.npz").exists()
+    # (the levels asked for are the ones reported)
+
+
+def test_robustness_model_error_levels(capsys):
+    assert main(["robustness", "--trials", "1", "--t-final", "0.5", "--json", "--scheduler", "inline",
+                 "--model-error", "0", "12.5"]) == 0
+    s = json.loads(capsys.readouterr().out)
+    assert [lv["level"] for lv in s["factors"]["model_error"]["levels"]] == [0.0, 12.5]
+    assert main(["robustness", "--model-error", "150"]) == 2
+    assert "[0, 100)" in capsys.readouterr().err

@@ -140,7 +140,6 @@ def _register_later_commands(sub):
 
 
 def main(argv=None):
-    warnings.simplefilter("default")
     from .controllers import TheoryWarning
 
     warnings.formatwarning = lambda msg, cat, *a, **k: f"paa-mj: warning: {msg}\n"

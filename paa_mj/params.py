@@ -59,7 +59,7 @@ class RobotParams:
         for key in ("m", "l", "lc", "J"):
             if not np.all(np.isfinite(getattr(self, key))):
                 raise PaaError(f"non-physical parameters: {key} = {getattr(self, key).tolist()} is not finite")
-        for key in ("m", "J", "l"):
+        for key in ("m", "l", "J"):
             values = getattr(self, key)
             bad = np.flatnonzero(values <= 0)
             if bad.size:

@@ -89,7 +89,7 @@ class Trajectory:
         if not path.is_file():
             raise PaaError(f"trajectory file not found: {path}")
         try:
-            with np.load(path, allow_pickle=False) as z:
+            with open(path, "rb") as fh, np.load(fh, allow_pickle=False) as z:
                 arrays = {name: np.array(z[name]) for name in FIELDS}
                 switch = float(z["switch_time"])
                 meta = json.loads(str(z["meta"]))

@@ -1,0 +1,113 @@
+"""The kip as a Gymnasium environment: ``paa_mj/GymnastKip-v0`` (extra ``paa_mj[gym]``).
+
+Observation (float32, 9): cos q_i, sin q_i for i = 1, 2, 3, then qd [rad/s].
+Action (float32, 2): shoulder and hip torques [N m], bounded by ``torque_limit``
+(default 2 b1 / 1 rad, above the paper's peak torques). One environment step is
+``frame_skip`` physics steps with the torque held (default one 1 ms RK4 step, as
+the paper's controller). Reward: minus the squared distance to UDD,
+-(|x_angles|^2 / (3 pi^2) + 1e-3 |qd|^2 + 1e-8 |tau|^2), angles wrapped.
+Terminated when the state diverges (non-finite, runaway speeds, MuJoCo
+warnings); truncated at ``max_episode_seconds``. ``info`` carries the raw,
+unwrapped ``q`` and ``qd``: controller (40) needs the unwrapped q2.
+
+Importing this module registers the environment; ``gym.make("paa_mj.gym_env:paa_mj/GymnastKip-v0")``
+imports it by itself.
+"""
+from __future__ import annotations
+
+import gymnasium as gym
+import mujoco
+import numpy as np
+from gymnasium import spaces
+
+from .controllers import udd_error
+from .model import load_robot
+from .rollout import MAX_SPEED, X0_HANGING
+
+ENV_ID = "paa_mj/GymnastKip-v0"
+
+
+class GymnastKipEnv(gym.Env):
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 30}
+
+    def __init__(self, robot="gymnast", render_mode=None, max_episode_seconds=30.0, frame_skip=1,
+                 torque_limit=None, init_noise=0.05, width=480, height=360):
+        if render_mode not in (None, "rgb_array"):
+            raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
+        self.robot = load_robot(robot)
+        self.model = self.robot.model.__copy__()
+        self.data = mujoco.MjData(self.model)
+        self.frame_skip = int(frame_skip)
+        self.dt = self.model.opt.timestep * self.frame_skip
+        self.max_steps = int(round(max_episode_seconds / self.dt))
+        self.torque_limit = float(torque_limit if torque_limit is not None else 2 * self.robot.analytic.b1)
+        self.init_noise = float(init_noise)
+        self.render_mode, self.width, self.height = render_mode, width, height
+        self.action_space = spaces.Box(-self.torque_limit, self.torque_limit, (2,), np.float32)
+        high = np.array([1, 1, 1, 1, 1, 1, np.inf, np.inf, np.inf], np.float32)
+        self.observation_space = spaces.Box(-high, high, dtype=np.float32)
+        self._renderer = None
+        self._steps = 0
+
+    def _obs(self):
+        q, qd = self.data.qpos, self.data.qvel
+        return np.concatenate([np.stack([np.cos(q), np.sin(q)], -1).ravel(), qd]).astype(np.float32)
+
+    def _info(self):
+        return {"q": self.data.qpos.copy(), "qd": self.data.qvel.copy(), "time": float(self.data.time)}
+
+    def reset(self, *, seed=None, options=None):
+        super().reset(seed=seed)
+        mujoco.mj_resetData(self.model, self.data)
+        x0 = np.asarray((options or {}).get("x0", X0_HANGING), dtype=float)
+        if x0.shape != (6,) or not np.all(np.isfinite(x0)):
+            raise ValueError("options['x0'] must be 6 finite numbers")
+        x0 = x0.copy()
+        x0[:3] += self.np_random.uniform(-self.init_noise, self.init_noise, 3)
+        self.data.qpos[:], self.data.qvel[:] = x0[:3], x0[3:]
+        mujoco.mj_forward(self.model, self.data)
+        self._steps = 0
+        return self._obs(), self._info()
+
+    def step(self, action):
+        tau = np.clip(np.asarray(action, dtype=float), -self.torque_limit, self.torque_limit)
+        self.data.ctrl[:] = tau
+        for _ in range(self.frame_skip):
+            mujoco.mj_step(self.model, self.data)
+        self._steps += 1
+        diverged = (not (np.all(np.isfinite(self.data.qpos)) and np.all(np.isfinite(self.data.qvel)))
+                    or np.max(np.abs(self.data.qvel)) > MAX_SPEED
+                    or any(self.data.warning[w].number for w in (mujoco.mjtWarning.mjWARN_BADQACC,
+                                                                 mujoco.mjtWarning.mjWARN_BADQPOS,
+                                                                 mujoco.mjtWarning.mjWARN_BADQVEL)))
+        if diverged:
+            return np.zeros(9, np.float32), -10.0, True, False, self._info() | {"diverged": True}
+        x = udd_error(self.data.qpos, self.data.qvel)
+        reward = -(float(x[:3] @ x[:3]) / (3 * np.pi**2) + 1e-3 * float(x[3:] @ x[3:]) + 1e-8 * float(tau @ tau))
+        truncated = self._steps >= self.max_steps
+        return self._obs(), reward, False, truncated, self._info()
+
+    def render(self):
+        if self.render_mode != "rgb_array":
+            return None
+        if self._renderer is None:
+            from .gl import select_backend
+            from .video import GymnastRenderer
+
+            select_backend("auto")
+            self._renderer = GymnastRenderer(self.robot, self.width, self.height)
+        return self._renderer.render(self.data.qpos.copy())
+
+    def close(self):
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+
+def register():
+    """Register ``paa_mj/GymnastKip-v0`` with Gymnasium (done on import of this module)."""
+    if ENV_ID not in gym.registry:
+        gym.register(id=ENV_ID, entry_point="paa_mj.gym_env:GymnastKipEnv")
+
+
+register()

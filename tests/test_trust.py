@@ -1,0 +1,126 @@
+"""Nothing lost, nothing confusing: bad input everywhere, atomic files, determinism, long-run energy."""
+import hashlib
+import subprocess
+import sys
+
+import mujoco
+import numpy as np
+import pytest
+
+from paa_mj.errors import PaaError
+from paa_mj.io import write_npz
+
+
+def _cli(*args, cwd=None):
+    return subprocess.run([sys.executable, "-m", "paa_mj.cli", *args], capture_output=True, text=True, cwd=cwd,
+                          timeout=300)
+
+
+@pytest.fixture(scope="module")
+def bad_files(tmp_path_factory):
+    d = tmp_path_factory.mktemp("bad")
+    (d / "malformed.xml").write_text("<mujoco><worldbody><body></mujoco>")
+    (d / "acrobot.xml").write_text(
+        '<mujoco><worldbody><body><joint type="hinge" axis="0 1 0"/><geom size=".1"/>'
+        '<body pos="0 0 1"><joint type="hinge" axis="0 1 0"/><geom size=".1"/></body></body></worldbody>'
+        '<actuator><motor joint="1"/></actuator></mujoco>'.replace('joint="1"', 'joint="j2"').replace(
+            '<body pos="0 0 1"><joint type="hinge"', '<body pos="0 0 1"><joint name="j2" type="hinge"'))
+    (d / "binary.xml").write_bytes(b"\xff\xfe\x00garbage")
+    (d / "traj.npz").write_bytes(b"PK\x03\x04 truncated")
+    (d / "notes.txt").write_text("hello")
+    return d
+
+
+CASES = [
+    # (what, arguments, fragment of the one-line error)
+    ("missing model file", ["simulate", "--robot", "{d}/none.xml"], "model file not found"),
+    ("unreadable model file", ["check", "--robot", "{d}/binary.xml"], "cannot read model file"),
+    ("malformed model file", ["theory", "--robot", "{d}/malformed.xml"], "malformed MJCF"),
+    ("model of the wrong shape", ["check", "--robot", "{d}/acrobot.xml"], "is not the 3-link gymnast"),
+    ("not a model", ["simulate", "--robot", "{d}/notes.txt"], "malformed MJCF"),
+    ("unknown robot name", ["simulate", "--robot", "acrobot"], "unknown robot 'acrobot'"),
+    ("non-physical parameters", ["make-model", "--m", "1", "1", "1", "--l", "1", "1", "0", "--out", "{d}/x.xml"], "l3 = 0 must be > 0"),
+    ("non-finite initial state", ["simulate", "--x0", "0", "0", "nan", "0", "0", "0"], "must be finite"),
+    ("wrong-length initial state", ["simulate", "--x0", "0", "0", "0"], "expected 6 arguments"),
+    ("gain below kD_min", ["simulate", "--kD", "4000"], "kD_min = 4503"),
+    ("non-positive kV", ["simulate", "--kV", "0"], "kV = 0 must be > 0"),
+    ("zero final time", ["simulate", "--t-final", "0"], "final time must be a positive number"),
+    ("negative time step", ["simulate", "--dt", "-0.001"], "time step must be a positive number"),
+    ("unknown integrator", ["simulate", "--integrator", "leapfrog"], "unknown integrator 'leapfrog'"),
+    ("unknown GL backend", ["render", "--gl", "metal", "--out", "{d}/v.mp4"], "unknown GL backend 'metal'"),
+    ("unwritable output folder", ["simulate", "--t-final", "0.01", "--out", "/proc/paa/out"], "cannot create output folder"),
+    ("corrupted trajectory", ["render", "--from", "{d}/traj.npz", "--out", "{d}/v.mp4"], "corrupted or foreign trajectory file"),
+    ("missing trajectory", ["render", "--from", "{d}/nothing.npz", "--out", "{d}/v.mp4"], "trajectory file not found"),
+    ("bad torque limit", ["simulate", "--torque-limit", "-5"], "--torque-limit must be > 0"),
+    ("bad basin axes", ["basin", "--axes", "q1,q9"], "two different coordinates"),
+]
+
+
+@pytest.mark.parametrize("what, args, fragment", CASES, ids=[c[0] for c in CASES])
+def test_bad_input_table(what, args, fragment, bad_files):
+    proc = _cli(*[a.format(d=bad_files) for a in args])
+    assert proc.returncode == 2, (what, proc.stderr)
+    lines = proc.stderr.strip().splitlines()
+    assert lines[-1].startswith("paa-mj: error:") and fragment in lines[-1], (what, proc.stderr)
+    assert all(line.startswith("paa-mj: ") for line in lines)  # warnings, then one error line
+    assert "Traceback" not in proc.stderr
+
+
+def test_files_are_whole_or_absent(tmp_path, monkeypatch):
+    target = tmp_path / "data.npz"
+    write_npz(target, a=np.arange(3))
+    before = target.read_bytes()
+
+    def broken(*args, **kwargs):
+        raise OSError("disk full")
+
+    monkeypatch.setattr(np.lib.format, "write_array", broken)
+    with pytest.raises(OSError):
+        write_npz(target, a=np.arange(5))
+    assert target.read_bytes() == before  # the old file is untouched
+    with pytest.raises(OSError):
+        write_npz(tmp_path / "new.npz", a=np.arange(5))
+    assert not (tmp_path / "new.npz").exists()
+    assert [p.name for p in tmp_path.iterdir()] == ["data.npz"]  # no temporary left behind
+
+
+def test_same_command_gives_byte_identical_files(tmp_path):
+    digests = []
+    for run in ("a", "b"):
+        out = tmp_path / run
+        assert _cli("simulate", "--t-final", "3", "--out", str(out), "--json").returncode == 0
+        digests.append({name: hashlib.sha256((out / name).read_bytes()).hexdigest()
+                        for name in ("trajectory.npz", "trajectory.csv", "summary.json")})
+    assert digests[0] == digests[1]
+
+
+@pytest.mark.parametrize("q0, qd0, scale", [
+    # A 1 rad swing of the passive robot: the energy is kept to 1e-5 of itself (measured: 8e-9).
+    ([-np.pi + 1.0, 0.0, 0.0], [0.0, 0.0, 0.0], "E0"),
+    # Tumbling chaotically: 4e-5 of |E0| here (E0 = -71 J), so the tolerance is stated against the
+    # robot's energy scale b1 + b2 + b3 = 498 J instead (measured: 5.7e-6).
+    ([-2.0, 0.7, -0.4], [1.0, -0.5, 0.3], "b1+b2+b3"),
+])
+def test_passive_robot_keeps_its_energy_for_200_s(gymnast, q0, qd0, scale):
+    model = gymnast.model
+    data = mujoco.MjData(model)
+    data.qpos[:], data.qvel[:] = q0, qd0
+    mujoco.mj_forward(model, data)
+    E0 = data.energy.sum()
+    drift = 0.0
+    for step in range(200_000):  # 200 s at the model's RK4, 1 ms
+        mujoco.mj_step(model, data)
+        if step % 50 == 0:
+            drift = max(drift, abs(data.energy.sum() - E0))
+    reference = abs(E0) if scale == "E0" else sum(gymnast.analytic.beta)
+    assert drift / reference < 1e-5
+
+
+def test_trajectory_load_rejects_wrong_shapes(tmp_path):
+    from paa_mj.trajectory import Trajectory
+
+    path = tmp_path / "t.npz"
+    write_npz(path, t=np.arange(3.0), q=np.zeros((3, 2)), qd=np.zeros((3, 3)), tau=np.zeros((3, 2)),
+              E_minus_Er=np.zeros(3), V=np.zeros(3), mode=np.zeros(3), switch_time=np.nan, meta="{}")
+    with pytest.raises(PaaError, match="q has shape"):
+        Trajectory.load(path)

@@ -107,6 +107,7 @@ def register(sub, parser_class):
 
     register_render(sub)
     register_studies(sub)
+    register_view(sub)
 
 
 def cmd_render(args):
@@ -248,3 +249,52 @@ def cmd_robustness(args):
                               f"{100 * lv['success_rate']:.0f} %" for lv in data["levels"])
             print(f"  {factor:<13} ({data['label']}): {cells}")
     return 130 if summary["interrupted"] else 0
+
+
+def cmd_view(args):
+    """MuJoCo's interactive viewer with the controller running, in real time."""
+    import os
+    import sys
+    import time
+
+    if sys.platform.startswith("linux") and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+        raise PaaError("no display (DISPLAY and WAYLAND_DISPLAY are unset): the viewer needs a screen;"
+                       " use 'paa-mj render' for a video instead")
+    if os.environ.get("MUJOCO_GL") in ("egl", "osmesa"):
+        raise PaaError(f"MUJOCO_GL={os.environ['MUJOCO_GL']} is for offscreen rendering; unset it to open the viewer")
+    import mujoco
+    import mujoco.viewer
+
+    from .controllers import SwitchingController
+    from .model import load_robot
+    from .rollout import X0_HANGING, mujoco_model_for, validate_run
+
+    robot = load_robot(args.robot)
+    gains = robot.resolve_gains(args.kD, args.kP, args.kV)
+    controller = SwitchingController.for_model(robot.analytic, **gains, torque_limit=args.torque_limit,
+                                               enabled=not args.no_switch)
+    x0 = validate_run(X0_HANGING if args.x0 is None else args.x0, args.t_final, args.dt)
+    model = mujoco_model_for(robot, args.dt, args.integrator)
+    data = mujoco.MjData(model)
+    data.qpos[:], data.qvel[:] = x0[:3], x0[3:]
+    mujoco.mj_forward(model, data)
+    try:
+        viewer = mujoco.viewer.launch_passive(model, data)
+    except Exception as err:  # GLFW failures come as several types
+        raise PaaError(f"cannot open the viewer: {' '.join(str(err).split())}") from None
+    with viewer:
+        start = time.perf_counter()
+        while viewer.is_running() and data.time < args.t_final:
+            data.ctrl[:] = controller.torque(data.qpos, data.qvel)
+            mujoco.mj_step(model, data)
+            lag = data.time - (time.perf_counter() - start)
+            if lag > 0:
+                time.sleep(lag)
+                viewer.sync()
+    return 0
+
+
+def register_view(sub):
+    p = sub.add_parser("view", help="MuJoCo's interactive viewer with the controller running (needs a display)")
+    add_simulation_options(p)
+    p.set_defaults(func=cmd_view)

@@ -124,3 +124,14 @@ def test_trajectory_load_rejects_wrong_shapes(tmp_path):
               E_minus_Er=np.zeros(3), V=np.zeros(3), mode=np.zeros(3), switch_time=np.nan, meta="{}")
     with pytest.raises(PaaError, match="q has shape"):
         Trajectory.load(path)
+
+
+def test_viewer_without_a_display_says_so():
+    import os
+
+    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    proc = subprocess.run([sys.executable, "-m", "paa_mj.cli", "view"], capture_output=True, text=True, env=env,
+                          timeout=120)
+    assert proc.returncode == 2
+    assert proc.stderr.strip() == ("paa-mj: error: no display (DISPLAY and WAYLAND_DISPLAY are unset): the viewer"
+                                   " needs a screen; use 'paa-mj render' for a video instead")

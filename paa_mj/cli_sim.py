@@ -283,14 +283,16 @@ def cmd_view(args):
     except Exception as err:  # GLFW failures come as several types
         raise PaaError(f"cannot open the viewer: {' '.join(str(err).split())}") from None
     with viewer:
-        start = time.perf_counter()
+        start = last_sync = time.perf_counter()
         while viewer.is_running() and data.time < args.t_final:
             data.ctrl[:] = controller.torque(data.qpos, data.qvel)
             mujoco.mj_step(model, data)
-            lag = data.time - (time.perf_counter() - start)
-            if lag > 0:
-                time.sleep(lag)
+            ahead = data.time - (time.perf_counter() - start)
+            if ahead > 0:
+                time.sleep(ahead)
+            if time.perf_counter() - last_sync > 1 / 60:  # refresh at about 60 Hz of wall time
                 viewer.sync()
+                last_sync = time.perf_counter()
     return 0
 
 

@@ -135,3 +135,4 @@ def test_viewer_without_a_display_says_so():
     assert proc.returncode == 2
     assert proc.stderr.strip() == ("paa-mj: error: no display (DISPLAY and WAYLAND_DISPLAY are unset): the viewer"
                                    " needs a screen; use 'paa-mj render' for a video instead")
+

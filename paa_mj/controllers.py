@@ -108,12 +108,6 @@ class EnergyVCLController(Controller):
         return (0.5 * self.energy_error(q, qd) ** 2 + 0.5 * self.kD * np.sum(qd_a**2, -1)
                 + 0.5 * self.kP * np.sum(e**2, -1))
 
-    def lambda_matrix(self, q, qd):
-        """Lambda(q, qd) of (38), shape (..., 2, 2)."""
-        M_inv = np.linalg.inv(self.model.mass_matrix(q))
-        return (self.energy_error(q, qd)[..., None, None] * np.eye(2)
-                + self.kD * M_inv[..., 1:, 1:])
-
     def torque(self, q, qd):
         q, qd = np.asarray(q, float), np.asarray(qd, float)
         am = self.model

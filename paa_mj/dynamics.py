@@ -157,10 +157,6 @@ class AnalyticModel:
         rhs = np.asarray(tau) @ B.T - self.bias(q, qd)
         return np.linalg.solve(self.mass_matrix(q), rhs[..., None])[..., 0]
 
-    def actuated_inverse_inertia(self, q2, q3):
-        """B^T M^-1 B as a function of (q2, q3), shape (..., 2, 2) [1/(kg m^2)]."""
-        return np.linalg.inv(self.mass_matrix_23(q2, q3))[..., 1:, 1:]
-
     def linearize(self, q_eq):
         """Linearisation of (1) about the equilibrium (q_eq, 0).
 

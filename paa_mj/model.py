@@ -185,6 +185,13 @@ def _one_line(message: str) -> str:
     return " ".join(str(message).split())
 
 
+def _read_model_text(path: Path) -> str:
+    try:
+        return path.read_text()
+    except (OSError, UnicodeDecodeError) as err:
+        raise PaaError(f"cannot read model file {path}: {_one_line(err)}") from None
+
+
 def load_model(robot: str | os.PathLike) -> mujoco.MjModel:
     """Compile a named robot or an MJCF file, checking that it has the gymnast's shape.
 
@@ -195,12 +202,7 @@ def load_model(robot: str | os.PathLike) -> mujoco.MjModel:
         not three hinges with motors on joints 2 and 3.
     """
     path = robot_path(robot)
-    try:
-        xml = path.read_text()
-    except (OSError, UnicodeDecodeError) as err:
-        raise PaaError(f"cannot read model file {path}: {_one_line(err)}") from None
-    model = model_from_xml(xml, source=str(path))
-    return model
+    return model_from_xml(_read_model_text(path), source=str(path))
 
 
 def model_from_xml(xml: str, source: str = "<string>") -> mujoco.MjModel:
@@ -320,12 +322,6 @@ def _link3_length(model, up):
     return float(max(reach))
 
 
-def load_params(robot) -> tuple[mujoco.MjModel, RobotParams]:
-    """Load a robot and read its parameters back from the compiled model."""
-    model = load_model(robot)
-    return model, params_from_model(model, source=str(robot))
-
-
 def default_gains(model: mujoco.MjModel):
     """The gains stored in the model's ``paa_gains`` numeric, or None."""
     idx = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_NUMERIC, "paa_gains")
@@ -373,11 +369,8 @@ class Robot:
 def load_robot(robot) -> Robot:
     """Load a named robot or an MJCF file into a :class:`Robot`."""
     path = robot_path(robot)
-    try:
-        xml = path.read_text()
-    except (OSError, UnicodeDecodeError) as err:
-        raise PaaError(f"cannot read model file {path}: {_one_line(err)}") from None
-    return robot_from_xml(xml, name=str(robot) if str(robot) in NAMED_ROBOTS else None, source=str(path))
+    return robot_from_xml(_read_model_text(path), name=str(robot) if str(robot) in NAMED_ROBOTS else None,
+                          source=str(path))
 
 
 def robot_from_xml(xml: str, name=None, source="<string>") -> Robot:

@@ -125,18 +125,10 @@ def build_parser():
     p.add_argument("--out", required=True, help="MJCF file to write")
     p.set_defaults(func=cmd_make_model)
 
-    _register_later_commands(sub)
+    from .cli_sim import register
+
+    register(sub, _Parser)  # simulation, reproduction, video, studies, viewer
     return parser
-
-
-def _register_later_commands(sub):
-    """Commands defined in their own modules (simulation, reproduction, video, studies)."""
-    for module_name in ("cli_sim",):
-        try:
-            module = __import__(f"paa_mj.{module_name}", fromlist=["register"])
-        except ModuleNotFoundError:
-            continue
-        module.register(sub, _Parser)
 
 
 def main(argv=None):

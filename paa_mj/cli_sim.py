@@ -23,11 +23,11 @@ def add_simulation_options(p):
     p.add_argument("--sample-dt", type=float, default=0.01, help="recording interval [s]")
 
 
-def run_from_args(args, progress=True):
-    """Build the robot and controller from the options and run the rollout."""
+def controller_from_args(args):
+    """The robot, the hybrid controller and the initial state the simulation options describe."""
     from .controllers import SwitchingController
     from .model import load_robot
-    from .rollout import X0_HANGING, simulate_analytic, simulate_mujoco
+    from .rollout import X0_HANGING
 
     robot = load_robot(args.robot)
     gains = robot.resolve_gains(args.kD, args.kP, args.kV)
@@ -35,7 +35,14 @@ def run_from_args(args, progress=True):
         raise PaaError(f"--torque-limit must be > 0, got {args.torque_limit}")
     controller = SwitchingController.for_model(robot.analytic, **gains, torque_limit=args.torque_limit,
                                                enabled=not args.no_switch)
-    x0 = X0_HANGING if args.x0 is None else args.x0
+    return robot, controller, X0_HANGING if args.x0 is None else args.x0
+
+
+def run_from_args(args, progress=True):
+    """Build the robot and controller from the options and run the rollout."""
+    from .rollout import simulate_analytic, simulate_mujoco
+
+    robot, controller, x0 = controller_from_args(args)
     if args.engine == "analytic":
         if args.dt is not None or args.integrator is not None:
             warnings.warn("--dt and --integrator do not apply to the analytic engine (continuous-time control)")
@@ -265,15 +272,10 @@ def cmd_view(args):
     import mujoco
     import mujoco.viewer
 
-    from .controllers import SwitchingController
-    from .model import load_robot
-    from .rollout import X0_HANGING, mujoco_model_for, validate_run
+    from .rollout import mujoco_model_for, validate_run
 
-    robot = load_robot(args.robot)
-    gains = robot.resolve_gains(args.kD, args.kP, args.kV)
-    controller = SwitchingController.for_model(robot.analytic, **gains, torque_limit=args.torque_limit,
-                                               enabled=not args.no_switch)
-    x0 = validate_run(X0_HANGING if args.x0 is None else args.x0, args.t_final, args.dt)
+    robot, controller, x0 = controller_from_args(args)
+    x0 = validate_run(x0, args.t_final, args.dt)
     model = mujoco_model_for(robot, args.dt, args.integrator)
     data = mujoco.MjData(model)
     data.qpos[:], data.qvel[:] = x0[:3], x0[3:]

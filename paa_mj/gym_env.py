@@ -22,7 +22,7 @@ from gymnasium import spaces
 
 from .controllers import udd_error
 from .model import load_robot
-from .rollout import MAX_SPEED, X0_HANGING
+from .rollout import X0_HANGING, divergence_reason
 
 ENV_ID = "paa_mj/GymnastKip-v0"
 
@@ -75,11 +75,7 @@ class GymnastKipEnv(gym.Env):
         for _ in range(self.frame_skip):
             mujoco.mj_step(self.model, self.data)
         self._steps += 1
-        diverged = (not (np.all(np.isfinite(self.data.qpos)) and np.all(np.isfinite(self.data.qvel)))
-                    or np.max(np.abs(self.data.qvel)) > MAX_SPEED
-                    or any(self.data.warning[w].number for w in (mujoco.mjtWarning.mjWARN_BADQACC,
-                                                                 mujoco.mjtWarning.mjWARN_BADQPOS,
-                                                                 mujoco.mjtWarning.mjWARN_BADQVEL)))
+        diverged = divergence_reason(self.data) is not None
         if diverged:
             return np.zeros(9, np.float32), -10.0, True, False, self._info() | {"diverged": True}
         x = udd_error(self.data.qpos, self.data.qvel)

@@ -126,7 +126,7 @@ def simulate_mujoco(robot: Robot, controller, x0=X0_HANGING, t_final=30.0, dt=No
         if step % every == 0 or failure:
             t[k], q[k], qd[k], tau_rec[k], mode_rec[k] = step * dt, qpos, qvel, ctrl, max(mode, 0)
             k += 1
-            failure = failure or _divergence(data)
+            failure = failure or divergence_reason(data)
             if failure:
                 break
             if progress and step:
@@ -181,7 +181,8 @@ def _control_function(controller, data, compiled):
     return control
 
 
-def _divergence(data):
+def divergence_reason(data):
+    """Why ``data`` has left the finite world (None if it has not): non-finite state, runaway speeds, MuJoCo warnings."""
     state_ok = np.all(np.isfinite(data.qpos)) and np.all(np.isfinite(data.qvel))
     if not state_ok:
         return "the state is not finite"

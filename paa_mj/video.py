@@ -32,14 +32,19 @@ def _ffmpeg():
     return mediapy
 
 
+def states_at(traj: Trajectory, times):
+    """Joint angles (interpolated) and controller modes (of the last sample) at ``times``."""
+    q = np.column_stack([np.interp(times, traj.t, traj.q[:, i]) for i in range(3)])
+    idx = np.clip(np.searchsorted(traj.t, times, side="right") - 1, 0, len(traj.t) - 1)
+    return q, traj.mode[idx]
+
+
 def frame_states(traj: Trajectory, fps: float):
-    """Joint angles, modes and times at t = k / fps, interpolated from the samples."""
+    """Times t = k / fps, with the joint angles and modes there."""
     if not fps > 0:
         raise PaaError(f"--fps must be > 0, got {fps}")
     times = np.arange(0.0, traj.t[-1] + 1e-9, 1.0 / fps)
-    q = np.column_stack([np.interp(times, traj.t, traj.q[:, i]) for i in range(3)])
-    idx = np.clip(np.searchsorted(traj.t, times, side="right") - 1, 0, len(traj.t) - 1)
-    return times, q, traj.mode[idx]
+    return (times, *states_at(traj, times))
 
 
 class GymnastRenderer:
@@ -167,10 +172,9 @@ def filmstrip(robot: Robot, traj: Trajectory, path, n_poses=8, width=320, height
 
     end = traj.switch_time + 2.0 if traj.switch_time is not None else traj.t[-1]
     times = np.linspace(0.0, min(end, traj.t[-1]), n_poses)
-    q = np.column_stack([np.interp(times, traj.t, traj.q[:, i]) for i in range(3)])
-    idx = np.clip(np.searchsorted(traj.t, times, side="right") - 1, 0, len(traj.t) - 1)
+    q, modes = states_at(traj, times)
     with GymnastRenderer(robot, width, height, camera) as gr:
-        tiles = [gr.render(q[k], traj.mode[idx[k]]) for k in range(n_poses)]
+        tiles = [gr.render(q[k], modes[k]) for k in range(n_poses)]
     strip = Image.fromarray(np.concatenate(tiles, axis=1))
     draw = ImageDraw.Draw(strip)
     for k, t in enumerate(times):

@@ -20,9 +20,9 @@ import mujoco
 import numpy as np
 from gymnasium import spaces
 
-from .controllers import udd_error
-from .model import load_robot
-from .rollout import X0_HANGING, divergence_reason
+from .model.robot import load_robot
+from .model.states import X0_HANGING, udd_error
+from .sim.rollout import divergence_reason
 
 ENV_ID = "paa_mj/GymnastKip-v0"
 
@@ -87,8 +87,8 @@ class GymnastKipEnv(gym.Env):
         if self.render_mode != "rgb_array":
             return None
         if self._renderer is None:
-            from .gl import select_backend
-            from .video import GymnastRenderer
+            from .outputs.gl import select_backend
+            from .outputs.video import GymnastRenderer
 
             select_backend("auto")
             self._renderer = GymnastRenderer(self.robot, self.width, self.height)

@@ -1,4 +1,7 @@
-"""Output files are written whole or not at all: temporary file, then rename."""
+"""Output files are written whole or not at all: temporary file, then rename; sets of files all or none.
+
+Also the lock that keeps two runs from writing into one output folder.
+"""
 from __future__ import annotations
 
 import contextlib
@@ -33,15 +36,20 @@ def atomic_path(final, suffix=None):
     """Yield a temporary path beside ``final``; rename it onto ``final`` only on success."""
     final = Path(final)
     ensure_dir(final.parent if str(final.parent) else ".")
-    fd, tmp = tempfile.mkstemp(prefix=f".{final.name}.", suffix=suffix or final.suffix, dir=final.parent)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{final.name}.", suffix=suffix or final.suffix, dir=final.parent)
+    except OSError as err:
+        raise PaaError(f"cannot write {final}: {err.strerror or err}") from None
     os.close(fd)
     try:
         yield Path(tmp)
         os.chmod(tmp, 0o666 & ~_UMASK)  # mkstemp makes 0600; give the file the usual mode
         os.replace(tmp, final)
-    except BaseException:
+    except BaseException as err:
         with contextlib.suppress(OSError):
             os.unlink(tmp)
+        if isinstance(err, OSError):
+            raise PaaError(f"cannot write {final}: {err.strerror or err} (nothing was written)") from None
         raise
 
 
@@ -60,17 +68,21 @@ def write_npz(path, **arrays):
     ``np.savez`` stamps each member with the current time; a fixed stamp makes
     the same run give the same bytes.
     """
+    with atomic_path(path, suffix=".npz") as tmp:
+        _write_npz_file(tmp, arrays)
+
+
+def _write_npz_file(path, arrays):
     import io as _io
     import zipfile
 
-    with atomic_path(path, suffix=".npz") as tmp:
-        with zipfile.ZipFile(tmp, "w", compression=zipfile.ZIP_STORED) as zf:
-            for name, value in arrays.items():
-                buffer = _io.BytesIO()
-                np.lib.format.write_array(buffer, np.asanyarray(value), allow_pickle=False)
-                info = zipfile.ZipInfo(f"{name}.npy", date_time=(1980, 1, 1, 0, 0, 0))
-                info.external_attr = 0o644 << 16
-                zf.writestr(info, buffer.getvalue())
+    with zipfile.ZipFile(path, "w", compression=zipfile.ZIP_STORED) as zf:
+        for name, value in arrays.items():
+            buffer = _io.BytesIO()
+            np.lib.format.write_array(buffer, np.asanyarray(value), allow_pickle=False)
+            info = zipfile.ZipInfo(f"{name}.npy", date_time=(1980, 1, 1, 0, 0, 0))
+            info.external_attr = 0o644 << 16
+            zf.writestr(info, buffer.getvalue())
 
 
 def _json_default(obj):
@@ -83,3 +95,79 @@ def _json_default(obj):
 
 def dumps(obj) -> str:
     return json.dumps(obj, default=_json_default)
+
+
+def write_set(folder, writers: dict):
+    """Write several files as a set, all or none: ``writers`` maps a file name to ``fn(path)``.
+
+    Every file is first written to a temporary path beside its final name; only
+    when all are written are they renamed into place. A failure (a full disk)
+    leaves the folder as it was.
+    """
+    folder = ensure_dir(folder)
+    temporaries = []
+    try:
+        for name, writer in writers.items():
+            final = folder / name
+            fd, tmp = tempfile.mkstemp(prefix=f".{final.name}.", suffix=final.suffix, dir=folder)
+            os.close(fd)
+            temporaries.append((Path(tmp), final))
+            writer(Path(tmp))
+            os.chmod(tmp, 0o666 & ~_UMASK)
+    except BaseException as err:
+        for tmp, _ in temporaries:
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
+        if isinstance(err, OSError):
+            raise PaaError(f"cannot write {', '.join(writers)} in {folder}: {err.strerror or err}"
+                           " (nothing was written)") from None
+        raise
+    for tmp, final in temporaries:
+        os.replace(tmp, final)
+    return folder
+
+
+def npz_writer(**arrays):
+    """A writer for :func:`write_set` of a deterministic .npz (see :func:`write_npz`)."""
+    return lambda path: _write_npz_file(path, arrays)
+
+
+def json_writer(obj):
+    return lambda path: path.write_text(json.dumps(obj, indent=2, default=_json_default) + "\n")
+
+
+class OutputLock:
+    """An exclusive lock on an output folder: a second run writing there refuses with one line.
+
+    The lock is an ``flock`` on ``FOLDER/.paa-mj.lock``, released when the
+    process ends, however it ends.
+    """
+
+    def __init__(self, folder):
+        self.folder = ensure_dir(folder)
+        self.path = self.folder / ".paa-mj.lock"
+        self.handle = None
+
+    def __enter__(self):
+        import fcntl
+
+        self.handle = open(self.path, "a+")
+        try:
+            fcntl.flock(self.handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            self.handle.seek(0)
+            holder = self.handle.read().strip() or "another process"
+            self.handle.close()
+            self.handle = None
+            raise PaaError(f"another paa-mj run ({holder}) is writing to {self.folder}: wait for it, or choose"
+                           " another --out") from None
+        self.handle.seek(0)
+        self.handle.truncate()
+        self.handle.write(f"pid {os.getpid()}")
+        self.handle.flush()
+        return self
+
+    def __exit__(self, *exc):
+        if self.handle is not None:
+            self.handle.close()
+            self.handle = None

@@ -1,14 +1,16 @@
-"""Controller (40), (67), (68): the Lyapunov identity (36) and the pieces around it."""
+"""Controllers (40), (12), (67), (68): the Lyapunov identity (36), the interface, the registry."""
 import warnings
 
 import numpy as np
 import pytest
 
-from paa_mj.controllers import (EnergyVCLController, LQRController, SwitchingController, TheoryWarning,
-                                in_switch_region, switch_margin, wrap_angle)
+from paa_mj.control import (CombinedController, ConventionalController, ControllerSpec, EnergyVCLController,
+                            LQRController, RegionCondition, TheoryWarning, TimeCondition, in_switch_region,
+                            make_controller, switch_margin)
 from paa_mj.errors import PaaError
-from paa_mj.theory import Q_UDD
-from paa_mj.vcl import psi, theta
+from paa_mj.model.states import Q_UDD, wrap_angle
+from paa_mj.model.vcl import psi, theta
+from paa_mj.sim.engine import evaluate
 
 from .conftest import GAINS1, GAINS2
 
@@ -19,13 +21,14 @@ def _random_states(rng, n):
     return q, qd
 
 
+@pytest.mark.parametrize("cls", [EnergyVCLController, ConventionalController])
 @pytest.mark.parametrize("robot, gains", [("gymnast", GAINS1), ("example2", GAINS2)])
-def test_lyapunov_rate_equals_minus_kV_qd_a_squared(robot, gains, request, rng):
-    """(36) via the chain rule with the analytic dynamics: relative 1e-8."""
+def test_lyapunov_rate_equals_minus_kV_qd_a_squared(cls, robot, gains, request, rng):
+    """(36) via the chain rule with the analytic dynamics: relative 1e-8, for (40) and for (12)."""
     am = request.getfixturevalue(robot).analytic
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", TheoryWarning)
-        ctrl = EnergyVCLController(am, **gains)
+        ctrl = cls(am, **gains)
     q, qd = _random_states(rng, 2000)
     expected = -gains["kV"] * np.sum(qd[:, 1:] ** 2, -1)
     got = ctrl.lyapunov_rate(q, qd)
@@ -59,6 +62,16 @@ def test_a_wrong_torque_breaks_the_identity(gymnast, rng):
     assert np.median(np.abs(rate - expected) / np.abs(expected)) > 1e-6
 
 
+def test_conventional_and_vcl_differ_where_q3_is_not_zero(gymnast, rng):
+    q, qd = _random_states(rng, 50)
+    a = make_controller("vcl-only", gymnast).torque(q, qd)
+    b = make_controller("vc-only", gymnast).torque(q, qd)
+    assert np.median(np.abs(a - b)) > 1e-3
+    q[:, 1], q[:, 2] = -np.pi, 0.0  # q_a = q_ar: both errors vanish, the rest of the law is common
+    c, d = make_controller("vcl-only", gymnast).torque(q, qd), make_controller("vc-only", gymnast).torque(q, qd)
+    np.testing.assert_allclose(c, d, rtol=1e-12, atol=1e-9)
+
+
 def test_psi_is_the_derivative_of_theta(gymnast):
     b2, b3 = gymnast.analytic.b2, gymnast.analytic.b3
     z = np.linspace(-6, 6, 101)
@@ -74,6 +87,28 @@ def test_batched_torque_equals_one_at_a_time(gymnast, rng):
     batch = ctrl.torque(q, qd)
     single = np.array([ctrl.torque(q[i], qd[i]) for i in range(20)])
     np.testing.assert_allclose(batch, single, rtol=1e-13)
+
+
+@pytest.mark.parametrize("name", ["vcl", "vcl-only", "vc", "vc-only", "lqr", "passive"])
+@pytest.mark.parametrize("robot", ["gymnast", "example2"])
+def test_compiled_form_equals_numpy_path(name, robot, request, rng):
+    """The one definition, two paths: NumPy on batches and the numba kernel, to rounding."""
+    r = request.getfixturevalue(robot)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", TheoryWarning)
+        ctrl = make_controller(name, r)
+    q, qd = _random_states(rng, 600)
+    q[:100], qd[:100] = Q_UDD + rng.uniform(-0.4, 0.4, (100, 3)), rng.uniform(-0.4, 0.4, (100, 3))
+    compiled, modes = evaluate(ctrl.compiled(), q, qd)
+    expected = np.empty_like(compiled)
+    expected_modes = np.empty(len(q), int)
+    for i in range(len(q)):  # one state at a time, each from a fresh switch
+        ctrl.reset()
+        expected[i] = ctrl.torque(q[i], qd[i])
+        expected_modes[i] = int(ctrl.mode)
+    np.testing.assert_array_equal(modes, expected_modes)
+    scale = np.maximum(1.0, np.abs(expected))
+    assert np.max(np.abs(compiled - expected) / scale) < 1e-12
 
 
 def test_gain_validation(gymnast, example2):
@@ -99,7 +134,7 @@ def test_wrap_and_switch_region():
 
 
 def test_switch_is_one_way(gymnast):
-    ctrl = SwitchingController.for_model(gymnast.analytic, **GAINS1)
+    ctrl = make_controller("vcl", gymnast)
     assert ctrl.mode == 0
     ctrl.torque(Q_UDD, np.zeros(3))
     assert ctrl.mode == 1
@@ -109,8 +144,54 @@ def test_switch_is_one_way(gymnast):
     assert ctrl.mode == 0
 
 
-def test_lqr_and_torque_limit(gymnast):
-    lqr = LQRController.for_model(gymnast.analytic, torque_limit=50.0)
-    tau = lqr.torque(Q_UDD + [0.3, 0.0, 0.0], np.zeros(3))
-    assert np.all(np.abs(tau) <= 50.0)
-    assert np.all(lqr.torque(Q_UDD, np.zeros(3)) == 0)
+def test_time_condition_hands_over_at_its_time(gymnast):
+    ctrl = CombinedController(make_controller("passive", gymnast), LQRController.for_model(gymnast.analytic),
+                              TimeCondition(0.5))
+    q = Q_UDD + [0.1, 0, 0]
+    assert np.all(ctrl.torque(q, np.zeros(3), t=0.2) == 0) and ctrl.mode == 0
+    assert np.any(ctrl.torque(q, np.zeros(3), t=0.5) != 0) and ctrl.mode == 1
+    tau, modes = evaluate(ctrl.compiled(), np.tile(q, (2, 1)), np.zeros((2, 3)), t=0.7)
+    assert list(modes) == [1, 1] and np.all(tau != 0)
+
+
+def test_combined_of_a_python_controller_has_no_compiled_form(gymnast):
+    class Half:
+        def torque(self, q, qd, t):
+            return 0.5 * make_controller("lqr", gymnast).torque(q, qd, t)
+
+    ctrl = CombinedController(Half(), make_controller("lqr", gymnast), RegionCondition())
+    assert ctrl.compiled() is None
+    assert ctrl.torque(np.tile(Q_UDD, (3, 1)), np.zeros((3, 3))).shape == (3, 2)
+
+
+def test_lqr_gain_shape_is_checked():
+    with pytest.raises(PaaError, match="2 x 6"):
+        LQRController(np.ones((2, 5)))
+
+
+@pytest.mark.parametrize("spec, fragment", [
+    ("nosuch", "unknown controller 'nosuch'"),
+    ("/nonexistent/ctrl.py:Foo", "controller file not found"),
+])
+def test_registry_errors(spec, fragment, gymnast):
+    with pytest.raises(PaaError, match=fragment):
+        make_controller(spec, gymnast)
+
+
+def test_gains_only_for_gain_controllers():
+    with pytest.raises(PaaError, match="apply to the controllers"):
+        ControllerSpec("lqr", (1.0, 2.0, 3.0))
+
+
+def test_user_controller_from_a_file(tmp_path, gymnast):
+    path = tmp_path / "mine.py"
+    path.write_text("import numpy as np\n\nclass Push:\n    def __init__(self, robot):\n        self.b1 = robot.analytic.b1\n"
+                    "    def torque(self, q, qd, t):\n        return np.full(np.shape(q)[:-1] + (2,), 1e-3 * self.b1)\n")
+    ctrl = make_controller(f"{path}:Push", gymnast)
+    np.testing.assert_allclose(ctrl.torque(np.zeros((4, 3)), np.zeros((4, 3)), 0.0), 1e-3 * gymnast.analytic.b1)
+    with pytest.raises(PaaError, match="has no class 'Nope'"):
+        make_controller(f"{path}:Nope", gymnast)
+    broken = tmp_path / "broken.py"
+    broken.write_text("def oops(:\n")
+    with pytest.raises(PaaError, match="cannot load controller file"):
+        make_controller(f"{broken}:X", gymnast)

@@ -1,13 +1,22 @@
-"""Studies on a real local Dask cluster (loopback) give exactly the results of the inline path."""
+"""Studies on a real local Dask cluster (loopback) give exactly the results of the inline path; chunks resume."""
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
 import numpy as np
 import pytest
 
 distributed = pytest.importorskip("distributed")
 
 from paa_mj.cli import main  # noqa: E402
-from paa_mj.distributed import run_rollouts  # noqa: E402
-from paa_mj.rollout import X0_HANGING  # noqa: E402
-from paa_mj.studies import basin  # noqa: E402
+from paa_mj.control import ControllerSpec  # noqa: E402
+from paa_mj.model.states import X0_HANGING  # noqa: E402
+from paa_mj.studies.basin import basin  # noqa: E402
+from paa_mj.studies.runner import RolloutSet, run_study  # noqa: E402
+from paa_mj.studies.store import ChunkStore  # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -27,16 +36,21 @@ def test_basin_identical_on_dask_and_inline(gymnast, scheduler_address):
         np.testing.assert_array_equal(on_dask[1][key], value, err_msg=key)
 
 
+def _noisy_set(n=12):
+    x0 = np.tile(X0_HANGING, (n, 1))
+    x0[:, 1] += np.linspace(-0.5, 0.5, n)
+    return RolloutSet(x0, "vcl", noise_std=np.full((n, 2), 0.01), delay_steps=np.arange(n) % 3)
+
+
 def test_chunked_noisy_rollouts_identical(gymnast, scheduler_address):
-    x0 = np.tile(X0_HANGING, (12, 1))
-    x0[:, 1] += np.linspace(-0.5, 0.5, 12)
-    kwargs = dict(t_final=1.0, noise_std=np.full((12, 2), 0.01), delay_steps=np.arange(12) % 3, seed=7, chunk=5)
-    a = run_rollouts(gymnast, x0, scheduler=scheduler_address, **kwargs)
-    b = run_rollouts(gymnast, x0, scheduler="inline", **kwargs)
+    a = run_study(gymnast, _noisy_set(), 1.0, seed=7, chunk=5, scheduler=scheduler_address)
+    b = run_study(gymnast, _noisy_set(), 1.0, seed=7, chunk=5, scheduler="inline")
+    c = run_study(gymnast, _noisy_set(), 1.0, seed=7, chunk=128, scheduler="inline")
     for key in ("final_state", "max_abs_tau", "switch_time", "held"):
         np.testing.assert_array_equal(getattr(a, key), getattr(b, key), err_msg=key)
+        np.testing.assert_array_equal(getattr(a, key), getattr(c, key), err_msg=key)
     assert a.meta["completed"].all()
-    assert np.max(np.abs(a.final_state[0] - a.final_state[5])) > 0  # chunks draw different noise
+    assert np.max(np.abs(a.final_state[0] - a.final_state[5])) > 0  # rollouts draw different noise
 
 
 def test_unreachable_scheduler_is_one_line(capsys):
@@ -52,52 +66,12 @@ def test_bad_scheduler_value(capsys):
     assert "--scheduler must be inline, local or an address" in capsys.readouterr().err
 
 
-def test_ctrl_c_stops_cleanly_and_keeps_finished_chunks(tmp_path):
-    import os
-    import signal
-    import subprocess
-    import sys
-    import time
+def test_interrupt_keeps_the_chunks_already_finished_and_a_rerun_resumes(gymnast, monkeypatch, tmp_path):
+    import paa_mj.studies.runner as runner
 
-    out = tmp_path / "basin"
-    proc = subprocess.Popen([sys.executable, "-m", "paa_mj.cli", "basin", "--grid", "24", "--t-final", "6",
-                             "--scheduler", "inline", "--json", "--out", str(out)],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    time.sleep(11)  # past start-up; how many chunks finish by then depends on the machine's load
-    proc.send_signal(signal.SIGINT)
-    stdout, stderr = proc.communicate(timeout=120)
-    assert proc.returncode == 130, stderr
-    assert "Traceback" not in stderr
-    import json
-
-    summary = json.loads(stdout)
-    assert summary["interrupted"] is True and summary["cells"] == 576
-    assert summary["completed_fraction"] < 1  # that what finished is kept: the next test, deterministically
-    assert (out / "basin.npz").exists() and (out / "basin.png").exists()
-    assert not [p for p in os.listdir(out) if p.startswith(".")]  # no half-written temporary files
-
-
-def test_shared_and_per_rollout_arguments_split_alike(gymnast):
-    x0 = np.tile(X0_HANGING, (7, 1))
-    shared = run_rollouts(gymnast, x0, scheduler="inline", chunk=3, t_final=0.3, gains=[4600.0, 16000.0, 5000.0],
-                          torque_limit=100.0)
-    rows = run_rollouts(gymnast, x0, scheduler="inline", chunk=3, t_final=0.3,
-                        gains=np.tile([4600.0, 16000.0, 5000.0], (7, 1)), torque_limit=np.full(7, 100.0))
-    whole = run_rollouts(gymnast, x0, scheduler="inline", chunk=128, t_final=0.3, gains=[4600.0, 16000.0, 5000.0],
-                         torque_limit=100.0)
-    np.testing.assert_array_equal(shared.final_state, rows.final_state)
-    np.testing.assert_array_equal(shared.final_state, whole.final_state)
-    assert np.all(shared.max_abs_tau <= 100.0)
-
-
-def test_interrupt_keeps_the_chunks_already_finished(gymnast, monkeypatch):
-    import paa_mj.distributed as dist
-
-    x0 = np.tile(X0_HANGING, (7, 1))
-    x0[:, 1] += np.linspace(-0.3, 0.3, 7)
-    whole = run_rollouts(gymnast, x0, scheduler="inline", chunk=3, t_final=0.5)
+    whole = run_study(gymnast, _noisy_set(7), 0.5, chunk=3)
     calls = []
-    real = dist.simulate_batch
+    real = runner.simulate_batch
 
     def interrupted_on_second_chunk(*args, **kwargs):
         calls.append(1)
@@ -105,10 +79,115 @@ def test_interrupt_keeps_the_chunks_already_finished(gymnast, monkeypatch):
             raise KeyboardInterrupt
         return real(*args, **kwargs)
 
-    monkeypatch.setattr(dist, "simulate_batch", interrupted_on_second_chunk)
-    part = run_rollouts(gymnast, x0, scheduler="inline", chunk=3, t_final=0.5)
+    monkeypatch.setattr(runner, "simulate_batch", interrupted_on_second_chunk)
+    store = ChunkStore(tmp_path, "study")
+    part = run_study(gymnast, _noisy_set(7), 0.5, chunk=3, store=store)
     assert len(calls) == 2  # stopped at the interrupt, the third chunk never started
-    assert part.interrupted
+    assert part.interrupted and store.count() == 1
     assert list(part.meta["completed"]) == [True] * 3 + [False] * 4
     np.testing.assert_array_equal(part.final_state[:3], whole.final_state[:3])
     assert np.all(np.isnan(part.final_state[3:]))
+    monkeypatch.setattr(runner, "simulate_batch", real)
+    calls.clear()
+    resumed = run_study(gymnast, _noisy_set(7), 0.5, chunk=3, store=ChunkStore(tmp_path, "study"))
+    assert not resumed.interrupted
+    np.testing.assert_array_equal(resumed.final_state, whole.final_state)
+
+
+def _basin_cmd(out, grid=6, t_final=4):
+    return [sys.executable, "-m", "paa_mj.cli", "basin", "--grid", str(grid), "--t-final", str(t_final),
+            "--scheduler", "inline", "--json", "--out", str(out)]
+
+
+def _files(out):
+    return {name: (out / name).read_bytes() for name in ("basin.npz", "summary.json", "basin.png", "basin.svg")}
+
+
+@pytest.mark.parametrize("sig, code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
+def test_signal_then_rerun_is_byte_identical_to_an_uninterrupted_run(tmp_path, sig, code):
+    """Stopped by a signal after at least one chunk, resumed by the same command: the same bytes."""
+    reference = tmp_path / "reference"
+    assert subprocess.run(_basin_cmd(reference, grid=24), capture_output=True).returncode == 0
+    out = tmp_path / "stopped"
+    proc = subprocess.Popen(_basin_cmd(out, grid=24), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    chunks = out / ".chunks"
+    deadline = time.time() + 120
+    while time.time() < deadline and not list(chunks.glob("*/chunk-*.npz")):
+        time.sleep(0.05)
+    proc.send_signal(sig)
+    stdout, stderr = proc.communicate(timeout=120)
+    assert proc.returncode == code, stderr
+    assert "Traceback" not in stderr and len(stderr.strip().splitlines()) == 1
+    summary = json.loads(stdout)
+    assert summary["interrupted"] is True and 0 < summary["completed_fraction"] < 1
+    assert not [p for p in os.listdir(out) if p.startswith(".") and p not in (".chunks", ".paa-mj.lock")]
+    assert subprocess.run(_basin_cmd(out, grid=24), capture_output=True).returncode == 0
+    assert _files(out) == _files(reference)
+
+
+def test_a_second_run_into_the_same_folder_is_refused(tmp_path):
+    from paa_mj.io import OutputLock
+
+    with OutputLock(tmp_path):
+        proc = subprocess.run(_basin_cmd(tmp_path, grid=2, t_final=0.1), capture_output=True, text=True)
+    assert proc.returncode == 2
+    assert "another paa-mj run" in proc.stderr and len(proc.stderr.strip().splitlines()) == 1
+    assert not (tmp_path / "summary.json").exists()
+
+
+def test_fresh_starts_over(tmp_path, capsys):
+    assert main(["basin", "--grid", "2", "--t-final", "0.2", "--scheduler", "inline", "--out", str(tmp_path),
+                 "--json"]) == 0
+    chunk = next((tmp_path / ".chunks").glob("*/chunk-00000.npz"))
+    stamp = chunk.stat().st_mtime_ns
+    assert main(["basin", "--grid", "2", "--t-final", "0.2", "--scheduler", "inline", "--out", str(tmp_path),
+                 "--json"]) == 0
+    assert chunk.stat().st_mtime_ns == stamp  # resumed: nothing recomputed
+    assert main(["basin", "--grid", "2", "--t-final", "0.2", "--scheduler", "inline", "--out", str(tmp_path),
+                 "--json", "--fresh"]) == 0
+    assert chunk.stat().st_mtime_ns != stamp
+
+
+def test_losing_every_worker_stops_with_one_line_and_keeps_chunks(gymnast, tmp_path):
+    """Every worker of a local cluster killed mid-study: one line, finished chunks kept, a rerun resumes."""
+    script = tmp_path / "kill.py"
+    script.write_text(f'''
+import os, signal, sys, threading, time
+sys.argv = ["paa-mj", "basin", "--grid", "20", "--t-final", "3", "--json", "--out", {str(tmp_path / "out")!r}]
+import distributed
+from paa_mj.cli import main
+
+def killer():
+    chunks = {str(tmp_path / "out" / ".chunks")!r}
+    while True:
+        time.sleep(0.05)
+        if os.path.isdir(chunks) and any(f.startswith("chunk") for d in os.listdir(chunks)
+                                         for f in os.listdir(os.path.join(chunks, d))):
+            break
+    import psutil
+    end = time.time() + 20
+    while time.time() < end:  # the nannies restart their workers: kill them again until Dask gives up
+        for child in psutil.Process().children(recursive=True):
+            try:
+                if any("spawn_main" in part for part in child.cmdline()):
+                    child.kill()
+            except psutil.Error:
+                pass
+        time.sleep(0.1)
+
+if __name__ == "__main__":  # Dask's worker processes import this file again
+    threading.Thread(target=killer, daemon=True).start()
+    sys.exit(main())
+''')
+    proc = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=300)
+    if proc.returncode == 0:
+        pytest.skip("the study finished before the workers were killed")
+    assert proc.returncode == 4, proc.stderr
+    assert "Traceback" not in proc.stderr
+    lines = [line for line in proc.stderr.strip().splitlines() if line.startswith("paa-mj")]
+    assert len(lines) == 1 and "run the same command again to resume" in lines[0]
+    kept = list((tmp_path / "out" / ".chunks").glob("*/chunk-*.npz"))
+    assert kept
+    rerun = subprocess.run([sys.executable, "-m", "paa_mj.cli", "basin", "--grid", "20", "--t-final", "3", "--json",
+                            "--out", str(tmp_path / "out"), "--scheduler", "inline"], capture_output=True, text=True)
+    assert rerun.returncode == 0, rerun.stderr

@@ -6,7 +6,7 @@ gym = pytest.importorskip("gymnasium")
 
 from gymnasium.utils.env_checker import check_env  # noqa: E402
 
-from paa_mj.controllers import SwitchingController  # noqa: E402
+from paa_mj.control import make_controller  # noqa: E402
 from paa_mj.gym_env import ENV_ID, GymnastKipEnv  # noqa: E402
 
 
@@ -35,7 +35,7 @@ def test_seeded_and_deterministic():
 
 def test_the_papers_controller_balances_through_the_env():
     env = GymnastKipEnv()
-    ctrl = SwitchingController.for_model(env.robot.analytic, **env.robot.gains)
+    ctrl = make_controller("vcl", env.robot)
     obs, info = env.reset(seed=0)
     total, truncated = 0.0, False
     while not truncated:
@@ -55,7 +55,7 @@ def test_divergence_terminates():
 
 
 def test_render_rgb_array():
-    from paa_mj.gl import probe
+    from paa_mj.outputs.gl import probe
 
     if probe("egl") and probe("osmesa"):
         pytest.skip("no offscreen GL backend")

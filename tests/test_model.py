@@ -7,8 +7,9 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from paa_mj.errors import PaaError
-from paa_mj.model import MODELS_DIR, load_model, load_robot, mjcf_from_params, model_from_params, params_from_model
-from paa_mj.params import RobotParams
+from paa_mj.model import load_model, load_robot, mjcf_from_params, model_from_params, params_from_model, robot_from_xml
+from paa_mj.model.mjcf import MODEL_DIR as MODELS_DIR
+from paa_mj.model.params import RobotParams
 
 from .conftest import GAINS1, GAINS2, TABLE1, TABLE2
 
@@ -72,6 +73,7 @@ def test_any_parameter_set_round_trips(m, l, frac, jscale):
     (dict(lc=[0.5, 1.2, 0.5]), "lc2 = 1.2 must lie in [0, l2]"),
     (dict(lc=[-0.1, 0.5, 0.5]), "lc1 = -0.1 must lie"),
     (dict(l=[1, np.nan, 1]), "not finite"),
+    (dict(m=[1e308, 1, 1]), "m1 = 1e+308 lies outside the plausible range"),
 ])
 def test_non_physical_parameters_are_refused(kwargs, message):
     base = dict(m=[1, 1, 1], l=[1, 1, 1], lc=[0.5, 0.5, 0.5], J=[0.1, 0.1, 0.1])
@@ -86,12 +88,12 @@ def _variant(text, old, new):
 
 
 @pytest.mark.parametrize("old, new, message", [
-    ('<motor name="hip" joint="hips" gear="1"/>', "", "needs 2 motors"),
+    ('<motor name="hip" joint="hips" gear="1"/>', "", "1 actuators"),
     ('<motor name="shoulder" joint="shoulders" gear="1"/>', '<motor name="shoulder" joint="hands" gear="1"/>', "joints 2 and 3"),
     ('<motor name="hip" joint="hips" gear="1"/>', '<motor name="hip" joint="hips" gear="2"/>', "gear 1"),
     ('<joint name="hips" type="hinge" axis="0 1 0"/>', '<joint name="hips" type="slide" axis="0 1 0"/>', "3 hinge joints"),
     ('<joint name="hips" type="hinge" axis="0 1 0"/>', '<joint name="hips" type="hinge" axis="1 0 0"/>', "hinge axes"),
-    ('<joint name="hips" type="hinge" axis="0 1 0"/>', '<joint name="hips" type="hinge" axis="0 1 0" damping="0.1"/>', "damping"),
+    ('<joint name="hips" type="hinge" axis="0 1 0"/>', '<joint name="hips" type="hinge" axis="0 1 0" damping="0.1"/>', "joint damping"),
     ('<site name="feet"', '<body name="extra"><inertial pos="0 0 0" mass="1" diaginertia="1 1 1"/><joint type="hinge"/></body><site name="feet"', "chain of 3 bodies"),
     ('<body name="link2" pos="0 0 0.58">', '<body name="link2" pos="0.1 0 0.58">', "straight up"),
     ('<inertial pos="0 0 0.31"', '<inertial pos="0.05 0 0.31"', "centre of mass"),
@@ -99,8 +101,7 @@ def _variant(text, old, new):
 def test_models_of_the_wrong_shape_are_refused(old, new, message):
     text = (MODELS_DIR / "gymnast.xml").read_text()
     with pytest.raises(PaaError, match=message):
-        from paa_mj.model import model_from_xml
-        model_from_xml(_variant(text, old, new))
+        robot_from_xml(_variant(text, old, new))
 
 
 def test_missing_and_malformed_files(tmp_path):

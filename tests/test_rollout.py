@@ -6,24 +6,20 @@ import numpy as np
 import pytest
 
 from paa_mj.cli import main
-from paa_mj.controllers import SwitchingController, TheoryWarning
+from paa_mj.control import TheoryWarning, make_controller
 from paa_mj.errors import PaaError, SimulationDiverged
-from paa_mj.rollout import (X0_HANGING, replay_torques_analytic, replay_torques_mujoco, simulate_analytic,
-                            simulate_mujoco)
-from paa_mj.trajectory import Trajectory
+from paa_mj.sim import X0_HANGING, Trajectory, simulate_analytic, simulate_mujoco
 
-from .conftest import GAINS1, GAINS2
+from .helpers import replay_torques_analytic, replay_torques_mujoco
 
 
 @pytest.fixture(scope="module")
 def gymnast_balanced(gymnast):
-    ctrl = SwitchingController.for_model(gymnast.analytic, **GAINS1)
-    return simulate_mujoco(gymnast, ctrl, X0_HANGING, t_final=30.0)
+    return simulate_mujoco(gymnast, "vcl", X0_HANGING, t_final=30.0)
 
 
 def test_V_never_increases_along_the_analytic_solution(gymnast):
-    ctrl = SwitchingController.for_model(gymnast.analytic, **GAINS1, enabled=False)
-    traj = simulate_analytic(gymnast, ctrl, X0_HANGING, t_final=8.0, sample_dt=0.005)
+    traj = simulate_analytic(gymnast, "vcl-only", X0_HANGING, t_final=8.0, sample_dt=0.005)
     increase = np.diff(traj.V)
     assert np.max(increase) <= 1e-8 * traj.V[0]
     assert traj.V[-1] < 0.05 * traj.V[0]
@@ -31,8 +27,7 @@ def test_V_never_increases_along_the_analytic_solution(gymnast):
 
 def test_mujoco_and_analytic_agree_on_the_same_torque_sequence(gymnast):
     """Same zero-order-hold torques, 2 s: RK4 at 1 ms against an rtol 1e-12 integration."""
-    ctrl = SwitchingController.for_model(gymnast.analytic, **GAINS1)
-    traj = simulate_mujoco(gymnast, ctrl, X0_HANGING, t_final=2.0, sample_dt=0.001)
+    traj = simulate_mujoco(gymnast, "vcl", X0_HANGING, t_final=2.0, sample_dt=0.001)
     torques = traj.tau[:-1]
     engine = replay_torques_mujoco(gymnast, X0_HANGING, torques)
     exact = replay_torques_analytic(gymnast, X0_HANGING, torques, dt=0.001)
@@ -53,15 +48,14 @@ def test_hybrid_controller_balances_table1_in_mujoco(gymnast_balanced):
 
 
 def test_hybrid_controller_balances_table1_analytic(gymnast):
-    ctrl = SwitchingController.for_model(gymnast.analytic, **GAINS1)
-    traj = simulate_analytic(gymnast, ctrl, X0_HANGING, t_final=20.0)
+    traj = simulate_analytic(gymnast, "vcl", X0_HANGING, t_final=20.0)
     assert traj.switch_time is not None and traj.balanced()
 
 
 def test_table2_never_swings_up(example2):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", TheoryWarning)
-        ctrl = SwitchingController.for_model(example2.analytic, **GAINS2)
+        ctrl = make_controller("vcl", example2)
     traj = simulate_mujoco(example2, ctrl, X0_HANGING, t_final=30.0, sample_dt=0.01)
     assert traj.switch_time is None
     assert not traj.balanced()
@@ -73,9 +67,8 @@ def test_table2_never_swings_up(example2):
 
 
 def test_divergence_keeps_the_record(gymnast):
-    ctrl = SwitchingController.for_model(gymnast.analytic, **GAINS1)
     with pytest.raises(SimulationDiverged, match=r"diverged at t = \d") as info:
-        simulate_mujoco(gymnast, ctrl, X0_HANGING, t_final=20.0, dt=0.05, integrator="Euler")
+        simulate_mujoco(gymnast, "vcl", X0_HANGING, t_final=20.0, dt=0.05, integrator="Euler")
     traj = info.value.trajectory
     assert len(traj) > 10 and np.all(np.isfinite(traj.q))
 
@@ -95,15 +88,18 @@ def test_save_and_load_round_trip(gymnast_balanced, tmp_path):
     (dict(x0=[0, 0, 0]), "6 numbers"),
     (dict(x0=[0, 0, 0, 0, np.inf, 0]), "finite"),
     (dict(t_final=0), "final time"),
+    (dict(t_final=np.inf), "final time"),
     (dict(dt=-1e-3), "time step"),
+    (dict(dt=np.nan), "time step"),
     (dict(integrator="Verlet"), "unknown integrator"),
+    (dict(sample_dt=2.0), "longer than the run"),
+    (dict(t_final=1e12), "physics steps"),
 ])
 def test_bad_rollout_input(gymnast, kwargs, message):
-    ctrl = SwitchingController.for_model(gymnast.analytic, **GAINS1)
     args = dict(x0=X0_HANGING, t_final=1.0)
     args.update(kwargs)
     with pytest.raises(PaaError, match=message):
-        simulate_mujoco(gymnast, ctrl, **args)
+        simulate_mujoco(gymnast, "vcl", **args)
 
 
 def test_simulate_cli_json_and_files(capsys, tmp_path):
@@ -116,6 +112,7 @@ def test_simulate_cli_json_and_files(capsys, tmp_path):
     assert s["switch_time"] is None and s["balanced"] is False
     assert len(s["final_state"]) == 6 and len(s["max_abs_tau"]) == 2
     assert {p.name for p in tmp_path.iterdir()} == {"trajectory.npz", "trajectory.csv", "summary.json"}
+    assert s["controller"] == "vcl" and s["gains"] == {"kD": 4550.0, "kP": 16000.0, "kV": 5000.0}
 
 
 def test_simulate_cli_divergence_exit_3(capsys, tmp_path):

@@ -3,7 +3,11 @@ import numpy as np
 import pytest
 
 from paa_mj import theory
+from paa_mj.control.closed_loop import closed_loop_jacobian, duu_eigenvalues
+from paa_mj.model.states import Q_UDD
+from paa_mj.outputs.theory_report import theory_report
 from paa_mj.theory import constraint_54, eta1_function, eta2_function, kd_bound_function, thresholds
+from paa_mj.theory.linear import linear_controllability
 
 from .conftest import GAINS1, GAINS2
 
@@ -88,9 +92,19 @@ def test_uncontrollable_pair_is_detected(gymnast):
     A, B = theory.udd_linearization(gymnast.analytic)
     A_big = np.block([[A, np.zeros((6, 2))], [np.zeros((2, 6)), np.array([[0.0, 1.0], [3.0, 0.0]])]])
     B_big = np.vstack([B, np.zeros((2, 2))])
-    result = theory.linear_controllability(A_big, B_big)
+    result = linear_controllability(A_big, B_big)
     assert not result.controllable
     assert result.rank == 6
+
+
+def _central_jacobian(field, x0, h=1e-5):
+    n = len(x0)
+    J = np.empty((n, n))
+    for i in range(n):
+        dx = np.zeros(n)
+        dx[i] = h
+        J[:, i] = (field(x0 + dx) - field(x0 - dx)) / (2 * h)
+    return J
 
 
 def test_linearisation_matches_finite_differences(gymnast):
@@ -98,22 +112,38 @@ def test_linearisation_matches_finite_differences(gymnast):
     A, B = theory.udd_linearization(am)
 
     def field(x, tau=np.zeros(2)):
-        q = x[:3] + theory.Q_UDD
+        q = x[:3] + Q_UDD
         return np.concatenate([x[3:], am.acceleration(q, x[3:], tau)])
 
-    J = theory.closed_loop_jacobian(field, np.zeros(6))
-    np.testing.assert_allclose(A, J, atol=1e-7)
+    np.testing.assert_allclose(A, _central_jacobian(field, np.zeros(6)), atol=1e-7)
+
+
+@pytest.mark.parametrize("law, name", [("vcl", "vcl-only"), ("conventional", "vc-only")])
+def test_exact_closed_loop_jacobian_matches_finite_differences(gymnast, law, name):
+    """The automatic-differentiation Jacobian at DUU against central differences of the NumPy controller."""
+    from paa_mj.control import make_controller
+    from paa_mj.model.states import Q_DUU
+
+    am = gymnast.analytic
+    ctrl = make_controller(name, gymnast)
+
+    def field(x):
+        return np.concatenate([x[3:], am.acceleration(x[:3], x[3:], ctrl.torque(x[:3], x[3:]))])
+
+    x0 = np.concatenate([Q_DUU, np.zeros(3)]) + [0.05, -0.02, 0.03, 0.1, 0.0, -0.1]
+    exact = closed_loop_jacobian(am, **GAINS1, law=law, state=x0)
+    np.testing.assert_allclose(exact, _central_jacobian(field, x0, 1e-6), rtol=1e-5, atol=1e-5 * np.abs(exact).max())
 
 
 def test_duu_is_unstable_in_closed_loop_table1(gymnast):
-    eig, poly = theory.duu_eigenvalues(gymnast.analytic, **GAINS1)
+    eig, poly = duu_eigenvalues(gymnast.analytic, **GAINS1)
     assert len(eig) == 6
     assert np.max(eig.real) > 0
     np.testing.assert_allclose(np.sort_complex(np.roots(poly)), np.sort_complex(eig), rtol=1e-6)
 
 
 def test_theory_report_flags_failed_conditions(example2):
-    r = theory.theory_report(example2.analytic, **GAINS2)
+    r = theory_report(example2.analytic, **GAINS2)
     assert r.theorem1["(54) holds"] is False
     assert r.theorem1["all hold"] is False
     assert r.udd_controllable

@@ -39,19 +39,19 @@ CASES = [
     ("model of the wrong shape", ["check", "--robot", "{d}/acrobot.xml"], "is not the 3-link gymnast"),
     ("not a model", ["simulate", "--robot", "{d}/notes.txt"], "malformed MJCF"),
     ("unknown robot name", ["simulate", "--robot", "acrobot"], "unknown robot 'acrobot'"),
-    ("non-physical parameters", ["make-model", "--m", "1", "1", "1", "--l", "1", "1", "0", "--out", "{d}/x.xml"], "l3 = 0 must be > 0"),
+    ("non-physical parameters", ["make-model", "--m", "1", "1", "1", "--l", "1", "1", "0", "--out", "{d}/x.xml"], "must be a positive finite number, got 0"),
     ("non-finite initial state", ["simulate", "--x0", "0", "0", "nan", "0", "0", "0"], "must be finite"),
     ("wrong-length initial state", ["simulate", "--x0", "0", "0", "0"], "expected 6 arguments"),
     ("gain below kD_min", ["simulate", "--kD", "4000"], "kD_min = 4503"),
-    ("non-positive kV", ["simulate", "--kV", "0"], "kV = 0 must be > 0"),
-    ("zero final time", ["simulate", "--t-final", "0"], "final time must be a positive number"),
-    ("negative time step", ["simulate", "--dt", "-0.001"], "time step must be a positive number"),
-    ("unknown integrator", ["simulate", "--integrator", "leapfrog"], "unknown integrator 'leapfrog'"),
-    ("unknown GL backend", ["render", "--gl", "metal", "--out", "{d}/v.mp4"], "unknown GL backend 'metal'"),
+    ("non-positive kV", ["simulate", "--kV", "0"], "--kV: must be a positive finite number, got 0"),
+    ("zero final time", ["simulate", "--t-final", "0"], "--t-final: must be a positive finite number"),
+    ("negative time step", ["simulate", "--dt", "-0.001"], "--dt: must be a positive finite number"),
+    ("unknown integrator", ["simulate", "--integrator", "leapfrog"], "invalid choice: 'leapfrog'"),
+    ("unknown GL backend", ["render", "--gl", "metal", "--out", "{d}/v.mp4"], "invalid choice: 'metal'"),
     ("unwritable output folder", ["simulate", "--t-final", "0.01", "--out", "/proc/paa/out"], "cannot create output folder"),
     ("corrupted trajectory", ["render", "--from", "{d}/traj.npz", "--out", "{d}/v.mp4"], "corrupted or foreign trajectory file"),
     ("missing trajectory", ["render", "--from", "{d}/nothing.npz", "--out", "{d}/v.mp4"], "trajectory file not found"),
-    ("bad torque limit", ["simulate", "--torque-limit", "-5"], "--torque-limit must be > 0"),
+    ("bad torque limit", ["simulate", "--torque-limit", "-5"], "--torque-limit: must be a positive finite number"),
     ("bad basin axes", ["basin", "--axes", "q1,q9"], "two different coordinates"),
 ]
 
@@ -62,6 +62,7 @@ def test_bad_input_table(what, args, fragment, bad_files):
     assert proc.returncode == 2, (what, proc.stderr)
     lines = proc.stderr.strip().splitlines()
     assert lines[-1].startswith("paa-mj: error:") and fragment in lines[-1], (what, proc.stderr)
+    assert "paa-mj: error: paa-mj" not in lines[-1]  # one prefix, not two
     assert all(line.startswith("paa-mj: ") for line in lines)  # warnings, then one error line
     assert "Traceback" not in proc.stderr
 
@@ -75,10 +76,10 @@ def test_files_are_whole_or_absent(tmp_path, monkeypatch):
         raise OSError("disk full")
 
     monkeypatch.setattr(np.lib.format, "write_array", broken)
-    with pytest.raises(OSError):
+    with pytest.raises(PaaError, match="disk full"):
         write_npz(target, a=np.arange(5))
     assert target.read_bytes() == before  # the old file is untouched
-    with pytest.raises(OSError):
+    with pytest.raises(PaaError, match="nothing was written"):
         write_npz(tmp_path / "new.npz", a=np.arange(5))
     assert not (tmp_path / "new.npz").exists()
     assert [p.name for p in tmp_path.iterdir()] == ["data.npz"]  # no temporary left behind
@@ -117,7 +118,7 @@ def test_passive_robot_keeps_its_energy_for_200_s(gymnast, q0, qd0, scale):
 
 
 def test_trajectory_load_rejects_wrong_shapes(tmp_path):
-    from paa_mj.trajectory import Trajectory
+    from paa_mj.sim.trajectory import Trajectory
 
     path = tmp_path / "t.npz"
     write_npz(path, t=np.arange(3.0), q=np.zeros((3, 2)), qd=np.zeros((3, 3)), tau=np.zeros((3, 2)),

@@ -7,7 +7,7 @@ import imageio_ffmpeg
 import numpy as np
 import pytest
 
-from paa_mj.gl import probe
+from paa_mj.outputs.gl import probe
 
 ON_CI = os.environ.get("CI", "").lower() in ("1", "true", "yes")
 
@@ -60,10 +60,12 @@ def test_replay_saved_trajectory_as_gif(backend, tmp_path):
 
 
 @pytest.mark.parametrize("args, fragment", [
-    (["--gl", "vulkan"], "unknown GL backend 'vulkan'"),
+    (["--gl", "vulkan"], "invalid choice: 'vulkan'"),
     (["--out", "/proc/no/such/dir/clip.mp4"], "cannot create output folder"),
     (["--out", "clip.avi"], "must end in .mp4 or .gif"),
     (["--width", "5"], "--width must be an integer"),
+    (["--width", "0"], "must be >= 1"),
+    (["--fps", "nan"], "must be a positive finite number"),
     (["--camera", "top"], "no camera named 'top'"),
 ])
 def test_render_bad_input(args, fragment, tmp_path):
@@ -89,7 +91,7 @@ def test_render_corrupted_trajectory(tmp_path):
 
 
 def test_filmstrip(tmp_path):
-    from paa_mj.gl import select_backend
+    from paa_mj.outputs.gl import select_backend
 
     try:
         select_backend("auto")
@@ -97,13 +99,12 @@ def test_filmstrip(tmp_path):
         if ON_CI:
             raise
         pytest.skip(str(err))
-    from paa_mj.controllers import SwitchingController
     from paa_mj.model import load_robot
-    from paa_mj.rollout import simulate_mujoco
-    from paa_mj.video import filmstrip
+    from paa_mj.outputs.video import filmstrip
+    from paa_mj.sim import simulate_mujoco
 
     robot = load_robot("gymnast")
-    traj = simulate_mujoco(robot, SwitchingController.for_model(robot.analytic, **robot.gains), t_final=2.0)
+    traj = simulate_mujoco(robot, "vcl", t_final=2.0)
     path = filmstrip(robot, traj, tmp_path / "strip.png", n_poses=4, width=100, height=120)
     from PIL import Image
 

@@ -1,0 +1,82 @@
+"""The ``paa-mj`` command line: a thin layer over the package.
+
+Every failure the user can cause ends in one line on stderr: exit code 2 for
+bad input, 3 for a simulation that diverged (what was computed is kept), 4 for
+a study that lost its workers (finished chunks are kept), 130 after Ctrl-C and
+143 after SIGTERM (finished work is kept).
+"""
+from __future__ import annotations
+
+import contextlib
+import os
+import signal
+import sys
+import warnings
+
+from ..errors import PaaError, SimulationDiverged, StudyIncomplete
+from .common import EXIT_BAD_INPUT, EXIT_DIVERGED, EXIT_INCOMPLETE, Parser, install_signal_handlers, interrupt_code, \
+    interrupt_name, note
+
+DESCRIPTION = """\
+The three-link gymnast of Liu & Xin (2015) on a high bar, in MuJoCo: the model,
+the paper's theory, its controllers and yours, rollouts, studies, figures, video.
+Run 'paa-mj COMMAND --help' for the options of a command."""
+
+
+def build_parser():
+    from .. import __version__
+    from . import reproduce, simulate, studies, theory
+
+    parser = Parser(prog="paa-mj", description=DESCRIPTION)
+    parser.add_argument("--version", action="version", version=f"paa-mj {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser, metavar="COMMAND")
+    for module in (theory, simulate, studies, reproduce):
+        module.register(sub, Parser)
+    return parser
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None):
+    print(f"paa-mj: warning: {message}", file=sys.stderr)
+
+
+def main(argv=None):
+    previous = install_signal_handlers()
+    try:
+        with warnings.catch_warnings():
+            warnings.showwarning = _show_warning
+            from ..control.gains import TheoryWarning
+
+            warnings.simplefilter("always", TheoryWarning)
+            try:
+                args = build_parser().parse_args(argv)
+            except SystemExit as exit_:  # --help and --version
+                return exit_.code or 0
+            return args.func(args)
+    except SimulationDiverged as err:
+        note(f"error: {err}")
+        return EXIT_DIVERGED
+    except StudyIncomplete as err:
+        note(f"error: {err}")
+        return EXIT_INCOMPLETE
+    except PaaError as err:
+        note(f"error: {err}")
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        note(interrupt_name())
+        return interrupt_code()
+    except BrokenPipeError:
+        # The reader went away (paa-mj theory | head -1): end quietly, as a command in a pipe does.
+        with contextlib.suppress(OSError):
+            devnull = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(devnull, sys.stdout.fileno())
+        return 128 + signal.SIGPIPE
+    except MemoryError:
+        note("error: out of memory: lower the size of the request")
+        return EXIT_BAD_INPUT
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,192 @@
+"""Shared pieces of the command line: parent parsers, the parser class, output helpers, signals.
+
+Every option says what it does, its default and its allowed values in
+``--help``. Every failure the user can cause ends in one line on stderr.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import signal
+import sys
+
+from ..errors import PaaError
+
+EXIT_BAD_INPUT, EXIT_DIVERGED, EXIT_INCOMPLETE = 2, 3, 4
+EXIT_SIGINT, EXIT_SIGTERM = 130, 143
+_received = {"signal": None}
+
+
+class Formatter(argparse.RawDescriptionHelpFormatter):
+    """Help that shows each option's default (when it has one) after its text."""
+
+    def _get_help_string(self, action):
+        text = action.help or ""
+        if "%(default)" in text or action.default in (None, False, argparse.SUPPRESS) or not action.option_strings:
+            return text
+        return text + " (default: %(default)s)"
+
+
+class Parser(argparse.ArgumentParser):
+    """An argument parser whose errors are one line (a :class:`PaaError`), not usage text and exit 2."""
+
+    def __init__(self, *args, **kwargs):
+        kwargs.setdefault("formatter_class", Formatter)
+        super().__init__(*args, **kwargs)
+
+    def error(self, message):
+        raise PaaError(f"{message} (see '{self.prog} --help')")
+
+
+def positive(text):
+    """A positive finite float (argparse type)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"must be a positive finite number, got {text}")
+    return value
+
+
+def non_negative(text):
+    """A finite float >= 0 (argparse type)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not (math.isfinite(value) and value >= 0):
+        raise argparse.ArgumentTypeError(f"must be a finite number >= 0, got {text}")
+    return value
+
+
+def finite(text):
+    """A finite float (argparse type)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"must be finite, got {text}")
+    return value
+
+
+def positive_int(text):
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a whole number: {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be >= 1, got {text}")
+    return value
+
+
+def robot_parent(default="gymnast"):
+    p = argparse.ArgumentParser(add_help=False)
+    p.add_argument("--robot", default=default, metavar="{gymnast,example2,PATH.xml}",
+                   help="gymnast (Table 1), example2 (Table 2) or an MJCF file of the same shape"
+                        + ("" if default else " (default: gymnast, or the trajectory's robot with --from)"))
+    return p
+
+
+def gains_parent():
+    p = argparse.ArgumentParser(add_help=False)
+    p.add_argument("--kD", type=positive, help="gain kD of (40)/(12) [J kg m^2] (default: the robot's stored gains)")
+    p.add_argument("--kP", type=positive, help="gain kP of (40)/(12) [J^2/rad^2] (default: stored)")
+    p.add_argument("--kV", type=positive, help="gain kV of (40)/(12) [J^2 s/rad^2] (default: stored)")
+    return p
+
+
+def controller_parent():
+    from ..control.registry import BUILTIN
+
+    p = argparse.ArgumentParser(add_help=False, parents=[gains_parent()])
+    p.add_argument("--controller", default="vcl", metavar="{" + ",".join(BUILTIN) + ",FILE.py:Class}",
+                   help="a built-in controller (" + "; ".join(f"{k}: {v[1]}" for k, v in BUILTIN.items())
+                   + ") or your own class in a Python file")
+    return p
+
+
+def physics_parent():
+    from ..sim.integrators import INTEGRATORS
+
+    p = argparse.ArgumentParser(add_help=False)
+    p.add_argument("--t-final", type=positive, default=30.0, help="duration [s]")
+    p.add_argument("--dt", type=positive, help="physics time step [s] (default: the model's, 0.001)")
+    p.add_argument("--integrator", choices=tuple(INTEGRATORS), help="MuJoCo integrator (default: the model's, RK4)")
+    p.add_argument("--torque-limit", type=positive, metavar="T",
+                   help="saturate each torque at T [N m] (the model's actuator ranges also apply)")
+    return p
+
+
+def output_parent(what):
+    p = argparse.ArgumentParser(add_help=False)
+    p.add_argument("--out", metavar="DIR", help=f"folder for {what}")
+    p.add_argument("--json", action="store_true", help="print the summary as one JSON object on stdout")
+    return p
+
+
+def study_parent():
+    p = argparse.ArgumentParser(add_help=False)
+    p.add_argument("--scheduler", metavar="{inline,local,tcp://HOST:PORT}",
+                   help="where chunks run: inline (this process), local (a local Dask cluster; the default when"
+                        " Dask is installed) or a Dask scheduler address")
+    p.add_argument("--fresh", action="store_true",
+                   help="start over: forget the finished chunks kept in --out (default: resume from them)")
+    return p
+
+
+def spec_from_args(args, robot, name=None):
+    """The :class:`~paa_mj.control.registry.ControllerSpec` the controller options describe for ``robot``.
+
+    Gains given on the command line replace the robot's stored ones, the others stay.
+    """
+    from ..control.registry import GAIN_CONTROLLERS, ControllerSpec
+
+    name = name or args.controller
+    if getattr(args, "no_switch", False):
+        if name not in ("vcl", "vcl-only"):
+            raise PaaError(f"--no-switch means --controller vcl-only; it contradicts --controller {name}")
+        name = "vcl-only"
+    given = {k: getattr(args, k, None) for k in ("kD", "kP", "kV")}
+    if all(v is None for v in given.values()):
+        return ControllerSpec(name)
+    if name not in GAIN_CONTROLLERS:
+        raise PaaError(f"--kD, --kP and --kV apply to the controllers {', '.join(GAIN_CONTROLLERS)}, not to {name}")
+    return ControllerSpec(name, tuple(robot.resolve_gains(**given).values()))
+
+
+def print_json(obj):
+    from ..io import dumps
+
+    print(dumps(obj))
+
+
+def note(message):
+    """One line on stderr, prefixed like every message of the command."""
+    print(f"paa-mj: {message}", file=sys.stderr)
+
+
+def interrupt_code() -> int:
+    """130 after Ctrl-C, 143 after SIGTERM."""
+    return EXIT_SIGTERM if _received["signal"] == signal.SIGTERM else EXIT_SIGINT
+
+
+def interrupt_name() -> str:
+    return "terminated (SIGTERM)" if _received["signal"] == signal.SIGTERM else "interrupted"
+
+
+def install_signal_handlers():
+    """SIGTERM is handled like Ctrl-C (finished work is kept), and remembered for the exit code."""
+    def on_term(signum, frame):
+        _received["signal"] = signum
+        raise KeyboardInterrupt
+
+    _received["signal"] = None
+    previous = signal.getsignal(signal.SIGTERM)
+    try:
+        signal.signal(signal.SIGTERM, on_term)
+    except ValueError:  # not the main thread
+        return None
+    return previous

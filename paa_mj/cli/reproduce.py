@@ -1,0 +1,32 @@
+"""``paa-mj reproduce``: the paper redone, with figures, report and video."""
+from __future__ import annotations
+
+from .common import note
+
+
+def cmd_reproduce(args):
+    from ..errors import PaaError
+    from ..outputs.reproduce import reproduce
+
+    gl_backend = None
+    if not args.no_video:
+        from ..outputs.gl import select_backend
+
+        try:
+            gl_backend = select_backend(args.gl)
+        except PaaError as err:
+            note(f"warning: no video: {err}")
+    report = reproduce(args.out, quick=args.quick, video=gl_backend is not None)
+    print(f"report: {report}")
+    return 0
+
+
+def register(sub, parser_class):
+    p = sub.add_parser("reproduce", help="redo the paper: simulations, figures 5-14, the open questions, report, video",
+                       description="Redo every computation of the paper, write the figures, results.json and"
+                                   " report.md (our numbers beside the paper's), and the video of the kip.")
+    p.add_argument("--out", default="out/reproduction", metavar="DIR", help="output folder")
+    p.add_argument("--quick", action="store_true", help="smaller studies (for tests)")
+    p.add_argument("--no-video", action="store_true", help="skip the video")
+    p.add_argument("--gl", choices=("auto", "egl", "osmesa"), default="auto", help="GL backend for the video")
+    p.set_defaults(func=cmd_reproduce)

@@ -1,0 +1,196 @@
+"""``paa-mj simulate``, ``render`` and ``view``: one rollout, recorded, filmed or watched."""
+from __future__ import annotations
+
+import argparse
+
+from ..errors import PaaError, SimulationDiverged
+from .common import (EXIT_DIVERGED, controller_parent, interrupt_code, interrupt_name, note, output_parent,
+                     physics_parent, positive, positive_int, print_json, robot_parent, spec_from_args)
+
+
+def run_parent(robot_default="gymnast"):
+    """Options of a recorded rollout (simulate, render)."""
+    p = argparse.ArgumentParser(add_help=False, parents=[robot_parent(robot_default), controller_parent(),
+                                                         physics_parent()])
+    p.add_argument("--engine", choices=("mujoco", "analytic"), default="mujoco",
+                   help="MuJoCo, or the analytic model (1) by solve_ivp with continuous-time control")
+    p.add_argument("--x0", type=float, nargs=6, metavar="X",
+                   help="initial q1 q2 q3 d1 d2 d3 [rad, rad/s] (default (65): -pi 0 0 0 0 0)")
+    p.add_argument("--no-switch", action="store_true", help="the same as --controller vcl-only")
+    p.add_argument("--sample-dt", type=positive, default=0.01, help="recording interval [s], at most --t-final")
+    return p
+
+
+def _check_engine_options(args):
+    if args.engine == "analytic":
+        given = [name for name, value in (("--dt", args.dt), ("--integrator", args.integrator)) if value is not None]
+        if given:
+            raise PaaError(f"{' and '.join(given)} do not apply to --engine analytic (solve_ivp, continuous-time"
+                           " control); drop them or use --engine mujoco")
+    if args.sample_dt > args.t_final:
+        raise PaaError(f"--sample-dt {args.sample_dt:g} s is longer than --t-final {args.t_final:g} s")
+
+
+def run_from_args(args, progress=True):
+    """Build the robot and controller from the options and run the rollout (returns robot, trajectory)."""
+    import numpy as np
+
+    from ..model.robot import load_robot
+    from ..model.states import X0_HANGING
+    from ..sim.analytic import simulate_analytic
+    from ..sim.rollout import simulate_mujoco
+
+    _check_engine_options(args)
+    robot = load_robot(args.robot or "gymnast")
+    spec = spec_from_args(args, robot)
+    controller = spec.build(robot)
+    x0 = X0_HANGING if args.x0 is None else np.asarray(args.x0, float)
+    if args.engine == "analytic":
+        return robot, simulate_analytic(robot, controller, x0, args.t_final, sample_dt=args.sample_dt,
+                                        torque_limit=args.torque_limit, progress=progress)
+    return robot, simulate_mujoco(robot, controller, x0, args.t_final, dt=args.dt, integrator=args.integrator,
+                                  sample_dt=args.sample_dt, torque_limit=args.torque_limit, progress=progress)
+
+
+def cmd_simulate(args):
+    try:
+        _, traj = run_from_args(args, progress=not args.json)
+    except SimulationDiverged as err:
+        if args.out and err.trajectory is not None and len(err.trajectory):
+            err.trajectory.save(args.out)
+            raise SimulationDiverged(f"{err} (kept {len(err.trajectory)} samples in {args.out})") from None
+        raise
+    if args.out:
+        out = traj.save(args.out)
+        if not args.json:
+            print(f"wrote {out}/trajectory.npz, trajectory.csv, summary.json")
+    summary = traj.summary()
+    if args.json:
+        print_json(summary)
+    else:
+        st = summary["switch_time"]
+        print(f"robot {summary['robot']}, controller {summary['controller']}, {summary['engine']}"
+              f" ({summary['integrator']}, dt = {summary['dt']}), {summary['final_time']:.3f} s")
+        print(f"  switch to balance    {'never' if st is None else f'{st:.4f} s'}")
+        print(f"  balanced at UDD      {summary['balanced']}")
+        print(f"  E - E_r at the end   {summary['E_minus_Er_final']:.6g} J")
+        print(f"  V at the end         {summary['V_final']:.6g}")
+        print(f"  max |tau2|, |tau3|   {summary['max_abs_tau'][0]:.2f}, {summary['max_abs_tau'][1]:.2f} N m")
+    if traj.meta.get("interrupted"):
+        note(f"{interrupt_name()} at t = {summary['final_time']:.3f} s"
+             + (f"; kept what was computed in {args.out}" if args.out else ""))
+        return interrupt_code()
+    return 0
+
+
+def cmd_render(args):
+    from pathlib import Path
+
+    from ..outputs.gl import select_backend
+
+    out = Path(args.out)
+    from ..outputs.video import VIDEO_SUFFIXES, check_video_request
+
+    if out.suffix.lower() not in VIDEO_SUFFIXES:
+        raise PaaError(f"--out must end in .mp4 or .gif, got {out.name}")
+    if args.from_file:
+        defaults = run_parent().parse_args([])
+        changed = sorted(f"--{k.replace('_', '-')}" for k, v in vars(defaults).items()
+                         if k != "robot" and getattr(args, k) != v)
+        if changed:
+            raise PaaError(f"--from replays a saved trajectory; the simulation options {', '.join(changed)}"
+                           " contradict it")
+    backend = select_backend(args.gl)  # before anything imports mujoco's GL
+    from ..model.robot import load_robot
+    from ..outputs.video import render_trajectory
+    from ..sim.trajectory import Trajectory
+
+    if args.from_file:
+        traj = Trajectory.load(args.from_file)
+        saved = traj.meta.get("robot")
+        robot = load_robot(args.robot or (saved if saved in ("gymnast", "example2") else "gymnast"))
+        if saved is not None and saved != robot.name:
+            raise PaaError(f"{args.from_file} is a trajectory of robot {saved!r}, not of --robot {args.robot}")
+    else:
+        robot, traj = run_from_args(args, progress=True)
+    check_video_request(traj, args.fps, args.width, args.height)
+    render_trajectory(robot, traj, out, fps=args.fps, width=args.width, height=args.height, camera=args.camera,
+                      progress=True)
+    print(f"wrote {out} ({backend}, {args.fps:g} fps, {args.width}x{args.height})")
+    return 0
+
+
+def cmd_view(args):
+    """MuJoCo's interactive viewer with the controller running, in real time."""
+    import os
+    import sys
+    import time
+
+    import numpy as np
+
+    if sys.platform.startswith("linux") and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+        raise PaaError("no display (DISPLAY and WAYLAND_DISPLAY are unset): the viewer needs a screen;"
+                       " use 'paa-mj render' for a video instead")
+    if os.environ.get("MUJOCO_GL") in ("egl", "osmesa"):
+        raise PaaError(f"MUJOCO_GL={os.environ['MUJOCO_GL']} is for offscreen rendering; unset it to open the viewer")
+    import mujoco
+    import mujoco.viewer
+
+    from ..control.base import torque_of
+    from ..model.robot import load_robot
+    from ..model.states import X0_HANGING
+    from ..sim.batch import check_initial_states
+    from ..sim.integrators import mujoco_model_for
+
+    robot = load_robot(args.robot)
+    controller = spec_from_args(args, robot).build(robot)
+    x0 = check_initial_states(X0_HANGING if args.x0 is None else args.x0)[0]
+    model = mujoco_model_for(robot, args.dt, args.integrator)
+    limits = np.minimum(robot.torque_limits, np.inf if args.torque_limit is None else args.torque_limit)
+    data = mujoco.MjData(model)
+    data.qpos[:], data.qvel[:] = x0[:3], x0[3:]
+    mujoco.mj_forward(model, data)
+    try:
+        viewer = mujoco.viewer.launch_passive(model, data)
+    except Exception as err:  # GLFW failures come as several types
+        raise PaaError(f"cannot open the viewer: {' '.join(str(err).split())}") from None
+    with viewer:
+        start = last_sync = time.perf_counter()
+        while viewer.is_running() and data.time < args.t_final:
+            tau = torque_of(controller, data.qpos[None].copy(), data.qvel[None].copy(), data.time)[0]
+            data.ctrl[:] = np.clip(tau, -limits, limits)
+            mujoco.mj_step(model, data)
+            ahead = data.time - (time.perf_counter() - start)
+            if ahead > 0:
+                time.sleep(ahead)
+            if time.perf_counter() - last_sync > 1 / 60:  # refresh at about 60 Hz of wall time
+                viewer.sync()
+                last_sync = time.perf_counter()
+    return 0
+
+
+def register(sub, parser_class):
+    p = sub.add_parser("simulate", parents=[run_parent(), output_parent("trajectory.npz, trajectory.csv, summary.json")],
+                       help="run a controller from an initial state and record it",
+                       description="Run a controller on the robot (MuJoCo, or the exact analytic closed loop)."
+                                   " A diverging run stops with exit code 3, keeping what was computed in --out.")
+    p.set_defaults(func=cmd_simulate)
+
+    p = sub.add_parser("render", parents=[run_parent(robot_default=None)], help="offscreen video of a rollout (EGL or OSMesa)",
+                       description="Render a rollout (or a saved trajectory) to MP4 or GIF, offscreen.")
+    p.add_argument("--from", dest="from_file", metavar="TRAJ.npz",
+                   help="replay a trajectory saved by 'simulate --out' instead of simulating")
+    p.add_argument("--out", required=True, metavar="FILE.mp4|FILE.gif", help="the video file")
+    p.add_argument("--fps", type=positive, default=30.0, help="frames per second of the video")
+    p.add_argument("--width", type=positive_int, default=640, help="frame width [pixels], 16..4096")
+    p.add_argument("--height", type=positive_int, default=480, help="frame height [pixels], 16..4096")
+    p.add_argument("--gl", choices=("auto", "egl", "osmesa"), default="auto",
+                   help="offscreen GL backend (auto: EGL, then OSMesa)")
+    p.add_argument("--camera", default="side", help="a camera of the model")
+    p.set_defaults(func=cmd_render)
+
+    p = sub.add_parser("view", parents=[robot_parent(), controller_parent(), physics_parent()],
+                       help="MuJoCo's interactive viewer with the controller running (needs a display)",
+                       description="Watch a controller in MuJoCo's viewer, in real time.")
+    p.add_argument("--x0", type=float, nargs=6, metavar="X", help="initial q1 q2 q3 d1 d2 d3 (default (65))")
+    p.set_defaults(func=cmd_view)

@@ -1,0 +1,124 @@
+"""``paa-mj basin``, ``robustness`` and ``bench``: many rollouts, and what they cost."""
+from __future__ import annotations
+
+from contextlib import nullcontext
+
+from ..errors import PaaError
+from .common import (controller_parent, interrupt_code, interrupt_name, note, output_parent, positive, positive_int,
+                     print_json, robot_parent, spec_from_args, study_parent)
+
+
+def _lock(out):
+    from ..io import OutputLock
+
+    return OutputLock(out) if out else nullcontext()
+
+
+def _finish_study(summary, args, what):
+    if summary["interrupted"]:
+        kept = f"; finished chunks are kept in {args.out}, run the same command to resume" if args.out else ""
+        note(f"{interrupt_name()}: {100 * summary['completed_fraction']:.0f} % of the {what} done{kept}")
+        return interrupt_code()
+    return 0
+
+
+def cmd_basin(args):
+    from ..model.robot import load_robot
+    from ..studies.basin import basin, parse_axes, write_basin
+    from ..studies.runner import check_scheduler
+
+    axes = parse_axes(args.axes)
+    robot = load_robot(args.robot)
+    spec = spec_from_args(args, robot)
+    scheduler = check_scheduler(args.scheduler)
+    with _lock(args.out):
+        summary, arrays = basin(robot, axes, args.grid, args.t_final, controller=spec, progress=not args.json,
+                                scheduler=scheduler, out_dir=args.out, fresh=args.fresh)
+        if args.out:
+            write_basin(args.out, summary, arrays)
+    if args.json:
+        print_json(summary)
+    else:
+        print(f"{summary['cells']} starts over ({', '.join(summary['axes'])}), {summary['controller']}:"
+              f" {100 * summary['success_fraction']:.1f} % balanced, median first switch"
+              f" {summary['median_switch_time']} s"
+              + (f"; wrote {args.out}/basin.png, basin.svg, basin.npz, summary.json" if args.out else ""))
+    return _finish_study(summary, args, "basin")
+
+
+def cmd_robustness(args):
+    from ..model.robot import load_robot
+    from ..studies.robustness import robustness, write_robustness
+    from ..studies.runner import check_scheduler
+
+    robot = load_robot(args.robot)
+    spec = spec_from_args(args, robot)
+    scheduler = check_scheduler(args.scheduler)
+    factors = [f.strip() for f in args.factors.split(",") if f.strip()]
+    with _lock(args.out):
+        summary, arrays = robustness(robot, trials=args.trials, t_final=args.t_final, seed=args.seed,
+                                     controller=spec, factors=factors, start=args.start, progress=not args.json,
+                                     scheduler=scheduler, model_error=args.model_error, out_dir=args.out,
+                                     fresh=args.fresh)
+        if args.out:
+            write_robustness(args.out, summary, arrays)
+    if args.json:
+        print_json(summary)
+    else:
+        print(f"robot {summary['robot']}, {summary['controller']}: success rate over {summary['trials']}"
+              f" {summary['start']} starts per level [95 % interval]")
+        for factor, data in summary["factors"].items():
+            cells = ", ".join(f"{'none' if lv['level'] is None else format(lv['level'], 'g')}: "
+                              + ("-" if lv["success_rate"] is None else
+                                 f"{100 * lv['success_rate']:.0f} % [{100 * lv['low']:.0f}-{100 * lv['high']:.0f}]")
+                              for lv in data["levels"])
+            print(f"  {factor:<13} ({data['label']}): {cells}")
+    return _finish_study(summary, args, "robustness study")
+
+
+def cmd_bench(args):
+    from ..studies.bench import format_bench, run_bench
+
+    result = run_bench(batch_size=args.batch_size, progress=not args.json)
+    print_json(result) if args.json else print(format_bench(result))
+    return 0
+
+
+def register(sub, parser_class):
+    from ..studies.basin import COORDINATES, MAX_GRID
+    from ..studies.robustness import DEFAULT_FACTORS, FACTORS, STARTS
+
+    p = sub.add_parser("basin", parents=[robot_parent(), controller_parent(), study_parent(),
+                                         output_parent("basin.png, basin.svg, basin.npz, summary.json and the"
+                                                       " finished chunks (a rerun resumes)")],
+                       help="outcome over a grid of initial states (two coordinates, the others zero)",
+                       description="Run the controller from every start of a grid over two coordinates and map"
+                                   " how each run ends.")
+    p.add_argument("--axes", default="q1,q2", metavar="A,B",
+                   help=f"two of {', '.join(COORDINATES)} (angles over [-pi, pi], speeds over [-5, 5] rad/s)")
+    p.add_argument("--grid", type=positive_int, default=64, help=f"points per axis, 2..{MAX_GRID} (starts = grid^2)")
+    p.add_argument("--t-final", type=positive, default=30.0, help="duration of each run [s]")
+    p.set_defaults(func=cmd_basin)
+
+    p = sub.add_parser("robustness", parents=[robot_parent(), controller_parent(), study_parent(),
+                                              output_parent("one chart per factor (PNG, SVG), robustness.npz,"
+                                                            " summary.json and the finished chunks")],
+                       help="success rate against noise, limits, model error, delay, pushes and starts",
+                       description="Success rate of the controller with 95 % Wilson intervals, one factor at a"
+                                   " time, every level on the same starts.")
+    p.add_argument("--trials", type=positive_int, default=64, help="starts per level")
+    p.add_argument("--t-final", type=positive, default=30.0, help="duration of each run [s]")
+    p.add_argument("--seed", type=int, default=0, help="seed of the starts and the noise")
+    p.add_argument("--factors", default=",".join(DEFAULT_FACTORS), metavar="F,...",
+                   help=f"comma-separated, out of {', '.join(FACTORS)}")
+    p.add_argument("--start", choices=STARTS, default="random",
+                   help="random: angles over a full turn, speeds +-1 rad/s; hanging: the kip from (65)")
+    p.add_argument("--model-error", type=float, nargs="+", metavar="PCT",
+                   help="controller model errors to test [%%] (default: 0 2 5 10)")
+    p.set_defaults(func=cmd_robustness)
+
+    p = sub.add_parser("bench", help="costs per step: bare mj_step, closed loop, batch, basin, analytic reference",
+                       description="Costs measured in one process, reported as ratios of things measured together.")
+    p.add_argument("--batch-size", type=positive_int, default=1024, help="rollouts in the batch measurement")
+    p.add_argument("--json", action="store_true", help="one JSON object on stdout")
+    p.set_defaults(func=cmd_bench)

@@ -1,0 +1,135 @@
+"""The controller interface: one small protocol for every controller, compiled or not.
+
+A controller maps states to the motor torques tau = [tau2, tau3] [N m]:
+
+- ``torque(q, qd, t)`` takes a batch of states, ``q`` and ``qd`` of shape
+  (..., 3) [rad, rad/s] and the time ``t`` [s], and returns shape (..., 2);
+- ``reset()`` forgets any internal state before a new rollout;
+- ``mode`` (optional) is 0 while swinging up and 1 once the balance controller
+  (67) has taken over; a rollout's *switch time* is when it first becomes 1.
+
+That is the whole contract for a user's controller (``ClassName(robot)`` with
+:func:`~paa_mj.model.load_robot`'s robot, then ``torque``). A controller may
+also offer a compiled form (:class:`CompiledForm`, a numba kernel with its
+parameters); the single-rollout loop and the batch engine of :mod:`paa_mj.sim`
+then run it at compiled speed, and otherwise call ``torque`` between physics
+steps. Torque limits are the actuators' (the robot's and the rollout's), not
+the controller's: the engine saturates whatever a controller asks for.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numba import njit, types
+
+from ..errors import PaaError
+
+
+#: Signature of a compiled controller, and of a compiled switching condition:
+#: ``kernel(q1, q2, q3, d1, d2, d3, t, params, memory, tau) -> int``. A controller writes
+#: [tau2, tau3] [N m] into ``tau``, may update ``memory`` and returns its mode (0 swing-up,
+#: 1 balance); a condition returns 1 where it holds and touches nothing.
+KERNEL_SIG = types.int64(*(types.float64,) * 7, types.float64[:], types.float64[:], types.float64[:])
+KERNEL_TYPE = types.FunctionType(KERNEL_SIG)
+
+
+def kernel(function):
+    """Compile ``function`` as a controller or condition kernel (:data:`KERNEL_SIG`), cached on disk."""
+    return njit(KERNEL_SIG, cache=True)(function)
+
+
+@dataclass(frozen=True, eq=False)
+class CompiledForm:
+    """A controller as numba sees it.
+
+    Attributes
+    ----------
+    kernel : numba dispatcher of :data:`KERNEL_SIG` (see :func:`kernel`)
+    params : ndarray (P,)
+        Constant parameters (gains, robot constants, gain tables), float64.
+    memory : ndarray (S,)
+        The initial internal state, copied for each rollout.
+    balance_gain : ndarray (2, 6) or None
+        The linear state feedback tau = -K x that acts in mode 1, x the error from
+        UDD (67). The engine uses it to stop a rollout whose balance can no longer
+        fail (:mod:`paa_mj.sim.engine`); None: never stopped early.
+    """
+
+    kernel: object
+    params: np.ndarray
+    memory: np.ndarray = field(default_factory=lambda: np.zeros(1))
+    balance_gain: np.ndarray | None = None
+
+    def __post_init__(self):
+        object.__setattr__(self, "params", np.ascontiguousarray(self.params, dtype=np.float64).reshape(-1))
+        memory = np.ascontiguousarray(self.memory, dtype=np.float64).reshape(-1)
+        object.__setattr__(self, "memory", memory if memory.size else np.zeros(1))
+
+
+@dataclass(frozen=True, eq=False)
+class SwitchedForm:
+    """Two compiled controllers and the compiled condition that switches from the first to the second, for good."""
+
+    first: CompiledForm
+    second: CompiledForm
+    condition: object
+    condition_params: np.ndarray
+
+    @property
+    def balance_gain(self):
+        return self.second.balance_gain
+
+
+class Controller:
+    """Base class of the built-in controllers (users' controllers need not inherit from it).
+
+    Subclasses set ``name`` and implement :meth:`torque`; a stateless controller
+    needs nothing else. ``mode`` is 0 unless the controller switches.
+    """
+
+    name = "controller"
+    mode = 0
+
+    def torque(self, q, qd, t=0.0):
+        raise NotImplementedError
+
+    def reset(self):
+        """Forget any internal state (before a new rollout)."""
+
+    def compiled(self) -> CompiledForm | SwitchedForm | None:
+        """The compiled form, or None (then rollouts call :meth:`torque`)."""
+        return None
+
+    def describe(self) -> dict:
+        """What a trajectory's metadata records about this controller."""
+        return {"controller": self.name}
+
+
+def torque_of(controller, q, qd, t):
+    """``controller.torque(q, qd, t)`` as a float array of shape (..., 2), or a one-line error."""
+    try:
+        tau = np.asarray(controller.torque(q, qd, t), dtype=float)
+    except PaaError:
+        raise
+    except Exception as err:  # a user's controller may fail in any way: say where, in one line
+        raise PaaError(f"controller {type(controller).__name__}.torque failed: {type(err).__name__}:"
+                       f" {' '.join(str(err).split())}") from None
+    expected = np.shape(q)[:-1] + (2,)
+    if tau.shape != expected:
+        raise PaaError(f"controller {type(controller).__name__}.torque returned shape {tau.shape} for states of"
+                       f" shape {np.shape(q)}; it must return {expected} ([tau2, tau3] per state)")
+    return tau
+
+
+def mode_of(controller, shape=()):
+    """The controller's mode as an int array of ``shape`` (0 when it has none)."""
+    mode = np.asarray(getattr(controller, "mode", 0))
+    return np.broadcast_to(mode, shape).astype(np.int8) if mode.shape != shape else mode.astype(np.int8)
+
+
+def reset_controller(controller):
+    """Call ``reset()`` when the controller has one (a user's may not)."""
+    reset = getattr(controller, "reset", None)
+    if callable(reset):
+        reset()

@@ -1,0 +1,118 @@
+"""Switching between two controllers: a swing-up, a balance controller, and the condition between them.
+
+A :class:`CombinedController` runs ``first`` until ``condition`` first holds,
+then ``second`` for good (one-way, as the paper's switch (68)); each element of
+a batch switches on its own. Conditions are small objects with a NumPy test
+(``holds``), a continuous ``margin`` that is negative exactly where they hold
+(the analytic engine finds the switch as an ODE event) and a compiled form:
+
+- :class:`RegionCondition`: the state is inside region (68);
+- :class:`TimeCondition`: t >= a given time (the end of a stored trajectory).
+
+When both controllers and the condition are compiled, so is the combination
+(:class:`~paa_mj.control.base.SwitchedForm`): the engine calls the two kernels
+and the condition through function pointers, compiled once for all.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .base import CompiledForm, Controller, SwitchedForm, kernel, reset_controller, torque_of
+from .region import in_switch_region, region_condition, switch_margin
+
+SWING_UP, BALANCE = 0, 1
+
+
+class RegionCondition:
+    """The paper's switching rule: the state is inside region (68)."""
+
+    name = "region (68)"
+
+    def holds(self, q, qd, t):
+        return in_switch_region(q, qd)
+
+    def margin(self, q, qd, t):
+        return switch_margin(q, qd)
+
+    def compiled(self):
+        return region_condition, np.zeros(0)
+
+
+@kernel
+def time_condition(q1, q2, q3, d1, d2, d3, t, params, memory, tau):
+    """Compiled condition: 1 once t >= params[0]."""
+    return 1 if t >= params[0] else 0
+
+
+class TimeCondition:
+    """t >= ``t_switch`` [s]: hand over when a stored trajectory ends."""
+
+    name = "time"
+
+    def __init__(self, t_switch):
+        self.t_switch = float(t_switch)
+
+    def holds(self, q, qd, t):
+        return np.broadcast_to(np.asarray(t) >= self.t_switch, np.shape(q)[:-1])
+
+    def margin(self, q, qd, t):
+        return self.t_switch - t
+
+    def compiled(self):
+        return time_condition, np.array([self.t_switch])
+
+
+class CombinedController(Controller):
+    """``first`` until ``condition`` first holds, then ``second`` for good.
+
+    Parameters
+    ----------
+    first, second : controllers
+        The swing-up and the balance controller (any objects with ``torque``).
+    condition : RegionCondition, TimeCondition or an object with ``holds(q, qd, t)``
+    name : str
+
+    Attributes
+    ----------
+    mode : int8 or ndarray of int8
+        0 while ``first`` acts, 1 once ``second`` has taken over (per batch element).
+    """
+
+    def __init__(self, first, second, condition, name="combined"):
+        self.first, self.second, self.condition, self.name = first, second, condition, name
+        self.mode = np.int8(SWING_UP)
+
+    def reset(self):
+        self.mode = np.int8(SWING_UP)
+        reset_controller(self.first)
+        reset_controller(self.second)
+
+    def update_mode(self, q, qd, t):
+        """Apply the switching rule and return the mode(s)."""
+        holds = np.asarray(self.condition.holds(q, qd, t))
+        self.mode = np.where(holds, np.int8(BALANCE), self.mode).astype(np.int8)
+        return self.mode
+
+    def torque(self, q, qd, t=0.0):
+        mode = self.update_mode(q, qd, t)
+        if np.all(mode == BALANCE):
+            return torque_of(self.second, q, qd, t)
+        if np.all(mode == SWING_UP):
+            return torque_of(self.first, q, qd, t)
+        return np.where(mode[..., None] == BALANCE, torque_of(self.second, q, qd, t), torque_of(self.first, q, qd, t))
+
+    def compiled(self) -> SwitchedForm | None:
+        """Compiled when both controllers are compiled, without switches of their own, and so is the condition."""
+        first, second = (getattr(part, "compiled", lambda: None)() for part in (self.first, self.second))
+        condition = getattr(self.condition, "compiled", lambda: None)()
+        if not (isinstance(first, CompiledForm) and isinstance(second, CompiledForm)) or condition is None:
+            return None
+        return SwitchedForm(first, second, *condition)
+
+    def describe(self) -> dict:
+        out = {"controller": self.name}
+        for part in (self.first, self.second):
+            details = part.describe() if hasattr(part, "describe") else {}
+            out.update({k: v for k, v in details.items() if k != "controller"})
+        out["switch"] = getattr(self.condition, "name", type(self.condition).__name__)
+        return out

@@ -1,0 +1,63 @@
+"""The switching region (68) and the tolerances that judge a balance.
+
+Region (68): with x = [q1, q2 + pi, q3, d1, d2, d3] the error from UDD (angles
+wrapped to (-pi, pi]), every |x_i| < pi/6 and every |x_{i+3}| < 0.5 rad/s. The
+paper switches from swing-up (40) to the LQR (67) the first time the state is
+inside. A run is *balanced* when its final state is within :data:`BALANCE_TOL`
+of UDD in every coordinate.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba.extending import register_jitable
+
+from ..model.states import udd_error, udd_error_components
+from .base import kernel
+
+#: Region (68): |angle error| < pi/6 [rad] and |speed| < 0.5 [rad/s], per joint.
+SWITCH_ANGLE = math.pi / 6
+SWITCH_SPEED = 0.5
+#: A final state within this distance of UDD (each coordinate, rad and rad/s) counts as balanced.
+BALANCE_TOL = 1e-3
+
+
+@register_jitable
+def region_margin(q1, q2, q3, d1, d2, d3):
+    """max(|x_i| / (pi/6), |x_{i+3}| / 0.5) - 1: negative exactly inside region (68)."""
+    x1, x2, x3 = udd_error_components(q1, q2, q3)
+    angles = np.maximum(np.maximum(np.abs(x1), np.abs(x2)), np.abs(x3)) / SWITCH_ANGLE
+    speeds = np.maximum(np.maximum(np.abs(d1), np.abs(d2)), np.abs(d3)) / SWITCH_SPEED
+    return np.maximum(angles, speeds) - 1.0
+
+
+@register_jitable
+def inside_region(q1, q2, q3, d1, d2, d3):
+    """Region (68): every wrapped angle error below pi/6 and every speed below 0.5 rad/s."""
+    x1, x2, x3 = udd_error_components(q1, q2, q3)
+    return ((np.abs(x1) < SWITCH_ANGLE) & (np.abs(x2) < SWITCH_ANGLE) & (np.abs(x3) < SWITCH_ANGLE)
+            & (np.abs(d1) < SWITCH_SPEED) & (np.abs(d2) < SWITCH_SPEED) & (np.abs(d3) < SWITCH_SPEED))
+
+
+@kernel
+def region_condition(q1, q2, q3, d1, d2, d3, t, params, memory, tau):
+    """Compiled condition: 1 inside region (68)."""
+    return 1 if inside_region(q1, q2, q3, d1, d2, d3) else 0
+
+
+def in_switch_region(q, qd):
+    """Region (68) for NumPy batches: shape (...,) of bool."""
+    q, qd = np.asarray(q, float), np.asarray(qd, float)
+    return np.asarray(inside_region(q[..., 0], q[..., 1], q[..., 2], qd[..., 0], qd[..., 1], qd[..., 2]))
+
+
+def switch_margin(q, qd):
+    """A continuous function that is negative exactly inside region (68) (an ODE event)."""
+    q, qd = np.asarray(q, float), np.asarray(qd, float)
+    return region_margin(q[..., 0], q[..., 1], q[..., 2], qd[..., 0], qd[..., 1], qd[..., 2])
+
+
+def distance_from_udd(q, qd):
+    """max_i |x_i| with x the error from UDD (angles wrapped) [rad, rad/s]; shape (...,)."""
+    return np.max(np.abs(udd_error(q, qd)), axis=-1)

@@ -1,0 +1,183 @@
+"""Controllers by name, and users' controllers from a file, behind one recipe.
+
+Built-in names (:data:`BUILTIN`):
+
+- ``vcl``: the paper's controller, swing-up (40) then LQR (67) when the state
+  first enters region (68) (the default);
+- ``vcl-only``: (40) alone (the paper's Figs. 6-8 and 12-14);
+- ``vc``: the conventional candidate (12) then LQR (67) by (68);
+- ``lqr``: (67) alone;
+- ``passive``: zero torque.
+
+A user's controller is ``path/to/file.py:ClassName``: the class is built as
+``ClassName(robot)`` with the robot of :func:`paa_mj.model.load_robot` and needs
+``torque(q, qd, t)`` on batches (see :mod:`paa_mj.control.base`); nothing in
+the package has to change. A :class:`ControllerSpec` is the picklable recipe
+that studies send to their workers, which build the controller themselves.
+"""
+from __future__ import annotations
+
+import hashlib
+import importlib.util
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+from ..errors import PaaError
+from ..model.params import RobotParams
+from .base import Controller
+from .combined import CombinedController, RegionCondition
+from .energy import ConventionalController, EnergyVCLController
+from .lqr import LQRController
+from .passive import PassiveController
+
+#: Controllers that take the gains kD, kP, kV of (40) / (12).
+GAIN_CONTROLLERS = ("vcl", "vcl-only", "vc", "vc-only")
+
+
+def _gains(robot, gains):
+    return robot.resolve_gains(**(gains or {}))
+
+
+def build_vcl(robot, gains=None, check=True):
+    """The paper's controller: (40) + (67) switched by (68)."""
+    swing = EnergyVCLController(robot.analytic, **_gains(robot, gains), check=check)
+    return CombinedController(swing, LQRController.for_model(robot.analytic), RegionCondition(), name="vcl")
+
+
+def build_vcl_only(robot, gains=None, check=True):
+    """Controller (40) alone, for the whole run."""
+    return EnergyVCLController(robot.analytic, **_gains(robot, gains), check=check)
+
+
+def build_vc(robot, gains=None, check=True):
+    """The conventional candidate (12) + (67) switched by (68)."""
+    swing = ConventionalController(robot.analytic, **_gains(robot, gains), check=check)
+    return CombinedController(swing, LQRController.for_model(robot.analytic), RegionCondition(), name="vc")
+
+
+def build_vc_only(robot, gains=None, check=True):
+    """The conventional candidate (12) alone."""
+    return ConventionalController(robot.analytic, **_gains(robot, gains), check=check)
+
+
+def build_lqr(robot, gains=None, check=True):
+    """The LQR (67) alone, from wherever the robot starts."""
+    return LQRController.for_model(robot.analytic)
+
+
+def build_passive(robot, gains=None, check=True):
+    """Zero torque."""
+    return PassiveController()
+
+
+BUILTIN = {
+    "vcl": (build_vcl, "(40) swing-up, then LQR (67) on entering region (68): the paper's controller"),
+    "vcl-only": (build_vcl_only, "(40) alone"),
+    "vc": (build_vc, "conventional candidate (12), then LQR (67) on entering (68)"),
+    "vc-only": (build_vc_only, "conventional candidate (12) alone"),
+    "lqr": (build_lqr, "LQR (67) alone"),
+    "passive": (build_passive, "zero torque"),
+}
+
+
+def register(name: str, builder, description: str):
+    """Add a built-in controller: ``builder(robot, gains=None, check=True)`` returns it."""
+    BUILTIN[name] = (builder, description)
+
+
+def is_user_controller(spec: str) -> bool:
+    return ":" in spec and spec.rsplit(":", 1)[0].endswith(".py")
+
+
+def load_user_class(spec: str):
+    """The class named by ``path/to/file.py:ClassName`` (one-line errors)."""
+    path_text, class_name = spec.rsplit(":", 1)
+    path = Path(path_text).expanduser().resolve()
+    if not path.is_file():
+        raise PaaError(f"controller file not found: {path_text}")
+    module_name = "paa_mj_user_" + hashlib.sha1(str(path).encode()).hexdigest()[:12]
+    module = sys.modules.get(module_name)
+    if module is None:
+        try:
+            loader_spec = importlib.util.spec_from_file_location(module_name, path)
+            module = importlib.util.module_from_spec(loader_spec)
+            sys.modules[module_name] = module
+            loader_spec.loader.exec_module(module)
+        except Exception as err:  # the user's file may fail in any way
+            sys.modules.pop(module_name, None)
+            raise PaaError(f"cannot load controller file {path_text}: {type(err).__name__}: {' '.join(str(err).split())}") from None
+    cls = getattr(module, class_name, None)
+    if cls is None or not callable(cls):
+        raise PaaError(f"controller file {path_text} has no class {class_name!r}")
+    return cls
+
+
+@dataclass(frozen=True)
+class ControllerSpec:
+    """A recipe for a controller: picklable, hashable, built on the robot that runs it.
+
+    Attributes
+    ----------
+    name : str
+        A built-in name or ``path/to/file.py:ClassName``.
+    gains : tuple (kD, kP, kV) or None
+        For the gain controllers; None: the robot's stored gains.
+    believed : RobotParams or None
+        The model the controller believes in (model error when it differs from
+        the plant); None: the plant's own.
+    check : bool
+        Check the gains against the theory when building.
+    """
+
+    name: str = "vcl"
+    gains: tuple | None = None
+    believed: RobotParams | None = None
+    check: bool = True
+
+    def __post_init__(self):
+        if is_user_controller(self.name):
+            path, cls = self.name.rsplit(":", 1)
+            object.__setattr__(self, "name", f"{Path(path).expanduser().resolve()}:{cls}")
+        elif self.name not in BUILTIN:
+            raise PaaError(f"unknown controller {self.name!r}: use one of {', '.join(BUILTIN)} or"
+                           " path/to/file.py:ClassName")
+        if self.gains is not None:
+            if self.name not in GAIN_CONTROLLERS:
+                raise PaaError(f"gains kD, kP, kV apply to the controllers {', '.join(GAIN_CONTROLLERS)},"
+                               f" not to {self.short_name}")
+            object.__setattr__(self, "gains", tuple(float(g) for g in self.gains))
+
+    @property
+    def short_name(self) -> str:
+        return Path(self.name.rsplit(":", 1)[0]).name + ":" + self.name.rsplit(":", 1)[1] \
+            if is_user_controller(self.name) else self.name
+
+    def build(self, robot) -> Controller:
+        """The controller for ``robot`` (the plant); it believes in ``believed`` when given."""
+        believed = robot if self.believed is None else robot.with_params(self.believed)
+        if is_user_controller(self.name):
+            cls = load_user_class(self.name)
+            try:
+                controller = cls(believed)
+            except PaaError:
+                raise
+            except Exception as err:
+                raise PaaError(f"controller {self.short_name}(robot) failed: {type(err).__name__}:"
+                               f" {' '.join(str(err).split())}") from None
+            if not callable(getattr(controller, "torque", None)):
+                raise PaaError(f"controller {self.short_name} has no method torque(q, qd, t)")
+            return controller
+        gains = None if self.gains is None else dict(zip(("kD", "kP", "kV"), self.gains))
+        return BUILTIN[self.name][0](believed, gains=gains, check=self.check)
+
+
+def make_controller(name: str, robot, gains: dict | None = None, check: bool = True):
+    """The controller ``name`` (built-in or ``file.py:ClassName``) for ``robot``.
+
+    ``gains`` ({"kD", "kP", "kV"}, any subset) override the robot's stored gains.
+    """
+    values = None
+    if gains:
+        values = tuple(robot.resolve_gains(**gains).values())
+    return ControllerSpec(name, values, check=check).build(robot)

@@ -1,0 +1,66 @@
+"""Bounded requests: every run is checked against memory and time before anything is allocated.
+
+A request that would need more than the machine can give is refused with one
+line that says what it would need and which options lower it.
+"""
+from __future__ import annotations
+
+import math
+import os
+
+from .errors import PaaError
+
+#: Fraction of the available memory one request may take.
+MEMORY_FRACTION = 0.5
+#: Longest run accepted [s of wall time], estimated at :data:`STEP_SECONDS` per physics step and core.
+MAX_SECONDS = 7 * 24 * 3600.0
+STEP_SECONDS = 5e-6
+
+
+def available_memory() -> int:
+    """Bytes of memory available now (MemAvailable on Linux, else total physical memory)."""
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    try:
+        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (ValueError, OSError, AttributeError):
+        return 8 << 30
+
+
+def _gib(n):
+    return f"{n / 2**30:.3g} GiB"
+
+
+def check_memory(nbytes: float, what: str, lower: str):
+    """Refuse a request of ``nbytes`` for ``what`` above the budget; ``lower`` names the options to lower."""
+    budget = MEMORY_FRACTION * available_memory()
+    if not math.isfinite(nbytes) or nbytes > budget:
+        raise PaaError(f"would need {_gib(nbytes)} of {what} (this machine can give {_gib(budget)}); lower {lower}")
+
+
+def check_steps(steps: float, what: str, lower: str, cores: int | None = None):
+    """Refuse a run of ``steps`` physics steps estimated to take longer than :data:`MAX_SECONDS`."""
+    cores = cores or os.cpu_count() or 1
+    seconds = steps * STEP_SECONDS / cores
+    if not math.isfinite(seconds) or seconds > MAX_SECONDS:
+        days = seconds / 86400
+        raise PaaError(f"would need {steps:.3g} physics steps for {what}, about {days:.3g} days here"
+                       f" (the limit is {MAX_SECONDS / 86400:g} days); lower {lower}")
+
+
+def positive_finite(name: str, value, allow_none=True):
+    """``value`` as a float, refusing NaN, inf, zero and negative numbers with one line."""
+    if value is None and allow_none:
+        return None
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise PaaError(f"{name} must be a number, got {value!r}") from None
+    if not (math.isfinite(number) and number > 0):
+        raise PaaError(f"{name} must be a positive finite number, got {value}")
+    return number

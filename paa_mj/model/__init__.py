@@ -1,0 +1,17 @@
+"""The robot: its MJCF file, its parameters and the paper's analytic model (1)-(7).
+
+- :mod:`~paa_mj.model.mjcf`: the MJCF template, reading, validation and read-back;
+- :mod:`~paa_mj.model.params`: :class:`RobotParams` (masses, lengths, inertias);
+- :mod:`~paa_mj.model.equations`: M, H, G, P, E of (1)-(7), one definition for NumPy and numba;
+- :mod:`~paa_mj.model.vcl`: the virtual composite link (13)-(21);
+- :mod:`~paa_mj.model.dynamics`: :class:`AnalyticModel` on batches of states;
+- :mod:`~paa_mj.model.robot`: :class:`Robot` and :func:`load_robot`;
+- :mod:`~paa_mj.model.crosscheck`: MuJoCo against the analytic model.
+"""
+from .dynamics import AnalyticModel
+from .mjcf import mjcf_from_params, params_from_model
+from .params import RobotParams
+from .robot import NAMED_ROBOTS, Robot, load_model, load_robot, model_from_params, robot_from_xml, robot_path
+
+__all__ = ["AnalyticModel", "NAMED_ROBOTS", "Robot", "RobotParams", "load_model", "load_robot", "mjcf_from_params",
+           "model_from_params", "params_from_model", "robot_from_xml", "robot_path"]

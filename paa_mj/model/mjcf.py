@@ -1,0 +1,438 @@
+"""The MJCF file of the gymnast: written from parameters, read, validated and read back.
+
+The MuJoCo model is the single source of truth. ``gymnast.xml`` (Table 1 of the
+paper) and ``example2.xml`` (Table 2), beside this module, are written by
+:func:`mjcf_from_params`; any other parameter set gives a model of the same
+shape, and any model of that shape is read back into :class:`RobotParams` by
+:func:`params_from_model` from the *compiled* ``MjModel`` (masses, inertias,
+body and COM positions), so the analytic model is always the one MuJoCo runs.
+
+The shape (``docs/model.md``): three bodies in a chain hanging from the world at
+the bar, one hinge per body at its origin, all hinge axes parallel and
+horizontal, every link pointing straight up at q = 0, gravity 9.81 m/s^2
+straight down, a ``<motor>`` with gear 1 on joints 2 (shoulders) and 3 (hips),
+joint 1 (hands) passive. Anything MuJoCo would add to that model and the
+analytic model of the paper lacks (joint ranges, damping, armature, friction
+loss, springs, gravity compensation, a medium, contacts, tendons, equality
+constraints, other actuators) is refused by name. Actuator limits
+(``ctrlrange``, ``forcerange``, ``actuatorfrcrange``) are a real feature: they
+are read back as the robot's torque limits (:func:`torque_limits_from_model`),
+which every rollout then applies.
+"""
+from __future__ import annotations
+
+import os
+import re
+import xml.etree.ElementTree as ET
+from pathlib import Path
+from xml.sax.saxutils import quoteattr
+
+import mujoco
+import numpy as np
+
+from ..errors import PaaError
+from .params import RobotParams
+
+#: Gravity of the paper's world [m/s^2], straight down (-z).
+GRAVITY = 9.81
+#: Largest physics time step accepted from a model file [s].
+MAX_TIMESTEP = 0.1
+MODEL_DIR = Path(__file__).resolve().parent
+
+_TEMPLATE = """\
+<mujoco model={name}>
+  <!--
+    Three-link gymnast on a high bar (Liu & Xin 2015; see docs/model.md of paa_mj).
+    {title}
+    Joint 1 (hands on the bar) is passive; joints 2 (shoulders) and 3 (hips) carry motors.
+    q = 0 is every link straight up; the bar is at the world origin so that MuJoCo's
+    potential energy equals the paper's P(q) of (7).
+    Masses and inertias come from <inertial> alone: geoms are visual only.
+    m  = {m}  kg
+    l  = {l}  m
+    lc = {lc}  m
+    J  = {J}  kg m^2
+  -->
+  <compiler angle="radian" autolimits="true"/>
+  <option timestep="0.001" integrator="RK4" gravity="0 0 -{g}">
+    <flag energy="enable" contact="disable"/>
+  </option>
+
+  <visual>
+    <global offwidth="1280" offheight="960" azimuth="90" elevation="0"/>
+    <headlight ambient="0.35 0.35 0.35" diffuse="0.5 0.5 0.5" specular="0.1 0.1 0.1"/>
+    <quality shadowsize="2048"/>
+  </visual>
+
+  <asset>
+    <texture name="sky" type="skybox" builtin="gradient" rgb1="0.55 0.7 0.9" rgb2="0.15 0.2 0.3" width="256" height="256"/>
+    <texture name="grid" type="2d" builtin="checker" rgb1="0.75 0.75 0.72" rgb2="0.62 0.62 0.6" width="256" height="256"/>
+    <material name="floor" texture="grid" texrepeat="{texrepeat} {texrepeat}" reflectance="0.1"/>
+    <material name="steel" rgba="0.75 0.75 0.8 1" specular="0.8" shininess="0.8"/>
+    <material name="arms" rgba="0.85 0.33 0.2 1"/>
+    <material name="trunk" rgba="0.2 0.45 0.8 1"/>
+    <material name="legs" rgba="0.25 0.65 0.3 1"/>
+  </asset>
+
+  <worldbody>
+    <light name="key" pos="{light_x} -{light_y} {light_z}" dir="-0.3 0.6 -1" directional="true" castshadow="true"/>
+    <geom name="floor" type="plane" pos="0 0 -{floor}" size="{floor_size} {floor_size} 0.1" material="floor" contype="0" conaffinity="0" group="0"/>
+    <geom name="bar" type="cylinder" fromto="0 -{bar_half} 0 0 {bar_half} 0" size="{bar_radius}" material="steel" contype="0" conaffinity="0" group="0"/>
+    <geom name="post_left" type="cylinder" fromto="0 -{bar_half} 0 0 -{bar_half} -{floor}" size="{post_radius}" material="steel" contype="0" conaffinity="0" group="0"/>
+    <geom name="post_right" type="cylinder" fromto="0 {bar_half} 0 0 {bar_half} -{floor}" size="{post_radius}" material="steel" contype="0" conaffinity="0" group="0"/>
+    <camera name="side" pos="{cam_x} -{cam_y} {cam_z}" xyaxes="{cam_cos} {cam_sin} 0 0 0 1" fovy="45"/>
+
+    <body name="link1">
+      <joint name="hands" type="hinge" axis="0 1 0"/>
+      <inertial pos="0 0 {lc1}" mass="{m1}" diaginertia="{J1} {J1} {Jz1}"/>
+      <geom name="arms" type="capsule" fromto="0 0 0 0 0 {l1}" size="{r1}" material="arms" contype="0" conaffinity="0" group="1"/>
+      <body name="link2" pos="0 0 {l1}">
+        <joint name="shoulders" type="hinge" axis="0 1 0"/>
+        <inertial pos="0 0 {lc2}" mass="{m2}" diaginertia="{J2} {J2} {Jz2}"/>
+        <geom name="trunk" type="capsule" fromto="0 0 0 0 0 {l2}" size="{r2}" material="trunk" contype="0" conaffinity="0" group="1"/>
+        <body name="link3" pos="0 0 {l2}">
+          <joint name="hips" type="hinge" axis="0 1 0"/>
+          <inertial pos="0 0 {lc3}" mass="{m3}" diaginertia="{J3} {J3} {Jz3}"/>
+          <geom name="legs" type="capsule" fromto="0 0 0 0 0 {l3}" size="{r3}" material="legs" contype="0" conaffinity="0" group="1"/>
+          <site name="feet" pos="0 0 {l3}" size="{site_size}" rgba="1 1 0 1" group="2"/>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+
+  <actuator>
+    <motor name="shoulder" joint="shoulders" gear="1"/>
+    <motor name="hip" joint="hips" gear="1"/>
+  </actuator>
+{custom}</mujoco>
+"""
+
+_GAINS_TEMPLATE = """
+  <custom>
+    <!-- Default gains kD, kP, kV of controller (40) for this robot. -->
+    <numeric name="paa_gains" data="{kD} {kP} {kV}"/>
+  </custom>
+"""
+
+
+def _num(x):
+    return repr(float(x))
+
+
+def comment_text(text: str) -> str:
+    """``text`` made safe inside an XML comment: one line, printable, no ``--``."""
+    text = "".join(ch if ch.isprintable() else " " for ch in str(text))
+    while "--" in text:
+        text = text.replace("--", "- -")
+    return text.rstrip("-")
+
+
+def mjcf_from_params(params: RobotParams, name: str = "gymnast", title: str = "", gains=None) -> str:
+    """Return the MJCF text of the gymnast with the given parameters.
+
+    Parameters
+    ----------
+    params : RobotParams
+        Link masses, lengths, COM distances and inertias.
+    name : str
+        The MJCF ``model`` attribute (escaped).
+    title : str
+        One line for the header comment, for example where the numbers come from
+        (made safe for a comment: it cannot end the comment or add elements).
+    gains : dict, optional
+        Default gains ``{"kD", "kP", "kV"}`` of controller (40), stored as a
+        ``<custom><numeric name="paa_gains">`` so they travel with the model.
+    """
+    params.validate()
+    total = float(np.sum(params.l))
+    radius = [0.022 * total] * 3
+    # The side camera looks at the bar 20 degrees off the normal of the plane of motion (so the
+    # posts do not hide the hanging gymnast), from where the whole circle of the feet fits.
+    cam_angle, cam_dist = np.radians(20.0), 2.7 * total
+    subs = dict(
+        name=quoteattr(str(name)), title=comment_text(title) or "Parameters given by the user.", g=_num(params.g),
+        m=" ".join(_num(x) for x in params.m), l=" ".join(_num(x) for x in params.l),
+        lc=" ".join(_num(x) for x in params.lc), J=" ".join(_num(x) for x in params.J),
+        floor=_num(round(1.12 * total, 3)), floor_size=_num(round(3 * total, 3)),
+        texrepeat=_num(max(2, round(3 * total))),
+        bar_half=_num(round(0.45 * total, 3)), bar_radius=_num(round(0.012 * total, 4)),
+        post_radius=_num(round(0.008 * total, 4)),
+        cam_x=_num(round(cam_dist * np.sin(cam_angle), 3)), cam_y=_num(round(cam_dist * np.cos(cam_angle), 3)),
+        cam_z=_num(round(-0.05 * total, 3)),
+        cam_cos=_num(round(np.cos(cam_angle), 6)), cam_sin=_num(round(np.sin(cam_angle), 6)),
+        light_x=_num(round(total, 3)), light_y=_num(round(2 * total, 3)), light_z=_num(round(3 * total, 3)),
+        site_size=_num(round(0.02 * total, 4)),
+        custom=_GAINS_TEMPLATE.format(**{k: _num(gains[k]) for k in ("kD", "kP", "kV")}) if gains else "",
+    )
+    for i in range(3):
+        subs[f"m{i + 1}"] = _num(params.m[i])
+        subs[f"l{i + 1}"] = _num(params.l[i])
+        subs[f"lc{i + 1}"] = _num(params.lc[i])
+        subs[f"J{i + 1}"] = _num(params.J[i])
+        # The inertia about the link's own axis plays no part in planar motion; a
+        # small positive value keeps the inertia tensor physical.
+        subs[f"Jz{i + 1}"] = _num(params.J[i] / 100)
+        subs[f"r{i + 1}"] = _num(round(radius[i], 4))
+    return _TEMPLATE.format(**subs)
+
+
+# --- reading files -----------------------------------------------------------------
+
+def one_line(message) -> str:
+    """An error text folded onto one line."""
+    return " ".join(str(message).split())
+
+
+def _regular_file(path: Path, what: str) -> Path:
+    if not path.exists():
+        raise PaaError(f"{what} not found: {path}")
+    if not path.is_file():
+        raise PaaError(f"{what} is not a regular file: {path}")
+    return path
+
+
+def read_text(path: Path, what="model file") -> str:
+    _regular_file(path, what)
+    try:
+        return path.read_text()
+    except (OSError, UnicodeDecodeError) as err:
+        raise PaaError(f"cannot read {what} {path}: {one_line(err)}") from None
+
+
+def _parse(text, source):
+    try:
+        return ET.fromstring(text)
+    except ET.ParseError as err:
+        raise PaaError(f"malformed MJCF in {source}: {one_line(err)}") from None
+
+
+def _inline_includes(element, folder: Path, source: str, depth=0):
+    """Replace every ``<include file=...>`` below ``element`` by the included file's children."""
+    if depth > 16:
+        raise PaaError(f"malformed MJCF in {source}: includes nested more than 16 deep")
+    for parent in list(element.iter()):
+        for index, child in reversed(list(enumerate(list(parent)))):
+            if child.tag != "include":
+                continue
+            name = child.get("file")
+            if not name:
+                raise PaaError(f"malformed MJCF in {source}: <include> without a file attribute")
+            path = Path(name) if Path(name).is_absolute() else folder / name
+            included = _parse(read_text(path, "included file"), str(path))
+            _inline_includes(included, path.parent, str(path), depth + 1)
+            parent.remove(child)
+            for offset, grandchild in enumerate(list(included)):
+                parent.insert(index + offset, grandchild)
+
+
+def flatten_mjcf(text: str, folder: Path, source: str) -> str:
+    """MJCF text with its includes inlined and its asset folders made absolute.
+
+    The result compiles anywhere on this machine (a Dask worker included) and
+    resolves every path against the model file's ``folder``, as MuJoCo does for
+    a file, not against the current directory.
+    """
+    if "<include" not in text and not re.search(r"\bfile\s*=", text):
+        return text
+    root = _parse(text, source)
+    _inline_includes(root, folder, source)
+    compiler = root.find("compiler")
+    if compiler is None:
+        compiler = ET.Element("compiler")
+        root.insert(0, compiler)
+    for key in ("meshdir", "texturedir", "assetdir"):
+        value = compiler.get(key)
+        if value is not None and not Path(value).is_absolute():
+            compiler.set(key, str(folder / value))
+    if compiler.get("assetdir") is None:
+        compiler.set("assetdir", str(folder))
+    return ET.tostring(root, encoding="unicode")
+
+
+def compile_mjcf(xml: str, source: str = "<string>") -> mujoco.MjModel:
+    """Compile MJCF text (one-line error when MuJoCo refuses it)."""
+    try:
+        return mujoco.MjModel.from_xml_string(xml)
+    except ValueError as err:
+        raise PaaError(f"malformed MJCF in {source}: {one_line(err)}") from None
+
+
+# --- reading the compiled model back ---------------------------------------------------
+
+def _shape_error(source, what):
+    return PaaError(f"{source} is not the 3-link gymnast: {what}")
+
+
+def _feature_error(source, what):
+    return PaaError(f"{source} has a feature the paper's model lacks: {what}")
+
+
+def _axis_inertia(model, body, axis):
+    """Moment of inertia of ``body`` about ``axis`` (body frame) through its COM [kg m^2]."""
+    rot = np.empty(9)
+    mujoco.mju_quat2Mat(rot, model.body_iquat[body])
+    rot = rot.reshape(3, 3)
+    inertia = rot @ np.diag(model.body_inertia[body]) @ rot.T
+    return float(axis @ inertia @ axis)
+
+
+def _check_options(model, source):
+    step = float(model.opt.timestep)
+    if not (np.isfinite(step) and 0 < step <= MAX_TIMESTEP):
+        raise PaaError(f"non-physical parameters in {source}: timestep = {step:g} s must lie in (0, {MAX_TIMESTEP:g}]")
+    gravity = np.asarray(model.opt.gravity, float)
+    if not np.all(np.isfinite(gravity)) or np.max(np.abs(gravity - [0.0, 0.0, -GRAVITY])) > 1e-9:
+        raise _feature_error(source, f"gravity {gravity.tolist()} m/s^2 (the model needs {GRAVITY:g} straight down)")
+    if model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_GRAVITY:
+        raise _feature_error(source, "gravity disabled")
+    if model.opt.density != 0 or model.opt.viscosity != 0:
+        raise _feature_error(source, f"a medium (density {model.opt.density:g}, viscosity {model.opt.viscosity:g})")
+    if np.any(model.body_gravcomp != 0):
+        raise _feature_error(source, "gravity compensation (gravcomp)")
+    for what, count in (("tendons", model.ntendon), ("equality constraints", model.neq),
+                        ("explicit contact pairs", model.npair), ("flexes", model.nflex)):
+        if count:
+            raise _feature_error(source, f"{count} {what}")
+
+
+def _check_joints(model, source):
+    if model.nbody != 4 or list(model.body_parentid[1:]) != [0, 1, 2]:
+        raise _shape_error(source, f"needs a chain of 3 bodies under the world, found {model.nbody - 1} bodies")
+    if model.njnt != 3 or model.nv != 3 or np.any(model.jnt_type != mujoco.mjtJoint.mjJNT_HINGE):
+        raise _shape_error(source, f"needs exactly 3 hinge joints, found {model.njnt} joints with {model.nv} DoF")
+    if list(model.jnt_bodyid) != [1, 2, 3]:
+        raise _shape_error(source, "needs one hinge on each link")
+    if np.any(np.abs(model.jnt_pos) > 1e-12):
+        raise _shape_error(source, "each hinge must sit at its body's origin")
+    for body in (1, 2, 3):
+        if not np.allclose(model.body_quat[body], [1, 0, 0, 0], atol=1e-12):
+            raise _shape_error(source, "link bodies must not be rotated (q = 0 is every link straight up)")
+    axis = model.jnt_axis[0] / np.linalg.norm(model.jnt_axis[0])
+    if not np.allclose(model.jnt_axis, axis, atol=1e-9):
+        raise _shape_error(source, "the three hinge axes must be the same")
+    if abs(axis[2]) > 1e-9:
+        raise _shape_error(source, "hinge axes must be horizontal (perpendicular to gravity)")
+    if np.any(model.jnt_limited):
+        raise _feature_error(source, f"joint ranges (limited joints {[int(j) + 1 for j in np.flatnonzero(model.jnt_limited)]})")
+    for what, values in (("joint damping", model.dof_damping), ("armature", model.dof_armature),
+                         ("friction loss", model.dof_frictionloss), ("joint stiffness", model.jnt_stiffness)):
+        if np.any(values != 0):
+            raise _feature_error(source, f"{what} {np.asarray(values).tolist()}")
+    contacts_on = not (model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_CONTACT)
+    colliding = (model.geom_contype | model.geom_conaffinity) != 0
+    if contacts_on and np.any(colliding[np.isin(model.geom_bodyid, [1, 2, 3])]):
+        raise _feature_error(source, "contacts (link geoms that collide; set contype = conaffinity = 0"
+                                     " or disable contacts)")
+    return axis
+
+
+def _check_actuators(model, source):
+    if model.nu != 2:
+        raise _feature_error(source, f"{model.nu} actuators (the model has 2 motors: shoulder, hip)")
+    driven = []
+    for act in range(model.nu):
+        if model.actuator_trntype[act] != mujoco.mjtTrn.mjTRN_JOINT:
+            raise _shape_error(source, f"actuator {act} must act on a joint")
+        if abs(model.actuator_gear[act, 0] - 1) > 1e-12 or np.any(model.actuator_gear[act, 1:] != 0):
+            raise _feature_error(source, f"actuator {act} gear {model.actuator_gear[act, 0]:g} (the model needs gear 1)")
+        is_motor = (model.actuator_gaintype[act] == mujoco.mjtGain.mjGAIN_FIXED
+                    and model.actuator_biastype[act] == mujoco.mjtBias.mjBIAS_NONE
+                    and model.actuator_dyntype[act] == mujoco.mjtDyn.mjDYN_NONE
+                    and abs(model.actuator_gainprm[act, 0] - 1) < 1e-12)
+        if not is_motor:
+            raise _feature_error(source, f"actuator {act} is not a <motor> (gain 1, no bias, no dynamics)")
+        driven.append(int(model.actuator_trnid[act, 0]))
+    if driven != [1, 2]:
+        raise _shape_error(source, f"motors must drive joints 2 and 3 in that order (joint 1 passive), found joints {[d + 1 for d in driven]}")
+
+
+def _symmetric_limit(low, high, what, source):
+    if not (np.isfinite(low) and np.isfinite(high) and low < 0 < high and abs(low + high) <= 1e-12 * high):
+        raise _feature_error(source, f"{what} [{low:g}, {high:g}] (only symmetric ranges -T..T with T > 0 are modelled)")
+    return float(high)
+
+
+def torque_limits_from_model(model: mujoco.MjModel, source: str = "model") -> np.ndarray:
+    """The torque limit of each motor [N m], shape (2,), +inf where none.
+
+    The smallest of the actuator's ``ctrlrange`` (gear 1, so torque = control),
+    its ``forcerange`` and the driven joint's ``actuatorfrcrange``; each must be
+    symmetric about 0.
+    """
+    limits = np.full(2, np.inf)
+    for act in range(min(model.nu, 2)):
+        joint = int(model.actuator_trnid[act, 0])
+        ranges = []
+        if model.actuator_ctrllimited[act]:
+            ranges.append(("ctrlrange", model.actuator_ctrlrange[act]))
+        if model.actuator_forcelimited[act]:
+            ranges.append(("forcerange", model.actuator_forcerange[act]))
+        if 0 <= joint < model.njnt and model.jnt_actfrclimited[joint]:
+            ranges.append(("actuatorfrcrange", model.jnt_actfrcrange[joint]))
+        for what, (low, high) in ranges:
+            limits[act] = min(limits[act], _symmetric_limit(float(low), float(high), f"actuator {act} {what}", source))
+    return limits
+
+
+def params_from_model(model: mujoco.MjModel, source: str = "model") -> RobotParams:
+    """Read the paper's parameters back from a compiled gymnast model.
+
+    Reads masses (``body_mass``), COM distances (``|body_ipos|``, or 0 where the
+    compiler merged the inertial frame into the body frame), link lengths
+    (child body offsets; link 3 from its ``feet`` site, or the farthest geom
+    or site of link 3 when that site is missing), inertias about the hinge axis
+    through the COM (``body_inertia`` rotated by ``body_iquat``) and gravity.
+
+    Raises
+    ------
+    PaaError
+        If the model is not of the gymnast's shape, has a feature the paper's
+        model lacks (module docstring), or its parameters are not physical.
+    """
+    _check_options(model, source)
+    axis = _check_joints(model, source)
+    _check_actuators(model, source)
+    torque_limits_from_model(model, source)
+    up = np.array([0.0, 0.0, 1.0])
+    m = model.body_mass[1:4].copy()
+    lc = np.linalg.norm(model.body_ipos[1:4], axis=1)
+    # MuJoCo's compiler snaps an inertial frame within ~1e-6 of the body frame onto it
+    # (body_sameframe = 1) and then simulates the COM at the joint: read what it runs.
+    lc[model.body_sameframe[1:4] == mujoco.mjtSameFrame.mjSAMEFRAME_BODY] = 0.0
+    lengths = [float(np.linalg.norm(model.body_pos[2])), float(np.linalg.norm(model.body_pos[3]))]
+    for i, offset in enumerate((model.body_pos[2], model.body_pos[3])):
+        if not (lengths[i] > 0) or np.linalg.norm(offset / lengths[i] - up) > 1e-9:
+            raise _shape_error(source, f"link {i + 1} must point straight up at q = 0 (next joint on the +z axis)")
+    for i in range(3):
+        if lc[i] > 0 and np.linalg.norm(model.body_ipos[i + 1] / lc[i] - up) > 1e-9:
+            raise _shape_error(source, f"link {i + 1}'s centre of mass must lie on the link, between its joints")
+    lengths.append(_link3_length(model, up, source))
+    J = np.array([_axis_inertia(model, b, axis) for b in (1, 2, 3)])
+    name = model.names.split(b"\0", 1)[0].decode() or "model"
+    try:
+        return RobotParams(m=m, l=np.array(lengths), lc=lc, J=J, g=float(np.linalg.norm(model.opt.gravity)), name=name)
+    except PaaError as err:
+        raise PaaError(f"{err} (in {source})") from None
+
+
+def _link3_length(model, up, source):
+    feet = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, "feet")
+    if feet >= 0 and model.site_bodyid[feet] == 3:
+        return float(model.site_pos[feet] @ up)
+    reach = [model.site_pos[s] @ up for s in range(model.nsite) if model.site_bodyid[s] == 3]
+    reach += [model.geom_pos[g] @ up + model.geom_rbound[g] for g in range(model.ngeom) if model.geom_bodyid[g] == 3]
+    if not reach:
+        raise _shape_error(source, "link 3 needs a 'feet' site (or a geom) to give its length")
+    return float(max(reach))
+
+
+def default_gains(model: mujoco.MjModel):
+    """The gains stored in the model's ``paa_gains`` numeric, or None."""
+    idx = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_NUMERIC, "paa_gains")
+    if idx < 0:
+        return None
+    adr, size = model.numeric_adr[idx], model.numeric_size[idx]
+    if size != 3:
+        raise PaaError("the model's paa_gains numeric needs 3 values: kD kP kV")
+    kD, kP, kV = (float(v) for v in model.numeric_data[adr:adr + size])
+    return {"kD": kD, "kP": kP, "kV": kV}

@@ -1,0 +1,119 @@
+"""A loaded robot: the MuJoCo model, its parameters read back, the analytic model and its limits.
+
+:func:`load_robot` takes a named robot of the paper (``gymnast`` is Table 1,
+``example2`` Table 2, both in ``paa_mj/model/*.xml``) or a path to an MJCF
+file of the same shape, and returns a :class:`Robot`: what every controller,
+rollout and study of the package is built from.
+"""
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from ..errors import PaaError
+from .dynamics import AnalyticModel
+from .mjcf import (MODEL_DIR, compile_mjcf, default_gains, flatten_mjcf, mjcf_from_params, params_from_model,
+                   read_text, torque_limits_from_model)
+from .params import RobotParams
+
+NAMED_ROBOTS = ("gymnast", "example2")
+
+
+@dataclass(frozen=True, eq=False)
+class Robot:
+    """A loaded robot.
+
+    Attributes
+    ----------
+    name : str
+    model : mujoco.MjModel
+        What MuJoCo simulates.
+    params : RobotParams
+        Read back from ``model``.
+    analytic : AnalyticModel
+        The paper's model (1)-(7) with ``params``.
+    gains : dict or None
+        Default gains ``{"kD", "kP", "kV"}`` of controller (40) stored in the model file.
+    torque_limits : ndarray (2,)
+        The motors' torque limits [N m] from the model's actuator ranges (+inf: none).
+    xml : str
+        The MJCF text the model was compiled from (what a Dask worker rebuilds it from).
+    """
+
+    name: str
+    model: mujoco.MjModel
+    params: RobotParams
+    analytic: AnalyticModel
+    gains: dict | None
+    torque_limits: np.ndarray
+    xml: str
+
+    def resolve_gains(self, kD=None, kP=None, kV=None) -> dict:
+        """Gains given by the user, falling back on the model's defaults for the rest."""
+        given = {"kD": kD, "kP": kP, "kV": kV}
+        base = self.gains or {}
+        missing = [k for k, v in given.items() if v is None and k not in base]
+        if missing:
+            raise PaaError(f"robot {self.name} stores no default gains: give {', '.join('--' + k for k in missing)}")
+        return {k: float(base[k] if v is None else v) for k, v in given.items()}
+
+    def with_params(self, params: RobotParams, name: str | None = None) -> "Robot":
+        """The same robot with other parameters (same gains and limits), compiled from the template.
+
+        Used for the model a controller believes in (model-error studies) and for
+        families of robots (the atlas).
+        """
+        xml = mjcf_from_params(params, name=name or params.name)
+        return replace(self, name=name or self.name, model=compile_mjcf(xml, f"parameters {params.name}"),
+                       params=params, analytic=AnalyticModel.from_params(params), xml=xml)
+
+
+def robot_path(robot: str | os.PathLike) -> Path:
+    """Resolve a robot name (``gymnast``, ``example2``) or an MJCF path to a file path."""
+    text = str(robot)
+    if text in NAMED_ROBOTS:
+        return MODEL_DIR / f"{text}.xml"
+    path = Path(text)
+    if path.suffix.lower() != ".xml" and not path.exists():
+        raise PaaError(f"unknown robot {text!r}: use one of {', '.join(NAMED_ROBOTS)} or a path to an MJCF .xml file")
+    return path
+
+
+def load_model(robot: str | os.PathLike) -> mujoco.MjModel:
+    """Compile a named robot or an MJCF file, checking that it is the gymnast (see :func:`load_robot`)."""
+    return load_robot(robot).model
+
+
+def load_robot(robot: str | os.PathLike) -> Robot:
+    """Load a named robot or an MJCF file into a :class:`Robot`.
+
+    Includes and asset paths resolve against the file's folder.
+
+    Raises
+    ------
+    PaaError
+        Unknown name, a missing, unreadable or irregular file (a FIFO, a folder),
+        malformed XML, a model that is not the gymnast, a feature the paper's model
+        lacks, or parameters that are not physical; always one line.
+    """
+    path = robot_path(robot)
+    text = read_text(path)
+    xml = flatten_mjcf(text, path.resolve().parent, str(path))
+    return robot_from_xml(xml, name=str(robot) if str(robot) in NAMED_ROBOTS else None, source=str(path))
+
+
+def robot_from_xml(xml: str, name=None, source="<string>") -> Robot:
+    """A :class:`Robot` from (flattened) MJCF text."""
+    model = compile_mjcf(xml, source)
+    params = params_from_model(model, source=source)
+    return Robot(name=name or params.name, model=model, params=params, analytic=AnalyticModel.from_params(params),
+                 gains=default_gains(model), torque_limits=torque_limits_from_model(model, source), xml=xml)
+
+
+def model_from_params(params: RobotParams, name: str = "custom") -> mujoco.MjModel:
+    """Compile the gymnast with the given parameters."""
+    return robot_from_xml(mjcf_from_params(params, name=name), source=f"parameters {name}").model

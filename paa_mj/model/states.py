@@ -1,0 +1,50 @@
+"""The named states of the gymnast and the error from the goal, with angles wrapped.
+
+- (65): hanging straight down at rest, q = (-pi, 0, 0), qd = 0, where every kip starts;
+- (8): the folded up-down-down equilibrium (UDD), q = (0, -pi, 0), the goal;
+- (11): q_ar = [-pi, 0], the goal of the actuated coordinates;
+- the down-up-up point (DUU), q = (-pi, -pi, 0), the other limit of Theorem 1.
+
+:func:`wrap` and the components of :func:`udd_error_components` run on scalars
+or arrays and inside numba kernels (one definition, as in
+:mod:`paa_mj.model.equations`).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba.extending import register_jitable
+
+X0_HANGING = np.array([-np.pi, 0.0, 0.0, 0.0, 0.0, 0.0])
+Q_UDD = np.array([0.0, -np.pi, 0.0])
+Q_DUU = np.array([-np.pi, -np.pi, 0.0])
+Q_AR = np.array([-np.pi, 0.0])
+STATE_NAMES = ("q1", "q2", "q3", "d1", "d2", "d3")
+
+PI = math.pi
+TWO_PI = 2.0 * math.pi
+
+
+@register_jitable
+def wrap(a):
+    """Angles wrapped to (-pi, pi] [rad]."""
+    return PI - (PI - a) % TWO_PI
+
+
+@register_jitable
+def udd_error_components(q1, q2, q3):
+    """The angle part of x = [q1, q2 + pi, q3, d1, d2, d3] of (67), each wrapped to (-pi, pi]."""
+    return wrap(q1), wrap(q2 + PI), wrap(q3)
+
+
+def wrap_angle(a):
+    """Wrap angles to (-pi, pi] (NumPy)."""
+    return wrap(np.asarray(a, dtype=float))
+
+
+def udd_error(q, qd):
+    """State error from UDD, x = [q1, q2 + pi, q3, d1, d2, d3], angles wrapped to (-pi, pi]; shape (..., 6)."""
+    q, qd = np.asarray(q, float), np.asarray(qd, float)
+    x1, x2, x3 = udd_error_components(q[..., 0], q[..., 1], q[..., 2])
+    return np.concatenate([np.stack(np.broadcast_arrays(x1, x2, x3), -1), qd], axis=-1)

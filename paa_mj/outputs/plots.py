@@ -1,0 +1,217 @@
+"""Figures: the paper's redrawn, and those of the studies, in one shared style.
+
+Every figure is written as PNG (200 dpi) and SVG beside it, byte-identical
+from run to run (no dates, fixed SVG ids). Lines that may overlap get distinct
+line styles and markers, so that none hides another.
+"""
+from __future__ import annotations
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from ..io import write_set  # noqa: E402
+
+DPI = 200
+STYLE = {
+    "figure.dpi": 100, "savefig.dpi": DPI, "font.size": 9, "axes.titlesize": 10, "axes.labelsize": 9,
+    "legend.fontsize": 8, "axes.grid": True, "grid.alpha": 0.3, "axes.spines.top": False,
+    "axes.spines.right": False, "lines.linewidth": 1.4, "svg.hashsalt": "paa_mj", "svg.fonttype": "none",
+    "axes.prop_cycle": matplotlib.cycler(color=["#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9",
+                                               "#000000"]),
+}
+#: Line styles and markers in turn, for curves that may lie on top of each other.
+LINESTYLES = ["-", "--", ":", "-."]
+MARKERS = ["o", "s", "^", "D", "v", "P", "X"]
+#: Outcome colours of the basin (balanced, switched not balanced, stuck at DUU, never switched, diverged).
+OUTCOME_COLOURS = ["#009E73", "#E69F00", "#CC79A7", "#999999", "#D55E00"]
+
+
+def new_figure(*args, **kwargs):
+    """``plt.subplots`` in the package's style."""
+    with plt.rc_context(STYLE):
+        return plt.subplots(*args, **kwargs)
+
+
+def _save(fig, path, fmt):
+    with plt.rc_context(STYLE):
+        fig.savefig(path, format=fmt, dpi=DPI, bbox_inches="tight",
+                    metadata={"Date": None} if fmt == "svg" else {"Software": None})
+
+
+def figure_writers(fig, stem) -> dict:
+    """Writers (for :func:`paa_mj.io.write_set`) of ``stem.png`` and ``stem.svg``; the figure is closed after."""
+    def png(path):
+        _save(fig, path, "png")
+
+    def svg(path):
+        _save(fig, path, "svg")
+        plt.close(fig)
+
+    return {f"{stem}.png": png, f"{stem}.svg": svg}
+
+
+def save_figure(fig, folder, stem):
+    """Write ``stem.png`` and ``stem.svg`` into ``folder`` (both or neither)."""
+    write_set(folder, figure_writers(fig, stem))
+    return folder
+
+
+def _mark_switch(ax, traj):
+    if traj.switch_time is not None:
+        ax.axvline(traj.switch_time, color="0.4", ls="--", lw=1)
+        ax.text(traj.switch_time, 1.0, f" switch {traj.switch_time:.2f} s", transform=ax.get_xaxis_transform(),
+                va="top", fontsize=8, color="0.3")
+
+
+def f54_figure(am, title):
+    """Figs. 5 and 11: f(z) of (54) on [0, 2 pi].
+
+    The y axis is fitted to f itself (so that its variation shows); the forbidden
+    level f = 1 is drawn when it lies in view, otherwise its side is named.
+    """
+    from ..theory.conditions import f54
+
+    z = np.linspace(0, 2 * np.pi, 2001)
+    f = f54(am, z)
+    fig, ax = new_figure(figsize=(6, 3.5))
+    ax.plot(z, f, label="f(z)")
+    low, high = float(np.min(f)), float(np.max(f))
+    pad = 0.08 * (high - low) if high > low else 0.05 * max(abs(high), 1e-3)
+    ax.set_ylim(low - pad, high + pad)
+    if low - pad <= 1.0 <= high + pad:
+        ax.axhline(1.0, color="C1", ls="--", lw=1, label="f = 1 (forbidden)")
+    else:
+        ax.text(0.99, 0.95 if high < 1 else 0.05, f"f = 1 (forbidden) lies {'above' if high < 1 else 'below'}",
+                transform=ax.transAxes, ha="right", va="top" if high < 1 else "bottom", fontsize=8, color="C1")
+    ax.set_xlabel("z [rad]")
+    ax.set_ylabel("f(z) [-]")
+    ax.set_xlim(0, 2 * np.pi)
+    ax.set_title(title)
+    ax.legend(loc="center right")
+    return fig
+
+
+def energy_figure(traj, title):
+    """Figs. 6 and 12: V and E - E_r against t."""
+    fig, axes = new_figure(2, 1, figsize=(7, 5), sharex=True)
+    axes[0].plot(traj.t, traj.V)
+    axes[0].set_ylabel("V [J$^2$]")
+    axes[0].set_yscale("symlog", linthresh=1.0)
+    axes[1].plot(traj.t, traj.E_minus_Er, color="C1")
+    axes[1].set_ylabel("E - E$_r$ [J]")
+    axes[1].set_xlabel("t [s]")
+    for ax in axes:
+        _mark_switch(ax, traj)
+    axes[0].set_title(title)
+    return fig
+
+
+def series_figure(traj, series, ylabel, title):
+    """Several curves against t on one axis, with the switch marked."""
+    fig, ax = new_figure(figsize=(7, 3.8))
+    for i, (values, label) in enumerate(series):
+        ax.plot(traj.t, values, ls=LINESTYLES[i % len(LINESTYLES)], label=label)
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
+    ax.legend(loc="best")
+    _mark_switch(ax, traj)
+    return fig
+
+
+def angles_figure(traj, title):
+    """Figs. 7, 9 and 13: q1, q2 + pi, q3 against t."""
+    series = [(traj.q[:, 0], "q$_1$"), (traj.q[:, 1] + np.pi, "q$_2$ + $\\pi$"), (traj.q[:, 2], "q$_3$")]
+    return series_figure(traj, series, "angle [rad]", title)
+
+
+def torques_figure(traj, title):
+    """Figs. 8, 10 and 14: tau2, tau3 against t."""
+    series = [(traj.tau[:, 0], "$\\tau_2$ (shoulder)"), (traj.tau[:, 1], "$\\tau_3$ (hip)")]
+    return series_figure(traj, series, "torque [N m]", title)
+
+
+def discretisation_figure(rows):
+    """First switch time for each integrator and time step, with the analytic reference."""
+    fig, ax = new_figure(figsize=(7, 3.8))
+    names = sorted({r["integrator"] for r in rows if r["engine"] == "mujoco"})
+    for i, name in enumerate(names):
+        sub = [r for r in rows if r["engine"] == "mujoco" and r["integrator"] == name]
+        dts = [r["dt"] * 1e3 for r in sub]
+        times = [r["switch_time"] if r["switch_time"] is not None else np.nan for r in sub]
+        ax.plot(dts, times, ls=LINESTYLES[i % len(LINESTYLES)], marker=MARKERS[i % len(MARKERS)],
+                ms=7 - 1.5 * i, mfc="none" if i % 2 else None, color=f"C{i}", label=f"MuJoCo {name}")
+        for r, dt in zip(sub, dts):
+            if r["switch_time"] is None:
+                ax.plot(dt, 0, "x", color=f"C{i}", ms=9)
+    for r in rows:
+        if r["engine"] == "analytic" and r["switch_time"] is not None:
+            ax.axhline(r["switch_time"], color="k", ls=":", label="analytic, continuous control")
+    ax.set_xscale("log")
+    ax.set_xlabel("time step [ms]")
+    ax.set_ylabel("first switch time [s]")
+    ax.set_title("Switch time (68) against discretisation (x: never switched)")
+    ax.legend(loc="best")
+    ax.grid(True, which="both", alpha=0.3)
+    return fig
+
+
+def basin_figure(summary, arrays):
+    """The basin: how each start ended (left) beside the first switch time (right)."""
+    from matplotlib.colors import BoundaryNorm, ListedColormap
+
+    from ..studies.basin import OUTCOME_NAMES
+
+    grid = summary["grid"]
+    xs, ys = arrays["x_values"], arrays["y_values"]
+    outcome = np.where(arrays["completed"], arrays["outcome"], -1).reshape(grid, grid).astype(float)
+    switch = arrays["switch_time"].reshape(grid, grid)
+    fig, (left, right) = new_figure(1, 2, figsize=(11, 4.6), constrained_layout=True)
+    cmap = ListedColormap(OUTCOME_COLOURS).with_extremes(bad="white")
+    norm = BoundaryNorm(np.arange(-0.5, len(OUTCOME_NAMES) + 0.5), cmap.N)
+    left.pcolormesh(xs, ys, np.ma.masked_less(outcome, 0).T, cmap=cmap, norm=norm, shading="nearest")
+    counts = summary.get("outcomes", {})
+    handles = [plt.Rectangle((0, 0), 1, 1, color=c) for c in OUTCOME_COLOURS]
+    left.legend(handles, [f"{n} ({counts.get(n, 0)})" for n in OUTCOME_NAMES], loc="upper center",
+                bbox_to_anchor=(0.5, -0.14), ncol=2, fontsize=7, frameon=False)
+    cmap2 = matplotlib.colormaps["viridis"].with_extremes(bad="0.85")
+    mesh = right.pcolormesh(xs, ys, np.ma.masked_invalid(switch).T, cmap=cmap2, shading="nearest")
+    fig.colorbar(mesh, ax=right, label="first switch to the balance controller [s] (grey: never)")
+    a, b = summary["axes"]
+    unit = lambda name: "[rad]" if name.startswith("q") else "[rad/s]"  # noqa: E731
+    for ax in (left, right):
+        ax.set_xlabel(f"{a} {unit(a)}")
+        ax.set_ylabel(f"{b} {unit(b)}")
+        ax.grid(False)
+    left.set_title(f"{summary['robot']}, {summary.get('controller', 'vcl')}: outcome, "
+                   f"{100 * summary['success_fraction']:.0f} % balanced")
+    right.set_title(f"first switch time, {summary['cells']} starts, {summary['t_final']:g} s")
+    return fig
+
+
+def robustness_figure(factor, data, summary):
+    """Success rate against the levels of one factor, with 95 % Wilson intervals."""
+    levels = data["levels"]
+    labels = ["none" if lv["level"] is None else f"{lv['level']:g}" for lv in levels]
+    rates = np.array([np.nan if lv["success_rate"] is None else 100 * lv["success_rate"] for lv in levels])
+    low = np.array([100 * lv.get("low", lv["success_rate"] or 0) for lv in levels])
+    high = np.array([100 * lv.get("high", lv["success_rate"] or 0) for lv in levels])
+    fig, ax = new_figure(figsize=(5.5, 3.6))
+    x = np.arange(len(labels))
+    ax.bar(x, rates, color="C0", yerr=[np.nan_to_num(rates - low), np.nan_to_num(high - rates)], capsize=4,
+           error_kw={"elinewidth": 1, "ecolor": "0.25"})
+    for i, r in enumerate(rates):
+        if np.isfinite(r):
+            ax.text(i, min(high[i], 100) + 2, f"{r:.0f} %", ha="center", fontsize=8)
+    ax.set_xticks(x, labels)
+    ax.set_ylim(0, 112)
+    ax.set_xlabel(data["label"])
+    ax.set_ylabel("success [%] (95 % interval)")
+    ax.set_title(f"{summary['robot']}, {summary.get('controller', 'vcl')}: {factor},"
+                 f" {summary['trials']} starts per level")
+    ax.grid(True, axis="y", alpha=0.3)
+    ax.grid(False, axis="x")
+    return fig

@@ -1,0 +1,110 @@
+"""The theory of one robot and one set of gains, as one report: data (JSON) and a text table.
+
+Gathers :mod:`paa_mj.theory` (Theorem 1's conditions, linear analysis at UDD)
+and :mod:`paa_mj.control.closed_loop` (the closed loop at DUU).
+"""
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from ..control.closed_loop import duu_eigenvalues
+from ..model.dynamics import AnalyticModel
+from ..theory.conditions import constraint_54, frozen_acrobot_controllable, thresholds
+from ..theory.linear import lqr_gain, udd_controllability
+
+
+@dataclass
+class TheoryReport:
+    """Every condition of the paper for one robot and one set of gains."""
+
+    beta: list
+    E_r: float
+    kD_min: float
+    kD_min_at: list
+    eta1: float
+    eta1_at: list
+    eta2: float
+    eta2_at: float
+    constraint_54: dict
+    deltabar_min: float
+    deltabar_max: float
+    frozen_acrobot_ud_controllable: bool
+    udd_controllable: bool
+    udd_controllability: dict
+    lqr_K: list
+    gains: dict
+    duu_eigenvalues: list
+    duu_charpoly: list
+    duu_unstable: bool
+    theorem1: dict = field(default_factory=dict)
+
+    def to_json_dict(self):
+        return asdict(self)
+
+
+def theory_report(am: AnalyticModel, kD, kP, kV) -> TheoryReport:
+    """Compute every condition of Theorem 1, the linear analysis at UDD and the closed loop at DUU."""
+    kd, e1, e2 = thresholds(am)
+    c54 = constraint_54(am)
+    frozen_ok, db_min, db_max = frozen_acrobot_controllable(am)
+    ctrb = udd_controllability(am)
+    eig, poly = duu_eigenvalues(am, kD, kP, kV)
+    conditions = {
+        "E_r > 0": bool(am.E_r > 0),
+        "(54) holds": c54.holds,
+        "kD > kD_min (41)": bool(kD > kd.value),
+        "kP > eta1 (59)": bool(kP > e1.value),
+        "kP > eta2 (60)": bool(kP > e2.value),
+        "kV > 0": bool(kV > 0),
+    }
+    conditions["all hold"] = all(conditions.values())
+    return TheoryReport(
+        beta=am.beta.tolist(), E_r=float(am.E_r),
+        kD_min=kd.value, kD_min_at=list(kd.argmax),
+        eta1=e1.value, eta1_at=list(e1.argmax), eta2=e2.value, eta2_at=float(e2.argmax[0]),
+        constraint_54=asdict(c54), deltabar_min=db_min, deltabar_max=db_max,
+        frozen_acrobot_ud_controllable=frozen_ok,
+        udd_controllable=ctrb.controllable, udd_controllability=asdict(ctrb),
+        lqr_K=lqr_gain(am).tolist(), gains={"kD": kD, "kP": kP, "kV": kV},
+        duu_eigenvalues=[[float(e.real), float(e.imag)] for e in eig],
+        duu_charpoly=[float(c) for c in poly],
+        duu_unstable=bool(np.max(eig.real) > 0),
+        theorem1=conditions,
+    )
+
+
+def _yes(flag):
+    return "yes" if flag else "NO"
+
+
+def theory_table(name, r) -> str:
+    """A plain-text table of :class:`~paa_mj.theory.TheoryReport` (as a dict)."""
+    c54 = r["constraint_54"]
+    g = r["gains"]
+    lines = [
+        f"Theory of Liu & Xin (2015) for robot {name}",
+        f"  b1, b2, b3 (4)             {r['beta'][0]:.4f}  {r['beta'][1]:.4f}  {r['beta'][2]:.4f}  J",
+        f"  E_r = b1 - b2 - b3 (9)     {r['E_r']:.4f} J   {'> 0' if r['E_r'] > 0 else '<= 0: the method does not apply'}",
+        f"  kD_min (41)                {r['kD_min']:.6g}   at (q2, q3) = ({r['kD_min_at'][0]:.4f}, {r['kD_min_at'][1]:.4f})",
+        f"  eta1 (59)                  {r['eta1']:.6g}   at (y, z) = ({r['eta1_at'][0]:.4f}, {r['eta1_at'][1]:.4f})",
+        f"  eta2 (60)                  {r['eta2']:.6g}   at z = {r['eta2_at']:.4f}",
+        f"  constraint (54)            {'holds' if c54['holds'] else 'FAILS'}: f in [{c54['f_min']:.6g}, {c54['f_max']:.6g}],"
+        f" closest to 1 at z = {c54['z_closest']:.4f} (|f - 1| = {c54['closest_to_one']:.3g})",
+        f"  frozen Acrobot (30)        deltabar in [{r['deltabar_min']:.6g}, {r['deltabar_max']:.6g}]:"
+        f" up-down controllable for every z: {_yes(r['frozen_acrobot_ud_controllable'])}",
+        f"  UDD linearly controllable  {_yes(r['udd_controllable'])} (rank {r['udd_controllability']['rank']},"
+        f" PBH margin {r['udd_controllability']['pbh_min']:.3g})",
+        f"  LQR gain K (67)            Q = 1e4 I6, R = I2",
+    ]
+    for row in r["lqr_K"]:
+        lines.append("      [" + "  ".join(f"{v:10.3f}" for v in row) + " ]")
+    lines.append(f"  gains                      kD = {g['kD']:g}, kP = {g['kP']:g}, kV = {g['kV']:g}")
+    lines.append(f"  DUU closed-loop eigenvalues ({'unstable' if r['duu_unstable'] else 'NOT unstable'}):")
+    for re, im in r["duu_eigenvalues"]:
+        lines.append(f"      {re:+.6f} {im:+.6f}j")
+    lines.append("  Theorem 1 conditions:")
+    for cond, ok in r["theorem1"].items():
+        lines.append(f"      {cond:<22} {_yes(ok)}")
+    return "\n".join(lines)

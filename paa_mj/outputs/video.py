@@ -1,0 +1,210 @@
+"""Offscreen video of a rollout (MuJoCo ``Renderer`` + mediapy), and a filmstrip of key poses.
+
+Frames are rendered at the video's frame rate only: the trajectory is
+interpolated at t = k / fps, whatever the physics time step, so the video plays
+in real time. The links are coloured by controller mode (warm colours during
+swing-up (40), gold once the LQR (67) balances) and the feet leave a fading
+trace. Select the GL backend with :func:`paa_mj.gl.select_backend` first.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from ..errors import PaaError
+from ..io import atomic_path
+from ..model.robot import Robot
+from ..sim.trajectory import Trajectory
+
+LINK_MATERIALS = ("arms", "trunk", "legs")
+BALANCE_RGBA = np.array([[0.95, 0.75, 0.15, 1.0], [0.85, 0.6, 0.1, 1.0], [0.75, 0.5, 0.05, 1.0]])
+TRACE_SECONDS = 1.5
+VIDEO_SUFFIXES = (".mp4", ".gif")
+
+
+def _ffmpeg():
+    import imageio_ffmpeg
+    import mediapy
+
+    mediapy.set_ffmpeg(imageio_ffmpeg.get_ffmpeg_exe())
+    return mediapy
+
+
+def states_at(traj: Trajectory, times):
+    """Joint angles (interpolated) and controller modes (of the last sample) at ``times``."""
+    q = np.column_stack([np.interp(times, traj.t, traj.q[:, i]) for i in range(3)])
+    idx = np.clip(np.searchsorted(traj.t, times, side="right") - 1, 0, len(traj.t) - 1)
+    return q, traj.mode[idx]
+
+
+def frame_states(traj: Trajectory, fps: float):
+    """Times t = k / fps, with the joint angles and modes there."""
+    if not fps > 0:
+        raise PaaError(f"--fps must be > 0, got {fps}")
+    times = np.arange(0.0, traj.t[-1] + 1e-9, 1.0 / fps)
+    return (times, *states_at(traj, times))
+
+
+class GymnastRenderer:
+    """Renders the gymnast at given joint angles, coloured by mode, with a fading feet trace.
+
+    Use as a context manager so the GL context is released explicitly.
+    """
+
+    def __init__(self, robot: Robot, width=640, height=480, camera="side"):
+        for name, value in (("width", width), ("height", height)):
+            if not (isinstance(value, (int, np.integer)) and 16 <= value <= 4096):
+                raise PaaError(f"--{name} must be an integer in [16, 4096], got {value}")
+        self.model = robot.model.__copy__()
+        self.model.vis.global_.offwidth = max(self.model.vis.global_.offwidth, width)
+        self.model.vis.global_.offheight = max(self.model.vis.global_.offheight, height)
+        if mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_CAMERA, camera) < 0:
+            cams = [self.model.camera(i).name for i in range(self.model.ncam)]
+            raise PaaError(f"no camera named {camera!r} in the model (cameras: {', '.join(cams) or 'none'})")
+        self.camera = camera
+        self.data = mujoco.MjData(self.model)
+        self.feet = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_SITE, "feet")
+        self.materials = [mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_MATERIAL, n) for n in LINK_MATERIALS]
+        self.swing_rgba = np.array([self.model.mat_rgba[m] for m in self.materials if m >= 0])
+        self.trace_size = 0.012 * float(np.sum(robot.params.l))
+        try:
+            self.renderer = mujoco.Renderer(self.model, height, width)
+        except Exception as err:  # GL failures come as several exception types
+            raise PaaError(f"cannot start the offscreen renderer: {' '.join(str(err).split())}") from None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def close(self):
+        if getattr(self, "renderer", None) is not None:
+            self.renderer.close()
+            self.renderer = None
+
+    def feet_positions(self, q):
+        out = np.empty((len(q), 3))
+        for i, qi in enumerate(q):
+            self.data.qpos[:] = qi
+            mujoco.mj_kinematics(self.model, self.data)
+            out[i] = self.data.site_xpos[self.feet] if self.feet >= 0 else self.data.xpos[3]
+        return out
+
+    def render(self, q, mode=0, trace=()):
+        """One RGB frame (height, width, 3) uint8."""
+        for k, mat in enumerate(m for m in self.materials if m >= 0):
+            self.model.mat_rgba[mat] = BALANCE_RGBA[k] if mode == 1 else self.swing_rgba[k]
+        self.data.qpos[:] = q
+        mujoco.mj_forward(self.model, self.data)
+        self.renderer.update_scene(self.data, self.camera)
+        scene = self.renderer.scene
+        scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = False
+        scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = False
+        n = len(trace)
+        for i, pos in enumerate(trace):
+            if scene.ngeom >= scene.maxgeom:
+                break
+            alpha = 0.9 * (i + 1) / n
+            mujoco.mjv_initGeom(scene.geoms[scene.ngeom], mujoco.mjtGeom.mjGEOM_SPHERE,
+                                np.full(3, self.trace_size * (0.4 + 0.6 * (i + 1) / n)), pos, np.eye(3).ravel(),
+                                np.array([1.0, 0.85, 0.1, alpha], dtype=np.float32))
+            scene.ngeom += 1
+        return self.renderer.render()
+
+
+#: The most frames one video may have (about 1.9 h at 30 fps); beyond, rendering would take hours.
+MAX_FRAMES = 200_000
+#: Rendering cost per frame assumed when a request is refused [s].
+FRAME_SECONDS = 0.01
+
+
+def check_video_request(traj: Trajectory, fps, width, height):
+    """Refuse a video that would take too long, before anything is rendered (frames are streamed to disk)."""
+    if not (np.isfinite(fps) and fps > 0):
+        raise PaaError(f"--fps must be a positive finite number, got {fps}")
+    frames = int(np.floor(float(traj.t[-1]) * fps)) + 1
+    if frames > MAX_FRAMES:
+        hours = frames * FRAME_SECONDS / 3600
+        raise PaaError(f"would need {frames} frames (about {hours:.3g} h to render, the limit is {MAX_FRAMES});"
+                       " lower --fps or --t-final")
+    return frames
+
+
+def frames(robot: Robot, traj: Trajectory, fps=30, width=640, height=480, camera="side", progress=False):
+    """The labelled frames of the video of ``traj``, one at a time (uint8, (height, width, 3))."""
+    from tqdm.auto import tqdm
+
+    times, q, modes = frame_states(traj, fps)
+    trace_len = max(1, int(round(TRACE_SECONDS * fps)))
+    with GymnastRenderer(robot, width, height, camera) as gr:
+        feet = gr.feet_positions(q)
+        for k in tqdm(range(len(times)), desc="render", unit="frame", disable=None if progress else True, leave=False):
+            yield _label(gr.render(q[k], modes[k], feet[max(0, k - trace_len):k + 1]), times[k], modes[k])
+
+
+def render_frames(robot: Robot, traj: Trajectory, fps=30, width=640, height=480, camera="side", progress=False):
+    """All frames of the video of ``traj`` as an array (n, height, width, 3) (short videos; see :func:`frames`)."""
+    return np.stack(list(frames(robot, traj, fps, width, height, camera, progress)))
+
+
+def _label(frame, t, mode):
+    """Write the time and the controller mode in the corner of a frame."""
+    from PIL import Image, ImageDraw
+
+    img = Image.fromarray(frame)
+    draw = ImageDraw.Draw(img)
+    label = f"t = {t:5.2f} s   " + ("balance: LQR (67)" if mode == 1 else "swing-up")
+    draw.rectangle([6, 6, 12 + 7 * len(label), 24], fill=(0, 0, 0))
+    draw.text((10, 9), label, fill=(255, 215, 60) if mode == 1 else (255, 255, 255))
+    return np.asarray(img)
+
+
+def write_video(path, frame_source, fps, width, height):
+    """Encode frames to ``path`` (.mp4 or .gif) as they come, with ffmpeg from imageio-ffmpeg.
+
+    The video is written to a temporary file renamed on success: an error or an
+    interruption leaves no file behind, and memory holds one frame at a time.
+    """
+    path = Path(path)
+    if path.suffix.lower() not in VIDEO_SUFFIXES:
+        raise PaaError(f"video file must end in .mp4 or .gif, got {path.name}")
+    mediapy = _ffmpeg()
+    codec = "gif" if path.suffix.lower() == ".gif" else "h264"
+    try:
+        with atomic_path(path) as tmp:
+            with mediapy.VideoWriter(tmp, shape=(height, width), fps=fps, codec=codec) as writer:
+                for frame in frame_source:
+                    writer.add_image(frame)
+    except (OSError, RuntimeError, BrokenPipeError) as err:
+        raise PaaError(f"cannot write video {path}: {' '.join(str(err).split())}") from None
+    return path
+
+
+def render_trajectory(robot: Robot, traj: Trajectory, path, fps=30, width=640, height=480, camera="side",
+                      progress=False):
+    """Render ``traj`` and stream it to ``path``; returns the path."""
+    check_video_request(traj, fps, width, height)
+    renderer = GymnastRenderer(robot, width, height, camera)  # fails early (size, camera, GL) before ffmpeg starts
+    renderer.close()
+    return write_video(path, frames(robot, traj, fps, width, height, camera, progress), fps, width, height)
+
+
+def filmstrip(robot: Robot, traj: Trajectory, path, n_poses=8, width=320, height=400, camera="side"):
+    """A PNG of key poses side by side (like the paper's Fig. 1): evenly spaced up to the balance."""
+    from PIL import Image, ImageDraw
+
+    end = traj.switch_time + 2.0 if traj.switch_time is not None else traj.t[-1]
+    times = np.linspace(0.0, min(end, traj.t[-1]), n_poses)
+    q, modes = states_at(traj, times)
+    with GymnastRenderer(robot, width, height, camera) as gr:
+        tiles = [gr.render(q[k], modes[k]) for k in range(n_poses)]
+    strip = Image.fromarray(np.concatenate(tiles, axis=1))
+    draw = ImageDraw.Draw(strip)
+    for k, t in enumerate(times):
+        draw.text((k * width + 8, 8), f"t = {t:.1f} s", fill=(255, 255, 255))
+    with atomic_path(path, suffix=".png") as tmp:
+        strip.save(tmp, format="PNG")
+    return path

@@ -1,0 +1,15 @@
+"""Rollouts: MuJoCo single and batch through one compiled engine, and the exact analytic closed loop.
+
+- :mod:`~paa_mj.sim.engine`: the rollout engine (controller + ``mj_step`` in compiled code);
+- :mod:`~paa_mj.sim.batch`: :func:`simulate_batch`, many rollouts with per-rollout plants and disturbances;
+- :mod:`~paa_mj.sim.rollout`: :func:`simulate_mujoco`, one rollout recorded as a :class:`Trajectory`;
+- :mod:`~paa_mj.sim.analytic`: :func:`simulate_analytic`, (1) integrated by ``solve_ivp``;
+- :mod:`~paa_mj.sim.trajectory`: the record and its files.
+"""
+from ..model.states import X0_HANGING
+from .analytic import simulate_analytic
+from .batch import BatchResult, simulate_batch
+from .rollout import simulate_mujoco
+from .trajectory import Trajectory
+
+__all__ = ["BatchResult", "Trajectory", "X0_HANGING", "simulate_analytic", "simulate_batch", "simulate_mujoco"]

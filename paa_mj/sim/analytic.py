@@ -1,0 +1,124 @@
+"""The exact closed loop: (1) integrated by ``solve_ivp`` with the torque evaluated continuously.
+
+No zero-order hold and no time step: the reference against which MuJoCo's
+discretisation is judged. A switching controller switches exactly where its
+condition's margin crosses zero (an event of the integrator, located to solver
+accuracy); integration then restarts under the second controller. Stateless
+controllers run as they are; a controller with internal state that is not a
+:class:`~paa_mj.control.combined.CombinedController` cannot be integrated this way.
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy.integrate import solve_ivp
+from tqdm.auto import tqdm
+
+from ..control.base import reset_controller, torque_of
+from ..control.combined import CombinedController
+from ..errors import PaaError, SimulationDiverged
+from ..model.robot import Robot
+from ..model.states import X0_HANGING
+from .batch import check_initial_state, controllers_for, sample_interval, steps_for
+from .rollout import describe_controller, trajectory_quantities
+from .trajectory import Trajectory
+
+
+def _phases(controller):
+    """The laws of the run, in order, and the condition that ends the first (None: one law)."""
+    if isinstance(controller, CombinedController):
+        if not callable(getattr(controller.condition, "margin", None)):
+            raise PaaError("the analytic engine needs a switching condition with a margin (an ODE event)")
+        return [controller.first, controller.second], controller.condition
+    if hasattr(controller, "mode") and not isinstance(getattr(controller, "mode"), (int, np.integer)):
+        raise PaaError(f"the analytic engine cannot integrate {type(controller).__name__}: it keeps a state that"
+                       " is not a switching condition; use --engine mujoco")
+    return [controller], None
+
+
+def simulate_analytic(robot: Robot, controller="vcl", x0=X0_HANGING, t_final=30.0, sample_dt=0.01, rtol=1e-10,
+                      atol=1e-10, method="DOP853", torque_limit=None, progress=False) -> Trajectory:
+    """Integrate (1) closed by ``controller`` with continuous-time control.
+
+    Parameters
+    ----------
+    controller : controller, name or ControllerSpec
+    torque_limit : float or (2,), optional
+        Saturation [N m], capped by the model's actuator ranges as in MuJoCo.
+    rtol, atol, method
+        Passed to :func:`scipy.integrate.solve_ivp`.
+    """
+    x0 = check_initial_state(x0)[0]
+    steps_for(t_final, 1e-3)
+    sample_interval(sample_dt, sample_dt, t_final)
+    controller = controllers_for(robot, controller, 1)[0]
+    limits = np.minimum(np.broadcast_to(np.inf if torque_limit is None else np.asarray(torque_limit, float), (2,)),
+                        robot.torque_limits)
+    if np.any(~(limits > 0)):
+        raise PaaError("torque limits must be > 0")
+    am = robot.analytic
+    reset_controller(controller)
+    laws, condition = _phases(controller)
+
+    def law_torque(law, q, qd, t):
+        return np.clip(torque_of(law, q[None], qd[None], t)[0], -limits, limits)
+
+    def field(law):
+        def f(t, x):
+            q, qd = x[:3], x[3:]
+            return np.concatenate([qd, am.acceleration(q, qd, law_torque(law, q, qd, t))])
+        return f
+
+    def entered(t, x):
+        return float(condition.margin(x[:3], x[3:], t))
+
+    entered.terminal, entered.direction = True, -1
+    t_eval = np.arange(0.0, t_final + 0.5 * sample_dt, sample_dt)
+    t_eval = t_eval[t_eval <= t_final]
+    ts, xs, modes = [], [], []
+    t0, x, switch_time, phase = 0.0, x0, None, 0
+    if condition is not None and entered(0.0, x0) < 0:
+        switch_time, phase = 0.0, 1
+    bar = tqdm(total=t_final, unit="s", disable=None if progress else True, leave=False, desc=f"{robot.name} solve_ivp",
+               bar_format="{l_bar}{bar}| {n:.1f}/{total:.1f} s")
+    failure, interrupted = None, False
+    try:
+        while True:
+            grid = t_eval[(t_eval >= t0) & (t_eval <= t_final)]
+            events = entered if (phase == 0 and condition is not None) else None
+            sol = solve_ivp(field(laws[phase]), (t0, t_final), x, method=method, rtol=rtol, atol=atol,
+                            t_eval=grid, events=events)
+            ts.append(sol.t)
+            xs.append(sol.y.T)
+            modes.append(np.full(len(sol.t), phase, np.int8))
+            bar.update((sol.t[-1] if len(sol.t) else t0) - bar.n)
+            if sol.status == -1:
+                failure = sol.message
+                break
+            if sol.status == 1 and phase == 0:
+                t0, x = float(sol.t_events[0][0]), sol.y_events[0][0]
+                switch_time, phase = t0, 1
+                continue
+            break
+    except KeyboardInterrupt:
+        interrupted = True
+    bar.close()
+    t = np.concatenate(ts) if ts else np.zeros(0)
+    X = np.concatenate(xs) if xs else np.zeros((0, 6))
+    mode = np.concatenate(modes) if modes else np.zeros(0, np.int8)
+    q, qd = X[:, :3], X[:, 3:]
+    tau = np.array([law_torque(laws[m], q[i], qd[i], t[i]) for i, m in enumerate(mode)]).reshape(-1, 2)
+    e_err, V = trajectory_quantities(controller, robot, q, qd)
+    traj = Trajectory(t, q, qd, tau, e_err, V, mode, switch_time,
+                      meta={"robot": robot.name, "engine": "analytic", "integrator": f"solve_ivp {method}",
+                            "dt": None, "rtol": rtol, "x0": x0.tolist(), "t_final": float(t_final),
+                            **describe_controller(controller),
+                            "torque_limit": None if np.all(np.isinf(limits)) else limits.tolist()})
+    if failure or not np.all(np.isfinite(X)):
+        when = float(t[-1]) if len(t) else 0.0
+        traj.meta["status"] = f"diverged at t = {when:.4f} s: {failure or 'non-finite state'}"
+        raise SimulationDiverged(f"analytic integration failed at t = {when:.4f} s: {failure or 'non-finite state'}",
+                                 traj)
+    traj.meta["status"] = f"interrupted at t = {float(t[-1]) if len(t) else 0.0:.4f} s" if interrupted else "ok"
+    if interrupted:
+        traj.meta["interrupted"] = True
+    return traj

@@ -1,0 +1,331 @@
+"""Many closed-loop MuJoCo rollouts at once, any controller, with per-rollout plants and disturbances.
+
+:func:`simulate_batch` turns its arguments into a :class:`~paa_mj.sim.engine.Plan`
+and runs it with :func:`~paa_mj.sim.engine.run`: compiled controllers at
+compiled speed on all cores, others through ``torque`` on the whole batch.
+Each rollout may have its own initial state, controller (gains, or the model the
+controller believes in), plant (the model MuJoCo simulates), torque limit,
+measurement and torque noise, control delay and pushes. Memory stays bounded:
+per-rollout outcomes, and full trajectories only when ``record=True``. Results
+equal :func:`paa_mj.sim.rollout.simulate_mujoco` for the same inputs, bit for
+bit (the tests check it).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..control.region import BALANCE_TOL, in_switch_region
+from ..control.registry import ControllerSpec
+from ..errors import PaaError
+from ..limits import check_memory, check_steps, positive_finite
+from ..model.robot import Robot
+from ..model.states import udd_error
+from . import engine
+from .engine import (DIVERGED, F_D1, F_INT_TAU2, F_Q1, F_SMOOTH, F_SPEED, F_TAU2, F_TAU3, F_WORK, I_MODE,
+                     I_OUTSIDE, I_REGION, I_STATUS, I_STEP, I_SWITCH, N_PUSH, N_SETUP, RETIRED, FINISHED,
+                     S_DELAY, S_LEVEL, S_LIMIT2, S_NOISE_Q, S_PUSH_END, S_TAU_NOISE, STATUS_TEXT)
+from .integrators import mujoco_model_for
+
+#: Per-rollout outcome arrays of a :class:`BatchResult`, in the order they are saved.
+OUTCOMES = ("x0", "switch_time", "balanced", "final_state", "E_minus_Er_final", "V_final", "max_abs_tau", "diverged",
+            "held", "t_end", "status", "t_region", "t_balanced", "int_tau2", "work", "smoothness", "max_speed")
+
+
+@dataclass
+class BatchResult:
+    """Per-rollout outcomes of :func:`simulate_batch` (arrays over the batch, length N).
+
+    Attributes
+    ----------
+    switch_time : first switch to the balance controller (mode 1) [s], NaN if never.
+    balanced : final state within :data:`~paa_mj.control.region.BALANCE_TOL` of UDD, not diverged.
+    final_state : the last good state [q, qd]; for a retired rollout, its state at retirement.
+    E_minus_Er_final, V_final : E - E_r [J] and V of (34) [J^2] there (V: NaN without an energy controller).
+    max_abs_tau : peak |tau2|, |tau3| [N m].
+    diverged : stopped for a non-finite or runaway state, a non-finite torque or a MuJoCo warning.
+    held : under the balance controller and inside region (68) at the end (success under noise).
+    t_end : when the rollout stopped [s] (t_final, retirement, or the last good state).
+    status : engine status code (:data:`~paa_mj.sim.engine.STATUS_TEXT`).
+    t_region : first entry of the true state into region (68) [s], NaN if never.
+    t_balanced : from when on the state stayed within BALANCE_TOL of UDD [s], NaN if not balanced.
+    int_tau2 : integral of |tau|^2 dt [N^2 m^2 s]; work : integral of |tau . qd_a| dt [J].
+    smoothness : RMS of the torque change per second [N m/s]; max_speed : peak |qd_i| [rad/s].
+    """
+
+    x0: np.ndarray
+    switch_time: np.ndarray
+    balanced: np.ndarray
+    final_state: np.ndarray
+    E_minus_Er_final: np.ndarray
+    V_final: np.ndarray
+    max_abs_tau: np.ndarray
+    diverged: np.ndarray
+    held: np.ndarray
+    t_end: np.ndarray
+    status: np.ndarray
+    t_region: np.ndarray
+    t_balanced: np.ndarray
+    int_tau2: np.ndarray
+    work: np.ndarray
+    smoothness: np.ndarray
+    max_speed: np.ndarray
+    t_reached: float
+    interrupted: bool = False
+    trajectories: dict | None = None
+    meta: dict = field(default_factory=dict)
+
+    def __len__(self):
+        return len(self.x0)
+
+    def success(self):
+        """Balanced at UDD at the end, without divergence."""
+        return self.balanced & ~self.diverged
+
+    def arrays(self):
+        return {n: getattr(self, n) for n in OUTCOMES}
+
+
+def _rows(value, n, width, name, default):
+    """``value`` as an (n, width) float array: None, a scalar, one value per component (width,), one per
+    rollout (n,), or (n, width). With width > 1, a vector of ``width`` values is per component."""
+    if value is None:
+        return np.full((n, width), default, dtype=float)
+    arr = np.asarray(value, dtype=float)
+    if arr.ndim == 0:
+        arr = np.full((n, width), float(arr))
+    elif arr.ndim == 1 and width > 1 and arr.size == width:
+        arr = np.broadcast_to(arr, (n, width))
+    elif arr.ndim == 1 and arr.size == n:
+        arr = np.repeat(arr[:, None], width, axis=1)
+    if arr.shape != (n, width):
+        raise PaaError(f"{name} must have {width} value(s) per rollout, got shape {np.shape(value)} for {n} rollouts")
+    if np.any(np.isnan(arr)):
+        raise PaaError(f"{name} must not be NaN")
+    return np.ascontiguousarray(arr)
+
+
+def check_initial_states(x0) -> np.ndarray:
+    """x0 as a finite (N, 6) array, or a one-line error."""
+    x0 = np.atleast_2d(np.asarray(x0, dtype=float))
+    if x0.ndim != 2 or x0.shape[1] != 6 or len(x0) == 0:
+        raise PaaError(f"initial states must be an (N, 6) array of q1 q2 q3 d1 d2 d3, got shape {x0.shape}")
+    if not np.all(np.isfinite(x0)):
+        raise PaaError("initial states must be finite")
+    return x0
+
+
+def check_initial_state(x0) -> np.ndarray:
+    """One initial state as a finite (1, 6) array, or a one-line error."""
+    x0 = np.asarray(x0, dtype=float).reshape(-1)
+    if x0.size != 6:
+        raise PaaError(f"initial state needs 6 numbers (q1 q2 q3 d1 d2 d3), got {x0.size}")
+    if not np.all(np.isfinite(x0)):
+        raise PaaError(f"initial state must be finite, got {x0.tolist()}")
+    return x0[None]
+
+
+def steps_for(t_final, dt):
+    """The number of steps of a run of ``t_final`` seconds at ``dt``, checked against the time budget."""
+    t_final = positive_finite("final time", t_final, allow_none=False)
+    n_steps = int(round(t_final / dt))
+    if n_steps < 1:
+        raise PaaError(f"final time {t_final:g} s is shorter than one time step ({dt:g} s)")
+    return n_steps
+
+
+def sample_interval(sample_dt, dt, t_final):
+    """Steps between two recorded samples; the interval must not exceed the run."""
+    t_final = positive_finite("final time", t_final, allow_none=False)
+    sample_dt = positive_finite("sample interval", sample_dt, allow_none=False)
+    if sample_dt > t_final:
+        raise PaaError(f"sample interval {sample_dt:g} s is longer than the run ({t_final:g} s): lower --sample-dt")
+    return max(1, int(round(sample_dt / dt)))
+
+
+def controllers_for(robot: Robot, controller, n) -> list:
+    """One controller object per rollout from a name, a spec, a controller or a list of those."""
+    items = controller if isinstance(controller, (list, tuple)) else [controller] * n
+    if len(items) != n:
+        raise PaaError(f"need one controller per rollout ({n}), got {len(items)}")
+    built, out = {}, []
+    for item in items:
+        key = item if isinstance(item, (str, ControllerSpec)) else id(item)
+        if key not in built:
+            spec = ControllerSpec(item) if isinstance(item, str) else item
+            built[key] = spec.build(robot) if isinstance(spec, ControllerSpec) else spec
+        out.append(built[key])
+    return out
+
+
+def build_plan(robot: Robot, x0, t_final, controllers, dt=None, integrator=None, plants=None, torque_limit=None,
+               noise_std=None, torque_noise=None, delay_steps=None, pushes=None, seed=0, rollout_ids=None, every=0,
+               retire=True) -> engine.Plan:
+    """An engine plan for these rollouts (checked; see :func:`simulate_batch`)."""
+    n = len(x0)
+    base = mujoco_model_for(robot, dt, integrator)
+    dt = float(base.opt.timestep)
+    n_steps = steps_for(t_final, dt)
+    check_steps(float(n) * n_steps, f"{n} rollout(s) of {t_final:g} s at dt = {dt:g} s", "--t-final or the number of rollouts, or raise --dt")
+    if every:
+        check_memory(n * (n_steps // every + 2) * 80.0, "recorded samples", "--t-final or raise --sample-dt")
+    models, model_index, plant_robots = _plants(robot, base, plants, n)
+    setup = np.zeros((n, N_SETUP))
+    limits = _rows(torque_limit, n, 2, "torque limit", np.inf)
+    if np.any(~(limits > 0)):
+        raise PaaError("torque limits must be > 0")
+    setup[:, S_LIMIT2:S_LIMIT2 + 2] = np.minimum(limits, robot.torque_limits)
+    noise = _rows(noise_std, n, 2, "measurement noise", 0.0)
+    tau_noise = _rows(torque_noise, n, 1, "torque noise", 0.0)[:, 0]
+    delays = _rows(delay_steps, n, 1, "control delay", 0.0)[:, 0]
+    for name, values in (("measurement noise", noise), ("torque noise", tau_noise), ("control delay", delays)):
+        if np.any(~np.isfinite(values)) or np.any(values < 0):
+            raise PaaError(f"{name} must be finite and >= 0")
+    if np.any(delays != np.round(delays)):
+        raise PaaError("control delays must be whole numbers of steps")
+    check_memory(n * (np.max(delays, initial=0) + 1) * 16.0, "delay lines", "the control delay")
+    setup[:, S_NOISE_Q:S_NOISE_Q + 2] = noise
+    setup[:, S_TAU_NOISE] = tau_noise
+    setup[:, S_DELAY] = delays
+    pushes = np.zeros((n, 0, N_PUSH)) if pushes is None else np.ascontiguousarray(pushes, dtype=float)
+    if pushes.ndim != 3 or pushes.shape[0] != n or pushes.shape[2] != N_PUSH or not np.all(np.isfinite(pushes)):
+        raise PaaError(f"pushes must be a finite (N, K, {N_PUSH}) array of (t_center, sigma, f1, f2, f3)")
+    setup[:, S_PUSH_END] = np.max(pushes[:, :, 0] + 4 * pushes[:, :, 1], axis=1, initial=-np.inf) \
+        if pushes.shape[1] else -np.inf
+    cert = np.zeros((n, engine.N_CERT))
+    certificates = {}
+    disturbed = (noise.any(axis=1)) | (tau_noise > 0) | (delays > 0)
+    for r in range(n):
+        form = getattr(controllers[r], "compiled", lambda: None)() if retire else None
+        gain = None if form is None else form.balance_gain
+        key = (model_index[r], id(controllers[r]))
+        if key not in certificates:
+            certificates[key] = engine.retirement_certificate(plant_robots[model_index[r]].analytic, gain, dt)
+        if not disturbed[r]:
+            cert[r], setup[r, S_LEVEL] = certificates[key]
+    ids = np.arange(n, dtype=np.int64) if rollout_ids is None else np.asarray(rollout_ids, dtype=np.int64)
+    return engine.Plan(models=models, model_index=model_index, x0=np.ascontiguousarray(x0), setup=setup, cert=cert,
+                       pushes=pushes, rollout_ids=ids, seed=int(seed), dt=dt, n_steps=n_steps, every=int(every),
+                       retire=bool(retire))
+
+
+def _plants(robot, base, plants, n):
+    """Distinct plant models (time step and integrator of ``base``), which one each rollout uses, their robots."""
+    if plants is None:
+        return [base], np.zeros(n, np.int64), [robot]
+    if len(plants) != n:
+        raise PaaError(f"plants needs one entry per rollout ({n}), got {len(plants)}")
+    models, robots, index, seen = [], [], np.empty(n, np.int64), {}
+    for r, params in enumerate(plants):
+        key = None if params is None else params.key()
+        if key not in seen:
+            plant = robot if params is None else robot.with_params(params)
+            model = base if params is None else plant.model.__copy__()
+            model.opt.timestep, model.opt.integrator = base.opt.timestep, base.opt.integrator
+            seen[key] = len(models)
+            models.append(model)
+            robots.append(plant)
+        index[r] = seen[key]
+    return models, index, robots
+
+
+def outcome_arrays(plan: engine.Plan, outcome: engine.Outcome, controllers, plant_analytics) -> dict:
+    """The per-rollout outcomes (:data:`OUTCOMES`) of an engine run."""
+    ist, fst, dt = outcome.istate, outcome.fstate, plan.dt
+    status = ist[:, I_STATUS].copy()
+    final = fst[:, F_Q1:F_D1 + 3].copy()
+    diverged = np.isin(status, DIVERGED)
+    ended = np.isin(status, (FINISHED, RETIRED))
+    distance = np.max(np.abs(udd_error(final[:, :3], final[:, 3:])), axis=1)
+    balanced = (distance < BALANCE_TOL) & ended
+    steps = ist[:, I_STEP]
+    switch = np.where(ist[:, I_SWITCH] >= 0, ist[:, I_SWITCH] * dt, np.nan)
+    region = np.where(ist[:, I_REGION] >= 0, ist[:, I_REGION] * dt, np.nan)
+    t_balanced = np.where(balanced, (ist[:, I_OUTSIDE] + 1) * dt, np.nan)
+    e_err, V = np.empty(len(final)), np.empty(len(final))
+    for r, (am, ctrl) in enumerate(zip(plant_analytics, controllers)):
+        q, qd = final[r, :3], final[r, 3:]
+        e_err[r] = am.energy(q, qd) - am.E_r
+        V[r] = _lyapunov(ctrl, am, q, qd)
+    return {
+        "x0": plan.x0.copy(), "switch_time": switch, "balanced": balanced, "final_state": final,
+        "E_minus_Er_final": e_err, "V_final": V, "max_abs_tau": fst[:, [F_TAU2, F_TAU3]].copy(), "diverged": diverged,
+        "held": (ist[:, I_MODE] == 1) & in_switch_region(final[:, :3], final[:, 3:]) & ended,
+        "t_end": steps * dt, "status": status, "t_region": region, "t_balanced": t_balanced,
+        "int_tau2": fst[:, F_INT_TAU2].copy(), "work": fst[:, F_WORK].copy(),
+        "smoothness": np.sqrt(fst[:, F_SMOOTH] / np.maximum(steps, 1)), "max_speed": fst[:, F_SPEED].copy(),
+    }
+
+
+def _lyapunov(controller, plant, q, qd):
+    """V of (34) / (12) with the controller's gains on the plant's model, NaN without an energy controller."""
+    from ..control.energy import EnergyVCLController
+
+    swing = getattr(controller, "first", controller)
+    if not isinstance(swing, EnergyVCLController):
+        return np.full(np.shape(q)[:-1], np.nan)
+    return type(swing)(plant, swing.kD, swing.kP, swing.kV, check=False).lyapunov(q, qd)
+
+
+def simulate_batch(robot: Robot, x0, t_final=30.0, controller="vcl", dt=None, integrator=None, plants=None,
+                   torque_limit=None, noise_std=None, torque_noise=None, delay_steps=None, pushes=None, seed=0,
+                   rollout_ids=None, record=False, sample_dt=0.01, retire=True, nthread=None,
+                   progress=False) -> BatchResult:
+    """Closed-loop rollouts of N initial states at once.
+
+    Parameters
+    ----------
+    robot : Robot
+        The nominal robot: default plant, and what controllers are built for.
+    x0 : array_like (N, 6)
+        Initial states [q1, q2, q3, d1, d2, d3] [rad, rad/s].
+    t_final : float
+        Duration [s].
+    controller : str, ControllerSpec, controller, or a list of those (one per rollout)
+        Default ``"vcl"``, the paper's controller with the robot's stored gains.
+    dt, integrator : optional
+        Physics time step [s] and integrator; default: the robot model's (RK4, 1 ms).
+    plants : list of RobotParams or None, optional
+        Per rollout, the robot MuJoCo simulates (None: the nominal robot).
+    torque_limit : float, (2,), (N,) or (N, 2), optional
+        Saturation of each torque [N m] (also capped by the model's actuator ranges).
+    noise_std : (2,) or (N, 2), optional
+        Standard deviation of Gaussian measurement noise on q [rad] and qd [rad/s].
+    torque_noise : float or (N,), optional
+        Standard deviation of Gaussian noise added to each applied torque [N m].
+    delay_steps : int or (N,), optional
+        Control delay in physics steps (zero torque until the first one arrives).
+    pushes : ndarray (N, K, 5), optional
+        Gaussian pulses of generalized force (t_center [s], sigma [s], f1, f2, f3 [N m]).
+    seed : int
+        Seed of the noise; rollout ``rollout_ids[i]`` draws the same noise wherever it runs.
+    record : bool
+        Keep full trajectories (t, q, qd, tau, mode every ``sample_dt``).
+    retire : bool
+        Stop each rollout once its balance can no longer fail (:mod:`paa_mj.sim.engine`).
+    nthread : int, optional
+        Threads for compiled controllers (default: all cores).
+    """
+    x0 = check_initial_states(x0)
+    n = len(x0)
+    controllers = controllers_for(robot, controller, n)
+    base_dt = float(mujoco_model_for(robot, dt, integrator).opt.timestep)
+    every = sample_interval(sample_dt, base_dt, t_final) if record else 0
+    plan = build_plan(robot, x0, t_final, controllers, dt, integrator, plants, torque_limit, noise_std, torque_noise,
+                      delay_steps, pushes, seed, rollout_ids, every, retire)
+    outcome = engine.run(plan, controllers, nthread=nthread, progress=progress, desc=f"{n} rollouts")
+    plant_analytics = [robot.analytic if plants is None or plants[r] is None else None for r in range(n)]
+    if plants is not None:
+        from ..model.dynamics import AnalyticModel
+
+        plant_analytics = [robot.analytic if p is None else AnalyticModel.from_params(p) for p in plants]
+    out = outcome_arrays(plan, outcome, controllers, plant_analytics)
+    completed = ~np.isin(out["status"], (engine.STOPPED, engine.RUNNING))
+    trajectories = None
+    if record:
+        trajectories = {k: v for k, v in outcome.samples.items()}
+    return BatchResult(**out, t_reached=float(np.max(out["t_end"][completed], initial=0.0)),
+                       interrupted=outcome.interrupted, trajectories=trajectories,
+                       meta={"robot": robot.name, "dt": plan.dt, "t_final": float(t_final), "n_steps": plan.n_steps,
+                             "status_text": STATUS_TEXT, "completed": completed})

@@ -1,0 +1,27 @@
+"""MuJoCo's integrators by name, and a copy of a robot's model with the time step and integrator set."""
+from __future__ import annotations
+
+import mujoco
+
+from ..errors import PaaError
+from ..limits import positive_finite
+
+INTEGRATORS = {"RK4": mujoco.mjtIntegrator.mjINT_RK4, "Euler": mujoco.mjtIntegrator.mjINT_EULER,
+               "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
+               "implicit": mujoco.mjtIntegrator.mjINT_IMPLICIT}
+
+
+def integrator_name(model) -> str:
+    return next(name for name, value in INTEGRATORS.items() if value == model.opt.integrator)
+
+
+def mujoco_model_for(robot, dt=None, integrator=None) -> mujoco.MjModel:
+    """A copy of the robot's MjModel with the time step [s] and integrator set (default: the model's)."""
+    model = robot.model.__copy__()
+    if dt is not None:
+        model.opt.timestep = positive_finite("time step", dt)
+    if integrator is not None:
+        if integrator not in INTEGRATORS:
+            raise PaaError(f"unknown integrator {integrator!r}: use one of {', '.join(INTEGRATORS)}")
+        model.opt.integrator = INTEGRATORS[integrator]
+    return model

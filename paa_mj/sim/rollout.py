@@ -1,0 +1,109 @@
+"""One closed-loop rollout in MuJoCo, recorded: the engine of :mod:`paa_mj.sim.engine` with one state.
+
+The controller reads the state every physics step and its torque is held over
+the step (zero-order hold, also across the four stages of RK4). A compiled
+controller runs entirely in compiled code; any other through its ``torque``.
+The result is a :class:`~paa_mj.sim.trajectory.Trajectory`; the same inputs
+through :func:`paa_mj.sim.batch.simulate_batch` give the same numbers, bit for bit.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import SimulationDiverged
+from ..model.robot import Robot
+from ..model.states import X0_HANGING
+from . import engine
+from .batch import _lyapunov, build_plan, check_initial_state, controllers_for, outcome_arrays, sample_interval
+from .integrators import integrator_name, mujoco_model_for
+from .trajectory import Trajectory
+
+__all__ = ["X0_HANGING", "simulate_mujoco", "describe_controller", "trajectory_quantities", "divergence_reason"]
+
+
+def describe_controller(controller) -> dict:
+    describe = getattr(controller, "describe", None)
+    return describe() if callable(describe) else {"controller": type(controller).__name__}
+
+
+def trajectory_quantities(controller, robot: Robot, q, qd):
+    """E - E_r [J] and V of (34) (NaN without an energy controller) at the recorded states."""
+    e_err = robot.analytic.energy(q, qd) - robot.analytic.E_r
+    return e_err, np.broadcast_to(_lyapunov(controller, robot.analytic, q, qd), e_err.shape).astype(float)
+
+
+def simulate_mujoco(robot: Robot, controller="vcl", x0=X0_HANGING, t_final=30.0, dt=None, integrator=None,
+                    sample_dt=0.01, progress=False, stop_on_divergence=True, retire=False, torque_limit=None,
+                    noise_std=None, torque_noise=None, delay_steps=None, pushes=None, seed=0) -> Trajectory:
+    """Run ``controller`` on the MuJoCo model for ``t_final`` seconds and record it.
+
+    Parameters
+    ----------
+    robot : Robot
+    controller : controller, name or ControllerSpec
+        Reset before the run. Default: ``"vcl"`` with the robot's stored gains.
+    x0 : array_like (6,)
+        Initial [q1, q2, q3, d1, d2, d3] [rad, rad/s]; default (65).
+    t_final : float
+        Duration [s].
+    dt, integrator : float, str, optional
+        Physics time step [s] and integrator (RK4, Euler, implicitfast, implicit);
+        default: the model's own (RK4 at 1 ms for the named robots).
+    sample_dt : float
+        Recording interval [s] (rounded to a whole number of steps, at most ``t_final``).
+    retire : bool
+        Stop once the balance can no longer fail (as the batch engine does).
+    torque_limit, noise_std, torque_noise, delay_steps, pushes, seed
+        Disturbances, as in :func:`paa_mj.sim.batch.simulate_batch` for one rollout.
+
+    Raises
+    ------
+    SimulationDiverged
+        Non-finite state or torque, runaway speeds or a MuJoCo warning; the
+        exception carries the trajectory recorded up to the last good state.
+    """
+    x0 = check_initial_state(x0)
+    controllers = controllers_for(robot, controller, 1)
+    model = mujoco_model_for(robot, dt, integrator)
+    dt = float(model.opt.timestep)
+    every = sample_interval(sample_dt, dt, t_final)
+    per_rollout = lambda v: None if v is None else np.asarray(v)[None]  # noqa: E731
+    plan = build_plan(robot, x0, t_final, controllers, dt, integrator, None, torque_limit, per_rollout(noise_std),
+                      per_rollout(torque_noise), per_rollout(delay_steps), per_rollout(pushes), seed, None, every,
+                      retire)
+    outcome = engine.run(plan, controllers, nthread=1, progress=progress, desc=f"{robot.name} mujoco")
+    out = outcome_arrays(plan, outcome, controllers, [robot.analytic])
+    count = int(outcome.samples["count"][0])
+    s = {k: v[0, :count] for k, v in outcome.samples.items() if k != "count"}
+    e_err, V = trajectory_quantities(controllers[0], robot, s["q"], s["qd"])
+    switch = out["switch_time"][0]
+    status = int(out["status"][0])
+    traj = Trajectory(s["t"].copy(), s["q"].copy(), s["qd"].copy(), s["tau"].copy(), e_err, V, s["mode"].copy(),
+                      None if np.isnan(switch) else float(switch),
+                      meta={"robot": robot.name, "engine": "mujoco", "integrator": integrator_name(model), "dt": dt,
+                            "x0": x0[0].tolist(), "t_final": float(t_final), **describe_controller(controllers[0]),
+                            "torque_limit": _limit_meta(plan)})
+    when = float(out["t_end"][0])
+    if status in engine.DIVERGED:
+        traj.meta["status"] = f"diverged at t = {when:.4f} s: {engine.STATUS_TEXT[status]}"
+        if stop_on_divergence:
+            raise SimulationDiverged(f"simulation diverged at t = {when:.4f} s: {engine.STATUS_TEXT[status]}", traj)
+    elif status == engine.RETIRED:
+        traj.meta["status"] = f"balanced for good at t = {when:.4f} s (stopped early)"
+    elif status == engine.STOPPED:
+        traj.meta["status"] = f"interrupted at t = {when:.4f} s"
+        traj.meta["interrupted"] = True
+    else:
+        traj.meta["status"] = "ok"
+    return traj
+
+
+def _limit_meta(plan):
+    limits = plan.setup[0, engine.S_LIMIT2:engine.S_LIMIT2 + 2]
+    return None if np.all(np.isinf(limits)) else limits.tolist()
+
+
+def divergence_reason(data):
+    """Why ``data`` has left the finite world (None if it has not): non-finite state, runaway speeds, MuJoCo warnings."""
+    status = engine.check_state(data.qpos, data.qvel, data.warning.number)
+    return None if status == engine.RUNNING else engine.STATUS_TEXT[status]

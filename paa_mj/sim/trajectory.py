@@ -1,0 +1,106 @@
+"""The trajectory record of a rollout and its summary; saved as NPZ, CSV and JSON."""
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..control.region import BALANCE_TOL
+from ..errors import PaaError
+from ..io import json_writer, npz_writer, write_set
+from ..model.states import udd_error
+FIELDS = ("t", "q", "qd", "tau", "E_minus_Er", "V", "mode")
+
+
+@dataclass
+class Trajectory:
+    """Samples of one rollout.
+
+    Attributes
+    ----------
+    t : ndarray (n,)            time [s]
+    q, qd : ndarray (n, 3)      joint angles [rad] (unwrapped) and speeds [rad/s]
+    tau : ndarray (n, 2)        torques [N m] applied from t on (zero-order hold in MuJoCo)
+    E_minus_Er : ndarray (n,)   E - E_r [J]
+    V : ndarray (n,)            Lyapunov function (34) of controller (40) [J^2]
+    mode : ndarray (n,) int8    0 swing-up (40), 1 balance (67)
+    switch_time : float or None first time the state entered region (68) [s]
+    meta : dict                 robot, engine, integrator, time step, gains, x0, status
+    """
+
+    t: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray
+    tau: np.ndarray
+    E_minus_Er: np.ndarray
+    V: np.ndarray
+    mode: np.ndarray
+    switch_time: float | None = None
+    meta: dict = field(default_factory=dict)
+
+    def __len__(self):
+        return len(self.t)
+
+    @property
+    def final_state(self):
+        return np.concatenate([self.q[-1], self.qd[-1]])
+
+    def balanced(self, tol=BALANCE_TOL) -> bool:
+        """True when the final state is within ``tol`` of UDD (angles mod 2 pi)."""
+        return bool(len(self) and np.max(np.abs(udd_error(self.q[-1], self.qd[-1]))) < tol)
+
+    def summary(self) -> dict:
+        return {
+            "switch_time": self.switch_time,
+            "balanced": self.balanced(),
+            "final_time": float(self.t[-1]) if len(self) else 0.0,
+            "final_state": self.final_state.tolist() if len(self) else [],
+            "E_minus_Er_final": float(self.E_minus_Er[-1]) if len(self) else None,
+            "V_final": float(self.V[-1]) if len(self) else None,
+            "max_abs_tau": np.max(np.abs(self.tau), axis=0).tolist() if len(self) else [0.0, 0.0],
+            "samples": len(self),
+            **self.meta,
+        }
+
+    # --- files --------------------------------------------------------------------
+    def save(self, out_dir, stem="trajectory"):
+        """Write ``stem.npz``, ``stem.csv`` and ``summary.json`` into ``out_dir``, as one set (all or none)."""
+        arrays = {name: getattr(self, name) for name in FIELDS}
+        header = "t,q1,q2,q3,d1,d2,d3,tau2,tau3,E_minus_Er,V,mode"
+        table = np.column_stack([self.t, self.q, self.qd, self.tau, self.E_minus_Er, self.V, self.mode])
+
+        def csv(path):
+            np.savetxt(path, table, delimiter=",", header=header, comments="", fmt=["%.6f"] + ["%.17g"] * 10 + ["%d"])
+
+        return write_set(out_dir, {
+            f"{stem}.npz": npz_writer(**arrays, switch_time=np.nan if self.switch_time is None else self.switch_time,
+                                      meta=json.dumps(self.meta)),
+            f"{stem}.csv": csv,
+            "summary.json": json_writer(self.summary()),
+        })
+
+    @classmethod
+    def load(cls, path) -> "Trajectory":
+        """Read a ``trajectory.npz`` written by :meth:`save`; one-line error when it is not one."""
+        path = Path(path)
+        if not path.is_file():
+            raise PaaError(f"trajectory file not found: {path}")
+        try:
+            with open(path, "rb") as fh, np.load(fh, allow_pickle=False) as z:
+                arrays = {name: np.array(z[name]) for name in FIELDS}
+                switch = float(z["switch_time"])
+                meta = json.loads(str(z["meta"]))
+        except Exception as err:  # zipfile, KeyError, ValueError...: all mean "not our file"
+            raise PaaError(f"corrupted or foreign trajectory file {path}: {type(err).__name__}: {' '.join(str(err).split())}") from None
+        n = len(arrays["t"])
+        shapes = {"q": (n, 3), "qd": (n, 3), "tau": (n, 2), "E_minus_Er": (n,), "V": (n,), "mode": (n,)}
+        for name, shape in shapes.items():
+            if arrays[name].shape != shape:
+                raise PaaError(f"corrupted trajectory file {path}: {name} has shape {arrays[name].shape}, expected {shape}")
+        if n == 0 or not all(np.all(np.isfinite(arrays[k])) for k in ("t", "q", "qd")):
+            raise PaaError(f"corrupted trajectory file {path}: empty or non-finite samples")
+        if arrays["t"][0] < 0 or np.any(np.diff(arrays["t"]) <= 0):
+            raise PaaError(f"corrupted trajectory file {path}: the times are not increasing from t >= 0")
+        return cls(**arrays, switch_time=None if np.isnan(switch) else switch, meta=meta)

@@ -1,0 +1,103 @@
+"""The basin of a controller: outcomes over a grid of initial states in two coordinates.
+
+A grid of initial states over two chosen coordinates (the others zero) runs
+through :func:`~paa_mj.studies.runner.run_study`; each cell records the first
+switch time (or never), whether the robot ended balanced at UDD, and how it
+ended (:data:`OUTCOME_NAMES`).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..control.registry import ControllerSpec
+from ..errors import PaaError
+from ..io import json_writer, npz_writer, write_set
+from ..model.robot import Robot
+from ..model.states import Q_DUU, STATE_NAMES, wrap_angle
+from .runner import RolloutSet, run_study
+from .store import ChunkStore, study_key
+
+COORDINATES = STATE_NAMES
+#: Default range of each coordinate on the grid: angles over a full turn, speeds +-5 rad/s.
+DEFAULT_RANGE = {"q1": (-np.pi, np.pi), "q2": (-np.pi, np.pi), "q3": (-np.pi, np.pi),
+                 "d1": (-5.0, 5.0), "d2": (-5.0, 5.0), "d3": (-5.0, 5.0)}
+#: How a rollout ended, by code.
+OUTCOME_NAMES = ("balanced", "switched, not balanced", "never switched, stuck at DUU", "never switched", "diverged")
+BALANCED, LOST, STUCK_DUU, NEVER, DIVERGED = range(len(OUTCOME_NAMES))
+#: A final state within this distance of DUU (each coordinate, rad and rad/s) is "stuck at DUU".
+DUU_TOL = 0.05
+MAX_GRID = 2048
+
+
+def parse_axes(text: str) -> tuple[int, int]:
+    names = [a.strip() for a in str(text).split(",")]
+    if len(names) != 2 or any(n not in COORDINATES for n in names) or names[0] == names[1]:
+        raise PaaError(f"--axes needs two different coordinates out of {', '.join(COORDINATES)}, got {text!r}")
+    return COORDINATES.index(names[0]), COORDINATES.index(names[1])
+
+
+def basin_grid(axes, grid):
+    """Initial states (grid^2, 6) and the two axis value vectors."""
+    if not (isinstance(grid, (int, np.integer)) and 2 <= grid <= MAX_GRID):
+        raise PaaError(f"--grid must be an integer in [2, {MAX_GRID}], got {grid}")
+    i, j = axes
+    xs = np.linspace(*DEFAULT_RANGE[COORDINATES[i]], grid)
+    ys = np.linspace(*DEFAULT_RANGE[COORDINATES[j]], grid)
+    X, Y = np.meshgrid(xs, ys, indexing="ij")
+    x0 = np.zeros((grid * grid, 6))
+    x0[:, i], x0[:, j] = X.ravel(), Y.ravel()
+    return x0, xs, ys
+
+
+def classify(result) -> np.ndarray:
+    """The outcome code of each rollout (:data:`OUTCOME_NAMES`)."""
+    final = np.nan_to_num(result.final_state, nan=1e9)
+    near_duu = np.max(np.abs(np.concatenate([wrap_angle(final[:, :3] - Q_DUU), final[:, 3:]], axis=1)), axis=1) < DUU_TOL
+    switched = np.isfinite(result.switch_time)
+    code = np.where(switched, LOST, np.where(near_duu, STUCK_DUU, NEVER))
+    code = np.where(result.success(), BALANCED, code)
+    return np.where(result.diverged, DIVERGED, code).astype(np.int8)
+
+
+def basin(robot: Robot, axes=(0, 1), grid=64, t_final=30.0, controller: ControllerSpec | str = "vcl", progress=False,
+          scheduler="inline", out_dir=None, fresh=False):
+    """Run the basin study; returns (summary dict, arrays dict).
+
+    ``scheduler``: "inline", "local" (a local Dask cluster) or a Dask scheduler
+    address; the results are identical whichever (:mod:`paa_mj.studies.runner`).
+    With ``out_dir``, finished chunks are kept there and a rerun resumes.
+    """
+    spec = ControllerSpec(controller) if isinstance(controller, str) else controller
+    x0, xs, ys = basin_grid(axes, grid)
+    spec.build(robot)  # checks the gains (one line) before any work
+    rollouts = RolloutSet(x0, spec)
+    key = study_key({"study": "basin", "robot": robot.xml, "axes": list(axes), "grid": grid, "t_final": t_final,
+                     **rollouts.definition()})
+    result = run_study(robot, rollouts, t_final, scheduler=scheduler, store=ChunkStore(out_dir, key, fresh),
+                       progress=progress)
+    completed = result.meta["completed"]
+    success = result.success()
+    switched = result.switch_time[np.isfinite(result.switch_time)]
+    outcome = classify(result)
+    summary = {
+        "robot": robot.name, "controller": spec.short_name, "axes": [COORDINATES[a] for a in axes], "grid": grid,
+        "cells": int(grid * grid), "t_final": t_final, "t_reached": result.t_reached,
+        "interrupted": result.interrupted, "completed_fraction": float(np.mean(completed)),
+        "success_fraction": float(np.mean(success)),
+        "switched_fraction": float(np.mean(np.isfinite(result.switch_time))),
+        "diverged_fraction": float(np.mean(result.diverged)),
+        "median_switch_time": float(np.median(switched)) if switched.size else None,
+        "outcomes": {name: int(np.sum(outcome[completed] == code)) for code, name in enumerate(OUTCOME_NAMES)},
+    }
+    arrays = {"x_values": xs, "y_values": ys, **{k: np.asarray(v) for k, v in result.arrays().items()},
+              "outcome": outcome, "completed": completed}
+    return summary, arrays
+
+
+def write_basin(out_dir, summary, arrays):
+    """basin.npz, summary.json and the basin figure (PNG, SVG) in ``out_dir``, as one set."""
+    from ..outputs.plots import basin_figure, figure_writers
+
+    writers = {"basin.npz": npz_writer(**arrays), "summary.json": json_writer(summary)}
+    writers.update(figure_writers(basin_figure(summary, arrays), "basin"))
+    return write_set(out_dir, writers)

@@ -1,0 +1,124 @@
+"""``paa-mj bench``: costs measured in one process, reported as ratios of things measured together.
+
+* bare: ``mj_step`` alone from a Python loop (RK4, 1 ms, Table 1 robot), one thread;
+* single: a closed-loop MuJoCo rollout of the compiled ``vcl`` (controller + step + recording), per step;
+* python: the same with the controller called through ``torque`` from Python every step;
+* batch: :func:`paa_mj.sim.batch.simulate_batch` of random states, all cores, no early stop, per state-step;
+* basin: the 16 x 16 (q1, q2) basin of Table 1 over 30 s through the batch engine (rollouts retire on
+  their own), its time divided by 256 x 30000 bare steps (``basin_effective_ratio``);
+* analytic: the ``solve_ivp`` reference of the 30 s Table 1 run against the MuJoCo rollout.
+
+Every ratio divides two costs measured in this run, on this machine.
+"""
+from __future__ import annotations
+
+import os
+import time
+
+import mujoco
+import numpy as np
+
+from ..control.registry import make_controller
+from ..model.robot import load_robot
+from ..model.states import X0_HANGING
+from ..sim.analytic import simulate_analytic
+from ..sim.batch import simulate_batch
+from ..sim.rollout import simulate_mujoco
+
+
+class _Uncompiled:
+    """A controller seen only through ``torque`` (how a user's Python controller runs)."""
+
+    def __init__(self, controller):
+        self.controller = controller
+
+    @property
+    def mode(self):
+        return getattr(self.controller, "mode", 0)
+
+    def torque(self, q, qd, t):
+        return self.controller.torque(q, qd, t)
+
+    def reset(self):
+        self.controller.reset()
+
+
+def _best_of(fn, repeats):
+    """The fastest of ``repeats`` runs (the least disturbed by other work on the machine)."""
+    best = np.inf
+    for _ in range(repeats):
+        start = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - start)
+    return best
+
+
+def run_bench(batch_size=1024, batch_seconds=2.0, repeats=3, basin_grid=16, basin_seconds=30.0, progress=False):
+    """Measure every cost of the module docstring; each is the best of ``repeats`` runs (the basin: of 2)."""
+    from .basin import basin
+
+    robot = load_robot("gymnast")
+    model = robot.model
+    data = mujoco.MjData(model)
+    dt = model.opt.timestep
+    n_bare = 20000
+
+    def bare():
+        data.qpos[:], data.qvel[:] = [-2.0, -1.0, 0.5], [1.0, -2.0, 0.5]
+        for _ in range(n_bare):
+            mujoco.mj_step(model, data)
+
+    ctrl = make_controller("vcl", robot)
+    t_single = 30.0
+    simulate_mujoco(robot, ctrl, X0_HANGING, 0.01)  # compile (or load) the kernels first
+    bare_step = _best_of(bare, repeats) / n_bare
+    single = _best_of(lambda: simulate_mujoco(robot, ctrl, X0_HANGING, t_single), repeats)
+    single_step = single / round(t_single / dt)
+    t_python = 2.0
+    python_step = _best_of(lambda: simulate_mujoco(robot, _Uncompiled(ctrl), X0_HANGING, t_python), 1) \
+        / round(t_python / dt)
+
+    rng = np.random.default_rng(0)
+    x0 = np.zeros((batch_size, 6))
+    x0[:, :3] = rng.uniform(-np.pi, np.pi, (batch_size, 3))
+    simulate_batch(robot, x0[:4], 0.01)
+    batch = _best_of(lambda: simulate_batch(robot, x0, batch_seconds, retire=False, progress=progress), repeats)
+    batch_state_step = batch / (batch_size * round(batch_seconds / dt))
+
+    basin_seconds_taken = _best_of(lambda: basin(robot, (0, 1), basin_grid, basin_seconds, progress=progress,
+                                                 scheduler="inline"), min(repeats, 2))
+    basin_cell_steps = basin_grid**2 * round(basin_seconds / dt)
+
+    analytic = _best_of(lambda: simulate_analytic(robot, make_controller("vcl", robot), X0_HANGING, t_single), 1)
+    return {
+        "machine_cores": os.cpu_count(),
+        "mujoco_version": mujoco.__version__,
+        "bare_mj_step_us": bare_step * 1e6,
+        "single_step_us": single_step * 1e6,
+        "single_step_ratio": single_step / bare_step,
+        "python_controller_step_us": python_step * 1e6,
+        "python_step_ratio": python_step / bare_step,
+        "batch_size": batch_size,
+        "batch_state_step_us": batch_state_step * 1e6,
+        "batch_step_ratio": batch_state_step / bare_step,
+        "basin_grid": basin_grid,
+        "basin_t_final": basin_seconds,
+        "basin_seconds": basin_seconds_taken,
+        "basin_effective_ratio": basin_seconds_taken / (basin_cell_steps * bare_step),
+        "analytic_30s_seconds": analytic,
+        "mujoco_30s_seconds": single,
+        "analytic_to_mujoco_ratio": analytic / single,
+    }
+
+
+def format_bench(r) -> str:
+    return "\n".join([
+        f"paa-mj bench ({r['machine_cores']} cores, MuJoCo {r['mujoco_version']}, Table 1 robot, RK4 1 ms)",
+        f"  bare mj_step (Python loop)         {r['bare_mj_step_us']:8.2f} us/step        = 1",
+        f"  closed loop, compiled controller   {r['single_step_us']:8.2f} us/step        single_step_ratio = {r['single_step_ratio']:.2f}",
+        f"  closed loop, controller in Python  {r['python_controller_step_us']:8.2f} us/step        ratio = {r['python_step_ratio']:.1f}",
+        f"  batch of {r['batch_size']}, all cores         {r['batch_state_step_us']:8.2f} us/state-step  batch_step_ratio = {r['batch_step_ratio']:.2f}",
+        f"  basin {r['basin_grid']} x {r['basin_grid']}, {r['basin_t_final']:g} s             {r['basin_seconds']:8.2f} s              basin_effective_ratio = {r['basin_effective_ratio']:.2f}",
+        f"  30 s Table 1 run: solve_ivp {r['analytic_30s_seconds']:.2f} s, MuJoCo {r['mujoco_30s_seconds']:.2f} s"
+        f" (ratio {r['analytic_to_mujoco_ratio']:.1f})",
+    ])

@@ -1,0 +1,193 @@
+"""Robustness: the success rate of a controller against model error, noise, limits, delay, pushes and starts.
+
+Each factor has levels (the first is the nominal case); every level runs the
+same ``trials`` initial states, all (factor, level, trial) rollouts in one
+study (:func:`~paa_mj.studies.runner.run_study`). Success: under the balance
+controller and inside region (68) at the end, without divergence (noise keeps
+the state from settling to within 1e-3 of UDD, so "balanced" would be too
+strict). Each rate comes with its 95 % Wilson interval.
+
+Factors (:data:`FACTORS`):
+
+- ``model_error``: the controller believes masses x (1 + e) and lengths x (1 - e)
+  while MuJoCo simulates the true robot [%];
+- ``noise``: Gaussian measurement noise on q [rad] and qd [rad/s];
+- ``torque_noise``: Gaussian noise on each applied torque, as a fraction of the
+  nominal peak |tau| of the controller's kip from (65);
+- ``torque_limit``: saturation at a fraction of that peak;
+- ``delay``: control delay [ms];
+- ``pushes``: three Gaussian pulses of torque on the hands (joint 1) at random
+  times during the first 10 s, width 0.1 s, peak a fraction of b1 (the gravity
+  torque scale of the robot) with random sign;
+- ``initial_state``: the start perturbed uniformly by +-level on every angle
+  [rad] and speed [rad/s].
+
+Starts: ``random`` (angles uniform over a full turn, speeds in +-1 rad/s) or
+``hanging`` (the kip from (65)).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..control.registry import ControllerSpec
+from ..errors import PaaError
+from ..io import json_writer, npz_writer, write_set
+from ..model.robot import Robot
+from ..model.states import X0_HANGING
+from ..sim.rollout import simulate_mujoco
+from .runner import RolloutSet, run_study
+from .store import ChunkStore, study_key
+
+FACTORS = {
+    "noise": {"label": "measurement noise std on q [rad] and qd [rad/s]", "levels": [0.0, 0.01, 0.03, 0.1]},
+    "torque_limit": {"label": "torque limit, fraction of the nominal peak |tau|", "levels": [math.inf, 1.0, 0.6, 0.3]},
+    "model_error": {"label": "controller's masses and lengths off by [%]", "levels": [0.0, 2.0, 5.0, 10.0]},
+    "delay": {"label": "control delay [ms]", "levels": [0.0, 2.0, 5.0, 10.0]},
+    "torque_noise": {"label": "torque noise std, fraction of the nominal peak |tau|", "levels": [0.0, 0.01, 0.03, 0.1]},
+    "pushes": {"label": "push peak on the hands, fraction of b1", "levels": [0.0, 0.05, 0.1, 0.2]},
+    "initial_state": {"label": "start perturbed by +- [rad, rad/s]", "levels": [0.0, 0.01, 0.1, 0.3]},
+}
+DEFAULT_FACTORS = ("noise", "torque_limit", "model_error", "delay")
+STARTS = ("random", "hanging")
+PUSHES_PER_RUN, PUSH_WIDTH, PUSH_WINDOW = 3, 0.1, (1.0, 10.0)
+MAX_TRIALS = 100_000
+
+
+def wilson_interval(successes, trials, z=1.959963984540054):
+    """The 95 % Wilson score interval (low, high) of a success rate."""
+    if trials == 0:
+        return 0.0, 1.0
+    p = successes / trials
+    denom = 1 + z * z / trials
+    centre = (p + z * z / (2 * trials)) / denom
+    half = z * math.sqrt(p * (1 - p) / trials + z * z / (4 * trials * trials)) / denom
+    return max(0.0, centre - half), min(1.0, centre + half)
+
+
+def initial_states(trials, seed=0, start="random"):
+    """The trials' initial states: random over a full turn (speeds +-1 rad/s), or (65) for every trial."""
+    if start == "hanging":
+        return np.tile(X0_HANGING, (trials, 1))
+    rng = np.random.default_rng(seed)
+    x0 = np.empty((trials, 6))
+    x0[:, :3] = rng.uniform(-np.pi, np.pi, (trials, 3))
+    x0[:, 3:] = rng.uniform(-1.0, 1.0, (trials, 3))
+    return x0
+
+
+def random_initial_states(trials, seed=0):
+    """Angles uniform over a full turn, speeds uniform in +-1 rad/s."""
+    return initial_states(trials, seed, "random")
+
+
+def _pushes(rng, level, b1):
+    times = rng.uniform(*PUSH_WINDOW, PUSHES_PER_RUN)
+    signs = rng.choice([-1.0, 1.0], PUSHES_PER_RUN)
+    out = np.zeros((PUSHES_PER_RUN, 5))
+    out[:, 0], out[:, 1], out[:, 2] = times, PUSH_WIDTH, signs * level * b1
+    return out
+
+
+def nominal_peak(robot: Robot, spec: ControllerSpec, t_final=30.0) -> float:
+    """The largest |tau| of the controller's kip from (65) (the scale of the torque factors) [N m]."""
+    traj = simulate_mujoco(robot, spec.build(robot), X0_HANGING, t_final, sample_dt=robot.model.opt.timestep,
+                           stop_on_divergence=False)
+    return float(np.max(np.abs(traj.tau)))
+
+
+def robustness(robot: Robot, trials=64, t_final=30.0, seed=0, controller: ControllerSpec | str = "vcl",
+               factors=DEFAULT_FACTORS, levels=None, start="random", progress=False, scheduler="inline",
+               out_dir=None, fresh=False, model_error=None):
+    """Success rate against each factor; returns (summary dict, arrays dict).
+
+    Parameters
+    ----------
+    factors : sequence of names of :data:`FACTORS`
+    levels : dict, optional
+        Levels to use instead of a factor's defaults (``model_error`` also takes ``model_error=``).
+    start : "random" or "hanging"
+    """
+    spec = ControllerSpec(controller) if isinstance(controller, str) else controller
+    if not (isinstance(trials, (int, np.integer)) and 1 <= trials <= MAX_TRIALS):
+        raise PaaError(f"--trials must be an integer in [1, {MAX_TRIALS}], got {trials}")
+    if start not in STARTS:
+        raise PaaError(f"--start must be one of {', '.join(STARTS)}, got {start!r}")
+    unknown = [f for f in factors if f not in FACTORS]
+    if unknown or not factors:
+        raise PaaError(f"unknown robustness factor(s) {unknown}: use {', '.join(FACTORS)}")
+    chosen = {name: dict(FACTORS[name]) for name in factors}
+    levels = dict(levels or {})
+    if model_error is not None:
+        levels["model_error"] = model_error
+    for name, values in levels.items():
+        if name not in chosen:
+            raise PaaError(f"levels given for {name}, which is not among the factors {', '.join(chosen)}")
+        values = [float(v) for v in values]
+        if not values or any(not (math.isfinite(v) and v >= 0) for v in values):
+            raise PaaError(f"levels of {name} must be finite numbers >= 0, got {values}")
+        if name == "model_error" and any(v >= 100 for v in values):
+            raise PaaError(f"--model-error percentages must lie in [0, 100), got {values}")
+        chosen[name]["levels"] = values
+    spec.build(robot)  # checks the gains (one line) before any work
+    quiet = ControllerSpec(spec.name, spec.gains, spec.believed, check=False)
+    peak = nominal_peak(robot, spec) if {"torque_limit", "torque_noise"} & set(chosen) else None
+    base = initial_states(trials, seed, start)
+    dt = robot.model.opt.timestep
+    rng = np.random.default_rng([seed, 1])
+    x0, specs, limit, noise, tau_noise, delay, pushes, index = [], [], [], [], [], [], [], []
+    for factor, fspec in chosen.items():
+        for level_i, level in enumerate(fspec["levels"]):
+            for trial in range(trials):
+                start_state = base[trial].copy()
+                if factor == "initial_state" and level > 0:
+                    start_state += rng.uniform(-level, level, 6)
+                x0.append(start_state)
+                e = level / 100 if factor == "model_error" else 0.0
+                specs.append(ControllerSpec(spec.name, spec.gains, robot.params.scaled(1 + e, 1 - e), check=False)
+                             if e else quiet)
+                limit.append(level * peak if factor == "torque_limit" else math.inf)
+                noise.append([level, level] if factor == "noise" else [0.0, 0.0])
+                tau_noise.append(level * peak if factor == "torque_noise" else 0.0)
+                delay.append(int(round(level * 1e-3 / dt)) if factor == "delay" else 0)
+                pushes.append(_pushes(rng, level, robot.analytic.b1) if factor == "pushes" and level > 0
+                              else np.zeros((PUSHES_PER_RUN, 5)))
+                index.append((factor, level_i))
+    rollouts = RolloutSet(np.array(x0), specs, torque_limit=np.array(limit)[:, None].repeat(2, 1),
+                          noise_std=np.array(noise), torque_noise=np.array(tau_noise), delay_steps=np.array(delay),
+                          pushes=np.array(pushes) if "pushes" in chosen else None)
+    key = study_key({"study": "robustness", "robot": robot.xml, "t_final": t_final, "seed": seed,
+                     **rollouts.definition()})
+    result = run_study(robot, rollouts, t_final, seed=seed, scheduler=scheduler,
+                       store=ChunkStore(out_dir, key, fresh), progress=progress)
+    completed = result.meta["completed"]
+    success = result.held
+    summary = {"robot": robot.name, "controller": spec.short_name, "trials": trials, "t_final": t_final, "seed": seed,
+               "start": start, "completed_fraction": float(np.mean(completed)),
+               "success": "under the balance controller and inside region (68) at t_final, without divergence",
+               "nominal_peak_torque": peak, "interrupted": result.interrupted, "factors": {}}
+    index = np.array([f"{factor}:{level_i}" for factor, level_i in index])
+    for factor, fspec in chosen.items():
+        rates = []
+        for level_i, level in enumerate(fspec["levels"]):
+            rows = np.flatnonzero((index == f"{factor}:{level_i}") & completed)
+            k, n = int(np.sum(success[rows])), len(rows)
+            low, high = wilson_interval(k, n)
+            rates.append({"level": None if not math.isfinite(level) else float(level),
+                          "success_rate": k / n if n else None, "low": low, "high": high, "trials": n,
+                          "diverged_rate": float(np.mean(result.diverged[rows])) if n else None})
+        summary["factors"][factor] = {"label": fspec["label"], "levels": rates}
+    arrays = {"x0": np.array(x0), "success": success, "diverged": result.diverged, "switch_time": result.switch_time,
+              "completed": completed}
+    return summary, arrays
+
+
+def write_robustness(out_dir, summary, arrays):
+    """robustness.npz, summary.json and one bar chart per factor (PNG, SVG), as one set."""
+    from ..outputs.plots import figure_writers, robustness_figure
+
+    writers = {"robustness.npz": npz_writer(**arrays), "summary.json": json_writer(summary)}
+    for factor, data in summary["factors"].items():
+        writers.update(figure_writers(robustness_figure(factor, data, summary), f"robustness_{factor}"))
+    return write_set(out_dir, writers)

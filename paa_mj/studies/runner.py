@@ -1,0 +1,278 @@
+"""Running a study's rollouts in fixed chunks: in this process or on Dask, resumably.
+
+A study is a :class:`RolloutSet` (one entry per rollout: initial state,
+controller recipe, plant, disturbances). It is cut into chunks of ``CHUNK``
+rollouts, always the same way; a chunk is one call of
+:func:`paa_mj.sim.batch.simulate_batch`, and every rollout keeps its global
+number, which alone (with the seed) fixes its noise. So the results are
+identical whichever way the chunks run: inline, on a local Dask cluster (the
+default when Dask is installed), or on any cluster given by its scheduler
+address. Workers rebuild the robot from its MJCF text and the controllers from
+their recipes, so a remote cluster needs no files of ours (a user's controller
+file must be readable there at the same path).
+
+Finished chunks go to a :class:`~paa_mj.studies.store.ChunkStore` as they
+finish. Ctrl-C or SIGTERM stops cleanly and keeps them; so does the loss of
+every Dask worker (:class:`~paa_mj.errors.StudyIncomplete`). The same command
+run again resumes.
+"""
+from __future__ import annotations
+
+import contextlib
+import logging
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+from tqdm.auto import tqdm
+
+from ..control.registry import ControllerSpec
+from ..errors import PaaError, StudyIncomplete
+from ..limits import check_memory
+from ..model.params import RobotParams
+from ..model.robot import Robot, robot_from_xml
+from ..sim.batch import OUTCOMES, BatchResult, simulate_batch
+from .store import ChunkStore
+
+CHUNK = 128
+SCHEDULERS = ("inline", "local")
+
+
+def dask_available() -> bool:
+    try:
+        import distributed  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def check_scheduler(value) -> str:
+    """``inline``, ``local`` or a Dask address (default: local when Dask is installed)."""
+    if value is None:
+        return "local" if dask_available() else "inline"
+    if value not in SCHEDULERS and "://" not in value:
+        raise PaaError(f"--scheduler must be inline, local or an address like tcp://host:8786, got {value!r}")
+    if value != "inline" and not dask_available():
+        raise PaaError("Dask is not installed: pip install 'paa_mj[dask]' (or use --scheduler inline)")
+    return value
+
+
+@dataclass
+class RolloutSet:
+    """Every rollout of a study, one entry each (N of them).
+
+    Attributes
+    ----------
+    x0 : ndarray (N, 6)
+    controllers : list of ControllerSpec (N)
+    plants : list of RobotParams or None (N), or None for the nominal robot everywhere
+    torque_limit : ndarray (N, 2) [N m], inf for none
+    noise_std : ndarray (N, 2) on q [rad] and qd [rad/s]
+    torque_noise : ndarray (N,) [N m]
+    delay_steps : ndarray (N,) of int
+    pushes : ndarray (N, K, 5) or None
+    """
+
+    x0: np.ndarray
+    controllers: list
+    plants: list | None = None
+    torque_limit: np.ndarray | None = None
+    noise_std: np.ndarray | None = None
+    torque_noise: np.ndarray | None = None
+    delay_steps: np.ndarray | None = None
+    pushes: np.ndarray | None = None
+    labels: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        n = len(self.x0)
+        self.x0 = np.asarray(self.x0, dtype=float)
+        if isinstance(self.controllers, (str, ControllerSpec)):
+            spec = ControllerSpec(self.controllers) if isinstance(self.controllers, str) else self.controllers
+            self.controllers = [spec] * n
+        defaults = {"torque_limit": ((n, 2), np.inf), "noise_std": ((n, 2), 0.0), "torque_noise": ((n,), 0.0),
+                    "delay_steps": ((n,), 0.0)}
+        for name, (shape, value) in defaults.items():
+            current = getattr(self, name)
+            setattr(self, name, np.full(shape, value) if current is None else np.broadcast_to(
+                np.asarray(current, dtype=float), shape).copy())
+        if len(self.controllers) != n or (self.plants is not None and len(self.plants) != n):
+            raise PaaError("a study needs one controller (and plant) per rollout")
+
+    def __len__(self):
+        return len(self.x0)
+
+    def chunk(self, start, stop) -> dict:
+        """Keyword arguments of :func:`simulate_batch` for rollouts [start, stop)."""
+        part = slice(start, stop)
+        return {"x0": self.x0[part], "controller": self.controllers[part],
+                "plants": None if self.plants is None else self.plants[part],
+                "torque_limit": self.torque_limit[part], "noise_std": self.noise_std[part],
+                "torque_noise": self.torque_noise[part], "delay_steps": self.delay_steps[part],
+                "pushes": None if self.pushes is None else self.pushes[part],
+                "rollout_ids": np.arange(start, stop, dtype=np.int64)}
+
+    def definition(self) -> dict:
+        """What identifies these rollouts (for the chunk store's key)."""
+        plants = None if self.plants is None else [None if p is None else p.as_dict() for p in self.plants]
+        return {"x0": self.x0, "controllers": [_spec_dict(s) for s in self.controllers], "plants": plants,
+                "torque_limit": np.where(np.isinf(self.torque_limit), -1.0, self.torque_limit),
+                "noise_std": self.noise_std, "torque_noise": self.torque_noise, "delay_steps": self.delay_steps,
+                "pushes": self.pushes}
+
+
+def _spec_dict(spec: ControllerSpec):
+    return {"name": spec.name, "gains": spec.gains, "check": spec.check,
+            "believed": None if spec.believed is None else spec.believed.as_dict()}
+
+
+def _run_chunk(xml, name, kwargs, t_final, seed, nthread, retire):
+    robot = robot_from_xml(xml, name=name)
+    result = simulate_batch(robot, t_final=t_final, seed=seed, nthread=nthread, retire=retire, **kwargs)
+    out = {key: getattr(result, key) for key in OUTCOMES}
+    out["completed"] = result.meta["completed"]
+    return out
+
+
+def run_study(robot: Robot, rollouts: RolloutSet, t_final: float, *, seed=0, scheduler="inline", store=None,
+              chunk=CHUNK, retire=True, progress=False, definition=None) -> BatchResult:
+    """All rollouts of a study, chunk by chunk, resuming from ``store``.
+
+    Parameters
+    ----------
+    scheduler : "inline", "local" or a Dask scheduler address such as ``tcp://host:8786``
+    store : ChunkStore, optional
+        Where finished chunks are kept (and found again).
+
+    Returns
+    -------
+    BatchResult
+        Rollouts of unfinished chunks are marked incomplete (``meta["completed"]``)
+        and the result ``interrupted``.
+
+    Raises
+    ------
+    StudyIncomplete
+        Every Dask worker was lost; the finished chunks are kept in ``store``.
+    """
+    n = len(rollouts)
+    check_memory(n * 8.0 * 40, "study results", "the grid or the number of trials")
+    store = store or ChunkStore(None, "")
+    starts = list(range(0, n, chunk))
+    finished = {}
+    for index, start in enumerate(starts):
+        kept = store.load(index)
+        if kept is not None and len(kept.get("x0", [])) == min(chunk, n - start) and kept["completed"].all():
+            finished[index] = kept
+    todo = [(index, start) for index, start in enumerate(starts) if index not in finished]
+    bar = tqdm(total=len(starts), initial=len(finished), unit="chunk", disable=None if progress else True,
+               desc=f"{n} rollouts")
+    interrupted = False
+    try:
+        if scheduler == "inline":
+            for index, start in todo:
+                result = _run_chunk(robot.xml, robot.name, rollouts.chunk(start, min(start + chunk, n)), t_final,
+                                    seed, None, retire)
+                if not result["completed"].all():  # stopped inside the chunk: nothing of it is kept
+                    interrupted = True
+                    break
+                finished[index] = result
+                store.save(index, result)
+                bar.update(1)
+        elif todo:
+            _run_on_dask(robot, rollouts, todo, chunk, n, t_final, seed, retire, scheduler, finished, store, bar)
+    except KeyboardInterrupt:
+        interrupted = True
+    finally:
+        bar.close()
+    return _merge(rollouts, starts, finished, chunk, n, interrupted, scheduler)
+
+
+@contextlib.contextmanager
+def _quiet_dask():
+    """Dask's own logging says nothing while we run (its shutdown on Ctrl-C or lost workers is not news)."""
+    names = ("distributed", "distributed.nanny", "distributed.scheduler", "distributed.worker", "distributed.core",
+             "distributed.client", "distributed.comm", "tornado", "asyncio")
+    levels = {name: logging.getLogger(name).level for name in names}
+    for name in names:
+        logging.getLogger(name).setLevel(logging.CRITICAL + 1)
+    try:
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", module="distributed")
+            warnings.filterwarnings("ignore", message=".*already in use.*")
+            yield
+    finally:
+        for name, level in levels.items():
+            logging.getLogger(name).setLevel(level)
+
+
+def _run_on_dask(robot, rollouts, todo, chunk, n, t_final, seed, retire, scheduler, finished, store, bar):
+    from distributed import Client, LocalCluster, as_completed
+
+    total = len(finished) + len(todo)
+
+    with _quiet_dask():
+        cluster = None
+        try:
+            if scheduler == "local":
+                try:
+                    cluster = LocalCluster(n_workers=None, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                           dashboard_address=None, silence_logs=logging.CRITICAL)
+                except Exception as err:  # a worker that cannot start raises several types
+                    raise PaaError(f"cannot start a local Dask cluster ({type(err).__name__}:"
+                                   f" {' '.join(str(err).split())}); use --scheduler inline") from None
+                client = Client(cluster)
+            else:
+                try:
+                    client = Client(scheduler, timeout=5)
+                except (OSError, TimeoutError, ValueError) as err:
+                    raise PaaError(f"cannot reach the Dask scheduler {scheduler}: {' '.join(str(err).split())}") from None
+            with client:
+                xml = client.scatter(robot.xml, broadcast=True)
+                futures = {client.submit(_run_chunk, xml, robot.name, rollouts.chunk(start, min(start + chunk, n)),
+                                         t_final, seed, 1, retire, pure=False): index for index, start in todo}
+                try:
+                    for future in as_completed(futures):
+                        try:
+                            result = future.result()
+                        except PaaError:
+                            raise
+                        except Exception as err:  # lost workers, a cancelled or killed task...
+                            raise StudyIncomplete(
+                                f"the Dask cluster stopped ({type(err).__name__}): {len(finished)} of {total}"
+                                " chunks are done"
+                                + (f" and kept in {store.path.parent.parent}; run the same command again to resume"
+                                   if store.path is not None else "; give --out to keep finished chunks")) from None
+                        finished[futures[future]] = result
+                        store.save(futures[future], result)
+                        bar.update(1)
+                except BaseException:
+                    client.cancel(list(futures))
+                    raise
+        finally:
+            if cluster is not None:
+                with contextlib.suppress(Exception):
+                    cluster.close(timeout=10)
+
+
+def _merge(rollouts, starts, finished, chunk, n, interrupted, scheduler) -> BatchResult:
+    empty = {"switch_time": np.nan, "balanced": False, "final_state": np.nan, "E_minus_Er_final": np.nan,
+             "V_final": np.nan, "max_abs_tau": np.nan, "diverged": False, "held": False, "t_end": np.nan,
+             "status": -1, "t_region": np.nan, "t_balanced": np.nan, "int_tau2": np.nan, "work": np.nan,
+             "smoothness": np.nan, "max_speed": np.nan}
+    widths = {"final_state": 6, "max_abs_tau": 2}
+    out = {"x0": rollouts.x0.copy()}
+    for key, fill in empty.items():
+        shape = (n, widths[key]) if key in widths else (n,)
+        out[key] = np.full(shape, fill, dtype=type(fill) if isinstance(fill, bool) else None)
+    out["status"] = out["status"].astype(np.int64)
+    done = np.zeros(n, bool)
+    for index, start in enumerate(starts):
+        if index in finished:
+            stop = min(start + chunk, n)
+            for key in empty:
+                out[key][start:stop] = finished[index][key]
+            done[start:stop] = True
+    t_end = out["t_end"][done]
+    return BatchResult(**out, t_reached=float(np.max(t_end, initial=0.0)),
+                       interrupted=interrupted or not done.all(),
+                       meta={"scheduler": scheduler, "completed": done})

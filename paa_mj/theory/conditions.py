@@ -1,0 +1,177 @@
+"""The paper's conditions on the robot and the gains, made computable.
+
+- (41), (42): kD_min, above which controller (40) is singularity-free;
+- (59), (60): eta1 and eta2, the lower bounds on kP of Theorem 1;
+- (54): the mechanical constraint f(z) != 1 on the robot;
+- (26)-(30): deltabar of the Acrobot obtained by freezing q3.
+
+Everything is computed from an :class:`~paa_mj.model.dynamics.AnalyticModel`;
+no number of the paper is used. Maxima over angles come from
+:func:`~paa_mj.theory.maxima.grid_maximum` (grid, then Nelder-Mead), far better
+than the 1e-4 relative accuracy the theory needs. See ``docs/model.md``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import optimize
+
+from ..model.dynamics import AnalyticModel
+from ..model.vcl import beta2bar
+from .maxima import Maximum, grid_maximum
+
+TWO_PI = 2 * np.pi
+
+
+def mu(am: AnalyticModel, q2, q3):
+    """mu(q2, q3) of (42) [J]."""
+    b1, b2, b3 = am.beta
+    return np.sqrt(b1**2 + b2**2 + b3**2 + 2 * b1 * b2 * np.cos(q2)
+                   + 2 * b1 * b3 * np.cos(q2 + q3) + 2 * b2 * b3 * np.cos(q3))
+
+
+def actuated_inertia_lambda_max(am: AnalyticModel, q2, q3):
+    """lambda_max((B^T M^-1 B)^-1) [kg m^2], via the Schur complement of M11 in M."""
+    M = am.mass_matrix_23(q2, q3)
+    S = M[..., 1:, 1:] - M[..., 1:, :1] * M[..., :1, 1:] / M[..., :1, :1]
+    half_trace = 0.5 * (S[..., 0, 0] + S[..., 1, 1])
+    det = S[..., 0, 0] * S[..., 1, 1] - S[..., 0, 1] * S[..., 1, 0]
+    return half_trace + np.sqrt(np.maximum(half_trace**2 - det, 0.0))
+
+
+def kd_bound_function(am: AnalyticModel, q2, q3):
+    """(E_r + mu(q2, q3)) lambda_max((B^T M^-1 B)^-1), whose maximum is kD_min of (41)."""
+    return (am.E_r + mu(am, q2, q3)) * actuated_inertia_lambda_max(am, q2, q3)
+
+
+def kd_min(am: AnalyticModel) -> Maximum:
+    """kD_min of (41): controller (40) is singularity-free iff kD > kD_min [J kg m^2]."""
+    return grid_maximum(lambda y, z: kd_bound_function(am, y, z), [(0, TWO_PI), (0, TWO_PI)],
+                        n=(361, 361), periodic=(True, True))
+
+
+# --- (59), (60) ---------------------------------------------------------------------
+
+def eta1_function(am: AnalyticModel, y, z):
+    """b1 beta2bar(z) (Phi + E_r) sin y / (Phi (y + pi)) of (59) [J]."""
+    b1, b2, b3 = am.beta
+    bb = beta2bar(b2, b3, z)
+    phi = np.sqrt(b1**2 + bb**2 + 2 * b1 * bb * np.cos(y))
+    return b1 * bb * (phi + am.E_r) * np.sin(y) / (phi * (y + np.pi))
+
+
+def eta1(am: AnalyticModel) -> Maximum:
+    """eta1 of (59): Theorem 1 needs kP > eta1."""
+    return grid_maximum(lambda y, z: eta1_function(am, y, z), [(0, np.pi), (0, TWO_PI)],
+                        n=(361, 361), periodic=(False, True))
+
+
+def eta2_function(am: AnalyticModel, z):
+    """-b2 b3 (b1 - beta2bar(z) + E_r) sin z / (beta2bar(z) z) of (60), z in [pi, 2 pi]."""
+    b1, b2, b3 = am.beta
+    bb = beta2bar(b2, b3, z)
+    return -b2 * b3 * (b1 - bb + am.E_r) * np.sin(z) / (bb * z)
+
+
+def eta2(am: AnalyticModel) -> Maximum:
+    """eta2 of (60): Theorem 1 needs kP > eta2."""
+    return grid_maximum(lambda z: eta2_function(am, z), [(np.pi, TWO_PI)], n=(20001,))
+
+
+# --- (54) -------------------------------------------------------------------------
+
+def constraint_terms(am: AnalyticModel):
+    """Gamma, Eps and Lam of (54)."""
+    p, g = am.params, am.params.g
+    l1 = p.l[0]
+    gamma = l1 * am.b1 - am.a11 * g
+    eps = 2 * (g * am.a23 * am.b1 - l1 * am.b2 * am.b3)
+    lam = g * (am.a22 + am.a33) * am.b1 - l1 * (am.b2**2 + am.b3**2)
+    return gamma, eps, lam
+
+
+def f54(am: AnalyticModel, z):
+    """f(z) = Gamma beta2bar(z) / (Eps cos z + Lam) of (54)."""
+    gamma, eps, lam = constraint_terms(am)
+    return gamma * beta2bar(am.b2, am.b3, z) / (eps * np.cos(z) + lam)
+
+
+@dataclass(frozen=True)
+class Constraint54:
+    """Constraint (54): f(z) != 1 for all z in [0, 2 pi].
+
+    Attributes
+    ----------
+    holds : bool
+    f_min, f_max : float
+        Extremes of f on [0, 2 pi] (+-inf when the denominator vanishes).
+    closest_to_one : float
+        min |f(z) - 1| over z, with ``z_closest`` where it happens.
+    """
+
+    holds: bool
+    f_min: float
+    f_max: float
+    closest_to_one: float
+    z_closest: float
+    tolerance: float = 1e-9
+
+
+def constraint_54(am: AnalyticModel, n=40001) -> Constraint54:
+    """Check (54). f = 1 is treated as reached when |f - 1| <= 1e-9 (rounding)."""
+    gamma, eps, lam = constraint_terms(am)
+    z = np.linspace(0, TWO_PI, n)
+    # Work with h(z) = Gamma beta2bar - (Eps cos z + Lam): f = 1 exactly where h = 0, and h
+    # stays finite where the denominator of f vanishes.
+    scale = abs(gamma) * (am.b2 + am.b3) + abs(eps) + abs(lam)
+    h = (gamma * beta2bar(am.b2, am.b3, z) - (eps * np.cos(z) + lam)) / scale
+    denominator = eps * np.cos(z) + lam
+    f = f54(am, z) if np.all(denominator != 0) else None
+    crosses = bool(np.any(np.sign(h[:-1]) * np.sign(h[1:]) < 0))
+    i = int(np.argmin(np.abs(h)))
+    res = optimize.minimize_scalar(
+        lambda s: abs(gamma * beta2bar(am.b2, am.b3, s) - (eps * np.cos(s) + lam)) / scale,
+        bounds=(z[max(i - 1, 0)], z[min(i + 1, n - 1)]), method="bounded", options={"xatol": 1e-13})
+    z_close, h_close = (float(res.x), float(res.fun)) if res.fun < abs(h[i]) else (float(z[i]), float(abs(h[i])))
+    sign_change = bool(np.any(np.sign(denominator[:-1]) * np.sign(denominator[1:]) < 0))
+    if f is None or sign_change:
+        f_min, f_max = -np.inf, np.inf
+    else:
+        f_min, f_max = float(f.min()), float(f.max())
+    f_close = float(f54(am, z_close))
+    tolerance = 1e-9
+    holds = not crosses and abs(f_close - 1) > tolerance and h_close > tolerance
+    return Constraint54(holds=bool(holds), f_min=f_min, f_max=f_max,
+                        closest_to_one=abs(f_close - 1), z_closest=z_close, tolerance=tolerance)
+
+
+# --- (26)-(30) --------------------------------------------------------------------
+
+def deltabar(am: AnalyticModel, z):
+    """deltabar(z) of (30) for the Acrobot obtained by freezing q3 = z (26)."""
+    p = am.params
+    bb = beta2bar(am.b2, am.b3, z)
+    abar1 = am.a11
+    abar2 = am.a22 + am.a33 + 2 * am.a23 * np.cos(z)
+    abar3 = p.l[0] * bb / p.g
+    return (abar2 - abar3) * am.b1 + (abar1 - abar3) * bb
+
+
+
+_THRESHOLD_CACHE: dict = {}
+
+
+def thresholds(am: AnalyticModel) -> tuple[Maximum, Maximum, Maximum]:
+    """(kD_min, eta1, eta2) as :class:`Maximum`; cached per robot (they cost a few grid searches)."""
+    key = am.key()
+    if key not in _THRESHOLD_CACHE:
+        _THRESHOLD_CACHE[key] = (kd_min(am), eta1(am), eta2(am))
+    return _THRESHOLD_CACHE[key]
+
+
+def frozen_acrobot_controllable(am: AnalyticModel, n=20001) -> tuple[bool, float, float]:
+    """Whether deltabar (30) keeps one sign over z in [0, 2 pi]: (controllable for every z, min, max)."""
+    db = deltabar(am, np.linspace(0, TWO_PI, n))
+    ok = bool(np.min(np.abs(db)) > 1e-9 * np.max(np.abs(db)) and (np.all(db > 0) or np.all(db < 0)))
+    return ok, float(db.min()), float(db.max())

@@ -1,0 +1,293 @@
+"""The rollout engine: compiled and Python controllers, batch against single, retirement, disturbances."""
+import json
+import warnings
+
+import numpy as np
+import pytest
+
+from paa_mj.cli import main
+from paa_mj.control import ControllerSpec, TheoryWarning, make_controller
+from paa_mj.errors import PaaError
+from paa_mj.model.states import Q_UDD, X0_HANGING
+from paa_mj.sim import simulate_batch, simulate_mujoco
+from paa_mj.sim.engine import gaussian
+
+from .conftest import GAINS1
+from .helpers import Uncompiled
+
+
+def test_compiled_rollout_equals_python_controller_rollout(gymnast):
+    ctrl = make_controller("vcl", gymnast)
+    fast = simulate_mujoco(gymnast, ctrl, X0_HANGING, 3.0)
+    slow = simulate_mujoco(gymnast, Uncompiled(make_controller("vcl", gymnast)), X0_HANGING, 3.0)
+    np.testing.assert_allclose(fast.q, slow.q, rtol=0, atol=1e-10)
+    np.testing.assert_allclose(fast.tau, slow.tau, rtol=1e-9, atol=1e-7)
+    x0 = np.concatenate([Q_UDD + [0.3, -0.2, 0.1], [0.2, 0.0, 0.0]])
+    fast = simulate_mujoco(gymnast, ctrl, x0, 2.0)
+    slow = simulate_mujoco(gymnast, Uncompiled(make_controller("vcl", gymnast)), x0, 2.0)
+    assert fast.switch_time == slow.switch_time == 0.0
+    np.testing.assert_allclose(fast.q, slow.q, atol=1e-10)
+
+
+@pytest.fixture(scope="module")
+def random_starts():
+    rng = np.random.default_rng(5)
+    x0 = np.zeros((6, 6))
+    x0[:, 0] = -np.pi + rng.uniform(-1.0, 1.0, 6)
+    x0[:, 1:3] = rng.uniform(-1.0, 1.0, (6, 2))
+    return x0
+
+
+@pytest.mark.parametrize("retire", [False, True])
+def test_batch_equals_single_rollouts_bit_for_bit(gymnast, random_starts, retire):
+    batch = simulate_batch(gymnast, random_starts, 20.0, record=True, retire=retire, nthread=2)
+    for i, x0 in enumerate(random_starts):
+        single = simulate_mujoco(gymnast, "vcl", x0, 20.0, sample_dt=0.01, retire=retire)
+        assert (single.switch_time or np.nan) == pytest.approx(batch.switch_time[i], nan_ok=True)
+        assert single.balanced() == batch.balanced[i]
+        np.testing.assert_array_equal(batch.final_state[i], single.final_state)
+        count = int(batch.trajectories["count"][i])
+        np.testing.assert_array_equal(batch.trajectories["q"][i, :count], single.q)
+        np.testing.assert_array_equal(batch.trajectories["tau"][i, :count], single.tau)
+    if retire:
+        assert np.any(batch.t_end < 20.0)  # some rollouts balanced for good before the end
+
+
+def test_retirement_changes_no_outcome(gymnast):
+    """Rollouts stopped once their balance can no longer fail end as they would have (8 x 8 basin, 25 s)."""
+    from paa_mj.studies.basin import basin_grid
+
+    x0, _, _ = basin_grid((0, 1), 8)
+    full = simulate_batch(gymnast, x0, 25.0, retire=False)
+    early = simulate_batch(gymnast, x0, 25.0, retire=True)
+    for key in ("switch_time", "balanced", "diverged", "max_abs_tau", "held", "t_region", "t_balanced"):
+        np.testing.assert_array_equal(getattr(early, key), getattr(full, key), err_msg=key)
+    retired = early.t_end < 25.0
+    assert retired.sum() > 20  # the test is not vacuous
+    assert np.all(np.abs(early.final_state[retired][:, 3:]) < 1e-3)
+
+
+def test_batch_per_rollout_controllers_and_model_error(gymnast):
+    x0 = np.tile(X0_HANGING, (2, 1))
+    wrong = gymnast.params.scaled(mass_factor=1.05, length_factor=0.98)
+    specs = [ControllerSpec("vcl", (4600.0, 17000.0, 4000.0)), ControllerSpec("vcl", None, wrong, check=False)]
+    batch = simulate_batch(gymnast, x0, 3.0, controller=specs, record=True)
+    one = simulate_mujoco(gymnast, specs[0], x0[0], 3.0)
+    np.testing.assert_array_equal(batch.trajectories["q"][0, :len(one)], one.q)
+    two = simulate_mujoco(gymnast, specs[1], x0[1], 3.0)
+    np.testing.assert_array_equal(batch.trajectories["q"][1, :len(two)], two.q)
+    assert np.max(np.abs(two.q - one.q)) > 1e-3
+
+
+def test_batch_plant_perturbation(gymnast):
+    heavier = gymnast.params.scaled(mass_factor=1.1)
+    batch = simulate_batch(gymnast, X0_HANGING[None], 2.0, plants=[heavier], record=True)
+    plant = gymnast.with_params(heavier)
+    single = simulate_mujoco(plant, make_controller("vcl", gymnast), X0_HANGING, 2.0)
+    np.testing.assert_array_equal(batch.trajectories["q"][0, :len(single)], single.q)
+
+
+def test_python_controllers_run_in_the_batch_engine(gymnast, random_starts):
+    compiled = simulate_batch(gymnast, random_starts[:3], 4.0)
+    slow = simulate_batch(gymnast, random_starts[:3], 4.0, controller=Uncompiled(make_controller("vcl", gymnast)))
+    np.testing.assert_allclose(slow.final_state, compiled.final_state, atol=1e-9)
+
+
+def test_batch_divergence_is_contained(gymnast):
+    x0 = np.tile(X0_HANGING, (3, 1))
+    x0[1, 3] = 5e4  # runaway speed
+    batch = simulate_batch(gymnast, x0, 0.5)
+    assert list(batch.diverged) == [False, True, False]
+    assert np.all(np.isfinite(batch.final_state))
+    np.testing.assert_array_equal(batch.final_state[0], batch.final_state[2])
+
+
+def test_batch_bad_input(gymnast):
+    with pytest.raises(PaaError, match=r"\(N, 6\)"):
+        simulate_batch(gymnast, np.zeros((3, 5)), 1.0)
+    with pytest.raises(PaaError, match="kD_min"):
+        simulate_batch(gymnast, X0_HANGING[None], 1.0, controller=ControllerSpec("vcl", (100.0, 16000.0, 5000.0)))
+    with pytest.raises(PaaError, match="one controller per rollout"):
+        simulate_batch(gymnast, np.zeros((2, 6)), 1.0, controller=["vcl"] * 3)
+    with pytest.raises(PaaError, match="torque limits must be > 0"):
+        simulate_batch(gymnast, np.zeros((2, 6)), 1.0, torque_limit=-1.0)
+
+
+def test_noise_is_seeded_per_rollout_not_per_chunk(gymnast):
+    x0 = np.tile(X0_HANGING, (3, 1))
+    a = simulate_batch(gymnast, x0, 1.0, noise_std=[0.01, 0.01], seed=3)
+    b = simulate_batch(gymnast, x0, 1.0, noise_std=[0.01, 0.01], seed=3, nthread=1)
+    c = simulate_batch(gymnast, x0, 1.0, noise_std=[0.01, 0.01], seed=4)
+    np.testing.assert_array_equal(a.final_state, b.final_state)
+    assert np.max(np.abs(a.final_state - c.final_state)) > 1e-6
+    assert np.max(np.abs(a.final_state[0] - a.final_state[1])) > 1e-6  # each rollout draws its own noise
+    # rollout 2 alone, with its global number, draws what it drew in the batch
+    alone = simulate_batch(gymnast, x0[2:], 1.0, noise_std=[0.01, 0.01], seed=3, rollout_ids=[2])
+    np.testing.assert_array_equal(alone.final_state[0], a.final_state[2])
+
+
+def test_counter_based_noise_is_standard_normal():
+    z = np.array([gaussian(7, r, s, k) for r in range(20) for s in range(250) for k in range(4)])
+    assert abs(z.mean()) < 0.03 and abs(z.std() - 1) < 0.03
+    assert abs(np.mean(np.abs(z) > 1.959964) - 0.05) < 0.01
+
+
+def test_delay_applies_the_torque_computed_d_steps_before(gymnast):
+    d = 4
+    batch = simulate_batch(gymnast, X0_HANGING[None], 0.2, delay_steps=[d], record=True, sample_dt=0.001)
+    n = int(batch.trajectories["count"][0])
+    q, qd, tau = (batch.trajectories[k][0, :n] for k in ("q", "qd", "tau"))
+    ctrl = make_controller("vcl", gymnast)
+    computed = np.array([ctrl.torque(q[s], qd[s]) for s in range(len(q))])
+    np.testing.assert_array_equal(tau[:d], 0.0)
+    np.testing.assert_allclose(tau[d:], computed[:-d], rtol=1e-9)
+
+
+def test_torque_limit_and_torque_noise(gymnast):
+    clipped = simulate_batch(gymnast, X0_HANGING[None], 1.0, torque_limit=[50.0, 20.0])
+    assert clipped.max_abs_tau[0, 0] == pytest.approx(50.0) and clipped.max_abs_tau[0, 1] == pytest.approx(20.0)
+    quiet = simulate_batch(gymnast, X0_HANGING[None], 1.0, controller="passive", record=True, sample_dt=0.001)
+    noisy = simulate_batch(gymnast, X0_HANGING[None], 1.0, controller="passive", torque_noise=2.0, record=True,
+                           sample_dt=0.001)
+    assert np.all(quiet.trajectories["tau"] == 0)
+    assert np.std(noisy.trajectories["tau"][0, :1000]) == pytest.approx(2.0, rel=0.1)
+    assert np.all(noisy.trajectories["tau"][0, :1000] != 0)
+
+
+def test_a_push_swings_the_passive_robot(gymnast):
+    pushes = np.array([[[0.5, 0.1, 50.0, 0.0, 0.0]]])
+    still = simulate_batch(gymnast, X0_HANGING[None], 2.0, controller="passive")
+    pushed = simulate_batch(gymnast, X0_HANGING[None], 2.0, controller="passive", pushes=pushes)
+    assert np.max(np.abs(still.final_state[0] - X0_HANGING)) < 1e-9
+    assert pushed.max_speed[0] > 0.1
+
+
+def test_effort_integrals_match_the_recorded_torques(gymnast):
+    batch = simulate_batch(gymnast, X0_HANGING[None], 2.0, record=True, sample_dt=0.001, retire=False)
+    n = int(batch.trajectories["count"][0])
+    tau, qd = batch.trajectories["tau"][0, :n - 1], batch.trajectories["qd"][0, :n]
+    dt = 1e-3
+    np.testing.assert_allclose(batch.int_tau2[0], np.sum(tau**2) * dt, rtol=1e-9)
+    # work over each step uses the speed after the step (the torque acts over the step)
+    np.testing.assert_allclose(batch.work[0], np.sum(np.abs(np.sum(tau * qd[1:, 1:], 1))) * dt, rtol=1e-9)
+    smooth = np.sqrt(np.sum(np.diff(batch.trajectories["tau"][0, :n], axis=0) ** 2) / dt**2 / 2000)
+    np.testing.assert_allclose(batch.smoothness[0], smooth, rtol=1e-9)
+
+
+def test_basin_cli(capsys, tmp_path):
+    code = main(["basin", "--grid", "3", "--t-final", "2", "--axes", "q1,d2", "--json", "--out", str(tmp_path),
+                 "--scheduler", "inline"])
+    out = capsys.readouterr().out
+    assert code == 0
+    s = json.loads(out)
+    assert s["cells"] == 9 and s["axes"] == ["q1", "d2"]
+    assert 0.0 <= s["success_fraction"] <= 1.0
+    assert "median_switch_time" in s and sum(s["outcomes"].values()) == 9
+    data = np.load(tmp_path / "basin.npz")
+    assert data["switch_time"].shape == (9,) and data["x0"].shape == (9, 6)
+    assert np.all(data["x0"][:, [1, 2, 3, 5]] == 0)
+    assert (tmp_path / "basin.png").read_bytes()[:4] == b"\x89PNG"
+    assert (tmp_path / "basin.svg").read_text().lstrip().startswith("<?xml")
+
+
+@pytest.mark.parametrize("args, fragment", [
+    (["basin", "--axes", "q1"], "two different coordinates"),
+    (["basin", "--axes", "q1,q1"], "two different coordinates"),
+    (["basin", "--grid", "1"], "--grid must be an integer in [2,"),
+    (["basin", "--controller", "lqr", "--kD", "5000"], "apply to the controllers"),
+])
+def test_basin_bad_input(capsys, args, fragment):
+    assert main(args) == 2
+    assert fragment in capsys.readouterr().err
+
+
+def test_bench_reports_ratios_without_timing_assertions():
+    from paa_mj.studies.bench import format_bench, run_bench
+
+    r = run_bench(batch_size=8, batch_seconds=0.05, repeats=1, basin_grid=2, basin_seconds=0.1)
+    for key in ("bare_mj_step_us", "single_step_ratio", "batch_step_ratio", "basin_effective_ratio",
+                "analytic_to_mujoco_ratio"):
+        assert np.isfinite(r[key]) and r[key] > 0
+    assert "basin_effective_ratio" in format_bench(r)
+
+
+def test_robustness_cli(capsys, tmp_path):
+    code = main(["robustness", "--trials", "2", "--t-final", "1", "--json", "--out", str(tmp_path),
+                 "--model-error", "0", "3", "7", "15", "--scheduler", "inline"])
+    s = json.loads(capsys.readouterr().out)
+    assert code == 0
+    assert set(s["factors"]) == {"noise", "torque_limit", "model_error", "delay"}
+    for factor, data in s["factors"].items():
+        assert len(data["levels"]) == 4
+        for lv in data["levels"]:
+            assert 0 <= lv["low"] <= lv["success_rate"] <= lv["high"] <= 1 and lv["trials"] == 2
+        assert (tmp_path / f"robustness_{factor}.png").exists() and (tmp_path / f"robustness_{factor}.svg").exists()
+    assert (tmp_path / "summary.json").exists() and (tmp_path / "robustness.npz").exists()
+
+
+def test_robustness_every_factor_from_hanging(capsys):
+    code = main(["robustness", "--trials", "1", "--t-final", "0.5", "--json", "--scheduler", "inline",
+                 "--start", "hanging", "--factors", "torque_noise,pushes,initial_state"])
+    s = json.loads(capsys.readouterr().out)
+    assert code == 0 and s["start"] == "hanging"
+    assert set(s["factors"]) == {"torque_noise", "pushes", "initial_state"}
+
+
+def test_robustness_model_error_levels(capsys):
+    assert main(["robustness", "--trials", "1", "--t-final", "0.5", "--json", "--scheduler", "inline",
+                 "--model-error", "0", "12.5"]) == 0
+    s = json.loads(capsys.readouterr().out)
+    assert [lv["level"] for lv in s["factors"]["model_error"]["levels"]] == [0.0, 12.5]
+    assert main(["robustness", "--model-error", "150"]) == 2
+    assert "[0, 100)" in capsys.readouterr().err
+
+
+def test_wilson_interval():
+    from paa_mj.studies.robustness import wilson_interval
+
+    low, high = wilson_interval(8, 10)
+    assert low == pytest.approx(0.4902, abs=1e-4) and high == pytest.approx(0.9433, abs=1e-4)
+    assert wilson_interval(0, 5)[0] == 0.0 and wilson_interval(5, 5)[1] == 1.0
+
+
+USER_CONTROLLER = '''\
+import numpy as np
+
+
+class Damped:
+    """A user's controller: PD towards the hanging posture on the motors."""
+
+    def __init__(self, robot):
+        self.gain = 0.05 * robot.analytic.b1
+
+    def torque(self, q, qd, t):
+        q, qd = np.asarray(q), np.asarray(qd)
+        return -self.gain * (q[..., 1:] + 0.5 * qd[..., 1:])
+'''
+
+
+def test_users_controller_runs_from_the_command_line(tmp_path, capsys):
+    path = tmp_path / "mine.py"
+    path.write_text(USER_CONTROLLER)
+    out = tmp_path / "run"
+    assert main(["simulate", "--controller", f"{path}:Damped", "--t-final", "1", "--x0", "-3", "0.5", "-0.3", "0",
+                 "0", "0", "--out", str(out), "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["controller"] == "Damped"
+    data = np.load(out / "trajectory.npz")
+    b1 = 289.53234
+    expected = -0.05 * b1 * (data["q"][:, 1:] + 0.5 * data["qd"][:, 1:])
+    np.testing.assert_allclose(data["tau"], expected, rtol=1e-12)  # the recorded torques are the class's
+    assert main(["basin", "--controller", f"{path}:Damped", "--grid", "2", "--t-final", "1", "--json",
+                 "--scheduler", "inline"]) == 0
+    basin = json.loads(capsys.readouterr().out)
+    assert basin["cells"] == 4 and basin["controller"] == "mine.py:Damped"
+
+
+def test_users_controller_failures_are_one_line(tmp_path, capsys):
+    path = tmp_path / "bad.py"
+    path.write_text("import numpy as np\nclass Wrong:\n    def __init__(self, robot):\n        pass\n"
+                    "    def torque(self, q, qd, t):\n        return np.zeros(3)\n")
+    assert main(["simulate", "--controller", f"{path}:Wrong", "--t-final", "0.1"]) == 2
+    err = capsys.readouterr().err
+    assert "returned shape (3,)" in err and len(err.strip().splitlines()) == 1

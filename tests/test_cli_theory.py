@@ -56,8 +56,8 @@ def test_make_model_round_trip(capsys, tmp_path):
     (["theory", "--robot", "nosuch"], "unknown robot"),
     (["theory", "--robot", "/nonexistent/robot.xml"], "not found"),
     (["check", "--robot", "gymnast", "--samples", "0"], "--samples"),
-    (["theory", "--robot", "gymnast", "--kD", "abc"], "invalid float"),
-    (["make-model", "--m", "1", "-1", "1", "--l", "1", "1", "1", "--out", "x.xml"], "m2 = -1"),
+    (["theory", "--robot", "gymnast", "--kD", "abc"], "--kD: not a number: 'abc'"),
+    (["make-model", "--m", "1", "-1", "1", "--l", "1", "1", "1", "--out", "x.xml"], "--m: must be a positive finite"),
     (["make-model", "--m", "1", "1", "1", "--l", "1", "1", "1", "--lc", "0.5", "2", "0.5", "--J", "1", "1", "1", "--out", "x.xml"], "lc2 = 2"),
     (["frobnicate"], "invalid choice"),
 ])

@@ -94,26 +94,31 @@ def test_interrupt_keeps_the_chunks_already_finished_and_a_rerun_resumes(gymnast
     np.testing.assert_array_equal(resumed.final_state, whole.final_state)
 
 
-def _basin_cmd(out, grid=6, t_final=4):
+def _basin_cmd(out, grid=8, t_final=2, chunk=8):
     return [sys.executable, "-m", "paa_mj.cli", "basin", "--grid", str(grid), "--t-final", str(t_final),
-            "--scheduler", "inline", "--json", "--out", str(out)]
+            "--chunk", str(chunk), "--scheduler", "inline", "--json", "--out", str(out)]
 
 
 def _files(out):
     return {name: (out / name).read_bytes() for name in ("basin.npz", "summary.json", "basin.png", "basin.svg")}
 
 
+@pytest.fixture(scope="module")
+def uninterrupted(tmp_path_factory):
+    reference = tmp_path_factory.mktemp("reference")
+    assert subprocess.run(_basin_cmd(reference), capture_output=True).returncode == 0
+    return _files(reference)
+
+
 @pytest.mark.parametrize("sig, code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
-def test_signal_then_rerun_is_byte_identical_to_an_uninterrupted_run(tmp_path, sig, code):
+def test_signal_then_rerun_is_byte_identical_to_an_uninterrupted_run(tmp_path, sig, code, uninterrupted):
     """Stopped by a signal after at least one chunk, resumed by the same command: the same bytes."""
-    reference = tmp_path / "reference"
-    assert subprocess.run(_basin_cmd(reference, grid=24), capture_output=True).returncode == 0
     out = tmp_path / "stopped"
-    proc = subprocess.Popen(_basin_cmd(out, grid=24), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(_basin_cmd(out), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     chunks = out / ".chunks"
     deadline = time.time() + 120
     while time.time() < deadline and not list(chunks.glob("*/chunk-*.npz")):
-        time.sleep(0.05)
+        time.sleep(0.02)
     proc.send_signal(sig)
     stdout, stderr = proc.communicate(timeout=120)
     assert proc.returncode == code, stderr
@@ -121,8 +126,8 @@ def test_signal_then_rerun_is_byte_identical_to_an_uninterrupted_run(tmp_path, s
     summary = json.loads(stdout)
     assert summary["interrupted"] is True and 0 < summary["completed_fraction"] < 1
     assert not [p for p in os.listdir(out) if p.startswith(".") and p not in (".chunks", ".paa-mj.lock")]
-    assert subprocess.run(_basin_cmd(out, grid=24), capture_output=True).returncode == 0
-    assert _files(out) == _files(reference)
+    assert subprocess.run(_basin_cmd(out), capture_output=True).returncode == 0
+    assert _files(out) == uninterrupted
 
 
 def test_a_second_run_into_the_same_folder_is_refused(tmp_path):
@@ -153,7 +158,8 @@ def test_losing_every_worker_stops_with_one_line_and_keeps_chunks(gymnast, tmp_p
     script = tmp_path / "kill.py"
     script.write_text(f'''
 import os, signal, sys, threading, time
-sys.argv = ["paa-mj", "basin", "--grid", "20", "--t-final", "3", "--json", "--out", {str(tmp_path / "out")!r}]
+sys.argv = ["paa-mj", "basin", "--grid", "12", "--t-final", "2", "--chunk", "16", "--json", "--out",
+            {str(tmp_path / "out")!r}]
 import distributed
 from paa_mj.cli import main
 
@@ -188,6 +194,8 @@ if __name__ == "__main__":  # Dask's worker processes import this file again
     assert len(lines) == 1 and "run the same command again to resume" in lines[0]
     kept = list((tmp_path / "out" / ".chunks").glob("*/chunk-*.npz"))
     assert kept
-    rerun = subprocess.run([sys.executable, "-m", "paa_mj.cli", "basin", "--grid", "20", "--t-final", "3", "--json",
-                            "--out", str(tmp_path / "out"), "--scheduler", "inline"], capture_output=True, text=True)
+    rerun = subprocess.run([sys.executable, "-m", "paa_mj.cli", "basin", "--grid", "12", "--t-final", "2", "--chunk",
+                            "16", "--json", "--out", str(tmp_path / "out"), "--scheduler", "inline"],
+                           capture_output=True, text=True)
     assert rerun.returncode == 0, rerun.stderr
+    assert json.loads(rerun.stdout)["completed_fraction"] == 1.0

@@ -54,16 +54,16 @@ def test_batch_equals_single_rollouts_bit_for_bit(gymnast, random_starts, retire
 
 
 def test_retirement_changes_no_outcome(gymnast):
-    """Rollouts stopped once their balance can no longer fail end as they would have (8 x 8 basin, 25 s)."""
+    """Rollouts stopped once their balance can no longer fail end as they would have (6 x 6 basin, 22 s)."""
     from paa_mj.studies.basin import basin_grid
 
-    x0, _, _ = basin_grid((0, 1), 8)
-    full = simulate_batch(gymnast, x0, 25.0, retire=False)
-    early = simulate_batch(gymnast, x0, 25.0, retire=True)
+    x0, _, _ = basin_grid((0, 1), 6)
+    full = simulate_batch(gymnast, x0, 22.0, retire=False)
+    early = simulate_batch(gymnast, x0, 22.0, retire=True)
     for key in ("switch_time", "balanced", "diverged", "max_abs_tau", "held", "t_region", "t_balanced"):
         np.testing.assert_array_equal(getattr(early, key), getattr(full, key), err_msg=key)
-    retired = early.t_end < 25.0
-    assert retired.sum() > 20  # the test is not vacuous
+    retired = early.t_end < 22.0
+    assert retired.sum() > 10  # the test is not vacuous
     assert np.all(np.abs(early.final_state[retired][:, 3:]) < 1e-3)
 
 

@@ -132,6 +132,8 @@ def study_parent():
     p.add_argument("--scheduler", metavar="{inline,local,tcp://HOST:PORT}",
                    help="where chunks run: inline (this process), local (a local Dask cluster; the default when"
                         " Dask is installed) or a Dask scheduler address")
+    p.add_argument("--chunk", type=positive_int, default=128,
+                   help="rollouts per chunk: the unit of work sent to a worker and kept on disk")
     p.add_argument("--fresh", action="store_true",
                    help="start over: forget the finished chunks kept in --out (default: resume from them)")
     return p

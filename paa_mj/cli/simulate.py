@@ -89,9 +89,7 @@ def cmd_render(args):
     from ..outputs.gl import select_backend
 
     out = Path(args.out)
-    from ..outputs.video import VIDEO_SUFFIXES, check_video_request
-
-    if out.suffix.lower() not in VIDEO_SUFFIXES:
+    if out.suffix.lower() not in (".mp4", ".gif"):
         raise PaaError(f"--out must end in .mp4 or .gif, got {out.name}")
     if args.from_file:
         defaults = run_parent().parse_args([])
@@ -102,7 +100,7 @@ def cmd_render(args):
                            " contradict it")
     backend = select_backend(args.gl)  # before anything imports mujoco's GL
     from ..model.robot import load_robot
-    from ..outputs.video import render_trajectory
+    from ..outputs.video import check_video_request, render_trajectory
     from ..sim.trajectory import Trajectory
 
     if args.from_file:

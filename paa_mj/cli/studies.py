@@ -33,7 +33,7 @@ def cmd_basin(args):
     scheduler = check_scheduler(args.scheduler)
     with _lock(args.out):
         summary, arrays = basin(robot, axes, args.grid, args.t_final, controller=spec, progress=not args.json,
-                                scheduler=scheduler, out_dir=args.out, fresh=args.fresh)
+                                scheduler=scheduler, out_dir=args.out, fresh=args.fresh, chunk=args.chunk)
         if args.out:
             write_basin(args.out, summary, arrays)
     if args.json:
@@ -59,7 +59,7 @@ def cmd_robustness(args):
         summary, arrays = robustness(robot, trials=args.trials, t_final=args.t_final, seed=args.seed,
                                      controller=spec, factors=factors, start=args.start, progress=not args.json,
                                      scheduler=scheduler, model_error=args.model_error, out_dir=args.out,
-                                     fresh=args.fresh)
+                                     fresh=args.fresh, chunk=args.chunk)
         if args.out:
             write_robustness(args.out, summary, arrays)
     if args.json:

@@ -14,7 +14,7 @@ from ..errors import PaaError
 from ..io import json_writer, npz_writer, write_set
 from ..model.robot import Robot
 from ..model.states import Q_DUU, STATE_NAMES, wrap_angle
-from .runner import RolloutSet, run_study
+from .runner import CHUNK, RolloutSet, run_study
 from .store import ChunkStore, study_key
 
 COORDINATES = STATE_NAMES
@@ -60,7 +60,7 @@ def classify(result) -> np.ndarray:
 
 
 def basin(robot: Robot, axes=(0, 1), grid=64, t_final=30.0, controller: ControllerSpec | str = "vcl", progress=False,
-          scheduler="inline", out_dir=None, fresh=False):
+          scheduler="inline", out_dir=None, fresh=False, chunk=CHUNK):
     """Run the basin study; returns (summary dict, arrays dict).
 
     ``scheduler``: "inline", "local" (a local Dask cluster) or a Dask scheduler
@@ -72,9 +72,9 @@ def basin(robot: Robot, axes=(0, 1), grid=64, t_final=30.0, controller: Controll
     spec.build(robot)  # checks the gains (one line) before any work
     rollouts = RolloutSet(x0, spec)
     key = study_key({"study": "basin", "robot": robot.xml, "axes": list(axes), "grid": grid, "t_final": t_final,
-                     **rollouts.definition()})
+                     "chunk": chunk, **rollouts.definition()})
     result = run_study(robot, rollouts, t_final, scheduler=scheduler, store=ChunkStore(out_dir, key, fresh),
-                       progress=progress)
+                       progress=progress, chunk=chunk)
     completed = result.meta["completed"]
     success = result.success()
     switched = result.switch_time[np.isfinite(result.switch_time)]

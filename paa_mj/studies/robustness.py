@@ -37,7 +37,7 @@ from ..io import json_writer, npz_writer, write_set
 from ..model.robot import Robot
 from ..model.states import X0_HANGING
 from ..sim.rollout import simulate_mujoco
-from .runner import RolloutSet, run_study
+from .runner import CHUNK, RolloutSet, run_study
 from .store import ChunkStore, study_key
 
 FACTORS = {
@@ -99,7 +99,7 @@ def nominal_peak(robot: Robot, spec: ControllerSpec, t_final=30.0) -> float:
 
 def robustness(robot: Robot, trials=64, t_final=30.0, seed=0, controller: ControllerSpec | str = "vcl",
                factors=DEFAULT_FACTORS, levels=None, start="random", progress=False, scheduler="inline",
-               out_dir=None, fresh=False, model_error=None):
+               out_dir=None, fresh=False, model_error=None, chunk=CHUNK):
     """Success rate against each factor; returns (summary dict, arrays dict).
 
     Parameters
@@ -157,9 +157,9 @@ def robustness(robot: Robot, trials=64, t_final=30.0, seed=0, controller: Contro
     rollouts = RolloutSet(np.array(x0), specs, torque_limit=np.array(limit)[:, None].repeat(2, 1),
                           noise_std=np.array(noise), torque_noise=np.array(tau_noise), delay_steps=np.array(delay),
                           pushes=np.array(pushes) if "pushes" in chosen else None)
-    key = study_key({"study": "robustness", "robot": robot.xml, "t_final": t_final, "seed": seed,
+    key = study_key({"study": "robustness", "robot": robot.xml, "t_final": t_final, "seed": seed, "chunk": chunk,
                      **rollouts.definition()})
-    result = run_study(robot, rollouts, t_final, seed=seed, scheduler=scheduler,
+    result = run_study(robot, rollouts, t_final, seed=seed, scheduler=scheduler, chunk=chunk,
                        store=ChunkStore(out_dir, key, fresh), progress=progress)
     completed = result.meta["completed"]
     success = result.held

@@ -13,7 +13,7 @@ from .errors import PaaError
 #: Fraction of the available memory one request may take.
 MEMORY_FRACTION = 0.5
 #: Longest run accepted [s of wall time], estimated at :data:`STEP_SECONDS` per physics step and core.
-MAX_SECONDS = 7 * 24 * 3600.0
+MAX_SECONDS = 24 * 3600.0
 STEP_SECONDS = 5e-6
 
 

@@ -12,7 +12,6 @@ import pytest
 distributed = pytest.importorskip("distributed")
 
 from paa_mj.cli import main  # noqa: E402
-from paa_mj.control import ControllerSpec  # noqa: E402
 from paa_mj.model.states import X0_HANGING  # noqa: E402
 from paa_mj.studies.basin import basin  # noqa: E402
 from paa_mj.studies.runner import RolloutSet, run_study  # noqa: E402

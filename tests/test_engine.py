@@ -1,18 +1,16 @@
 """The rollout engine: compiled and Python controllers, batch against single, retirement, disturbances."""
 import json
-import warnings
 
 import numpy as np
 import pytest
 
 from paa_mj.cli import main
-from paa_mj.control import ControllerSpec, TheoryWarning, make_controller
+from paa_mj.control import ControllerSpec, make_controller
 from paa_mj.errors import PaaError
 from paa_mj.model.states import Q_UDD, X0_HANGING
 from paa_mj.sim import simulate_batch, simulate_mujoco
 from paa_mj.sim.engine import gaussian
 
-from .conftest import GAINS1
 from .helpers import Uncompiled
 
 

@@ -39,7 +39,21 @@ def _show_warning(message, category, filename, lineno, file=None, line=None):
     print(f"paa-mj: warning: {message}", file=sys.stderr)
 
 
+def _choose_gl_early(argv):
+    """Honour ``--gl egl|osmesa`` before anything imports MuJoCo (which reads MUJOCO_GL once, on import)."""
+    args = list(sys.argv[1:] if argv is None else argv)
+    value = None
+    for i, arg in enumerate(args):
+        if arg == "--gl" and i + 1 < len(args):
+            value = args[i + 1]
+        elif arg.startswith("--gl="):
+            value = arg.split("=", 1)[1]
+    if value in ("egl", "osmesa") and "mujoco" not in sys.modules:
+        os.environ["MUJOCO_GL"] = os.environ["PYOPENGL_PLATFORM"] = value
+
+
 def main(argv=None):
+    _choose_gl_early(argv)
     previous = install_signal_handlers()
     try:
         with warnings.catch_warnings():

@@ -6,7 +6,6 @@ Every option says what it does, its default and its allowed values in
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import signal
 import sys
@@ -39,37 +38,23 @@ class Parser(argparse.ArgumentParser):
         raise PaaError(f"{message} (see '{self.prog} --help')")
 
 
-def positive(text):
-    """A positive finite float (argparse type)."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-    if not (math.isfinite(value) and value > 0):
-        raise argparse.ArgumentTypeError(f"must be a positive finite number, got {text}")
-    return value
+def _number_type(accept, rule):
+    """An argparse type: a float for which ``accept(value)`` holds, else '``rule``, got TEXT'."""
+    def parse(text):
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+        if not (math.isfinite(value) and accept(value)):
+            raise argparse.ArgumentTypeError(f"{rule}, got {text}")
+        return value
+
+    return parse
 
 
-def non_negative(text):
-    """A finite float >= 0 (argparse type)."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-    if not (math.isfinite(value) and value >= 0):
-        raise argparse.ArgumentTypeError(f"must be a finite number >= 0, got {text}")
-    return value
-
-
-def finite(text):
-    """A finite float (argparse type)."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-    if not math.isfinite(value):
-        raise argparse.ArgumentTypeError(f"must be finite, got {text}")
-    return value
+positive = _number_type(lambda v: v > 0, "must be a positive finite number")
+non_negative = _number_type(lambda v: v >= 0, "must be a finite number >= 0")
+finite = _number_type(lambda v: True, "must be finite")
 
 
 def positive_int(text):

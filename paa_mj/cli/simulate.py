@@ -4,7 +4,7 @@ from __future__ import annotations
 import argparse
 
 from ..errors import PaaError, SimulationDiverged
-from .common import (EXIT_DIVERGED, controller_parent, interrupt_code, interrupt_name, note, output_parent,
+from .common import (controller_parent, interrupt_code, interrupt_name, note, output_parent,
                      physics_parent, positive, positive_int, print_json, robot_parent, spec_from_args)
 
 

@@ -3,7 +3,6 @@ from __future__ import annotations
 
 from contextlib import nullcontext
 
-from ..errors import PaaError
 from .common import (controller_parent, interrupt_code, interrupt_name, note, output_parent, positive, positive_int,
                      print_json, robot_parent, spec_from_args, study_parent)
 
@@ -22,23 +21,31 @@ def _finish_study(summary, args, what):
     return 0
 
 
-def cmd_basin(args):
+def _study(args, run, write):
+    """Load, check, run under the output lock, write, report: the common course of a study command."""
     from ..model.robot import load_robot
-    from ..studies.basin import basin, parse_axes, write_basin
     from ..studies.runner import check_scheduler
 
-    axes = parse_axes(args.axes)
     robot = load_robot(args.robot)
     spec = spec_from_args(args, robot)
     scheduler = check_scheduler(args.scheduler)
     with _lock(args.out):
-        summary, arrays = basin(robot, axes, args.grid, args.t_final, controller=spec, progress=not args.json,
-                                scheduler=scheduler, out_dir=args.out, fresh=args.fresh, chunk=args.chunk)
+        summary, arrays = run(robot, spec, dict(progress=not args.json, scheduler=scheduler, out_dir=args.out,
+                                                fresh=args.fresh, chunk=args.chunk))
         if args.out:
-            write_basin(args.out, summary, arrays)
+            write(args.out, summary, arrays)
     if args.json:
         print_json(summary)
-    else:
+    return summary
+
+
+def cmd_basin(args):
+    from ..studies.basin import basin, parse_axes, write_basin
+
+    axes = parse_axes(args.axes)
+    summary = _study(args, lambda robot, spec, common: basin(robot, axes, args.grid, args.t_final, controller=spec,
+                                                            **common), write_basin)
+    if not args.json:
         print(f"{summary['cells']} starts over ({', '.join(summary['axes'])}), {summary['controller']}:"
               f" {100 * summary['success_fraction']:.1f} % balanced, median first switch"
               f" {summary['median_switch_time']} s"
@@ -47,24 +54,13 @@ def cmd_basin(args):
 
 
 def cmd_robustness(args):
-    from ..model.robot import load_robot
     from ..studies.robustness import robustness, write_robustness
-    from ..studies.runner import check_scheduler
 
-    robot = load_robot(args.robot)
-    spec = spec_from_args(args, robot)
-    scheduler = check_scheduler(args.scheduler)
     factors = [f.strip() for f in args.factors.split(",") if f.strip()]
-    with _lock(args.out):
-        summary, arrays = robustness(robot, trials=args.trials, t_final=args.t_final, seed=args.seed,
-                                     controller=spec, factors=factors, start=args.start, progress=not args.json,
-                                     scheduler=scheduler, model_error=args.model_error, out_dir=args.out,
-                                     fresh=args.fresh, chunk=args.chunk)
-        if args.out:
-            write_robustness(args.out, summary, arrays)
-    if args.json:
-        print_json(summary)
-    else:
+    summary = _study(args, lambda robot, spec, common: robustness(
+        robot, trials=args.trials, t_final=args.t_final, seed=args.seed, controller=spec, factors=factors,
+        start=args.start, model_error=args.model_error, **common), write_robustness)
+    if not args.json:
         print(f"robot {summary['robot']}, {summary['controller']}: success rate over {summary['trials']}"
               f" {summary['start']} starts per level [95 % interval]")
         for factor, data in summary["factors"].items():

@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 from ..errors import PaaError
-from .common import finite, gains_parent, output_parent, positive, positive_int, print_json, robot_parent
+from .common import finite, gains_parent, positive, positive_int, print_json, robot_parent
 
 
 def cmd_theory(args):

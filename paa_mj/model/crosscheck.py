@@ -74,7 +74,12 @@ def engine_quantities(model: mujoco.MjModel, q, qd, tau):
 
 def cross_check(model: mujoco.MjModel, samples=1000, seed=0) -> CrossCheck:
     """Compare MuJoCo with the analytic model built from the same compiled ``model``."""
+    from ..limits import check_memory
+
+    check_memory(samples * 400.0, "cross-check samples", "--samples")
     am = AnalyticModel.from_params(params_from_model(model))
+    model = model.__copy__()
+    model.opt.enableflags |= int(mujoco.mjtEnableBit.mjENBL_ENERGY)
     q, qd, tau = random_states(samples, seed, analytic=am)
     M, bias, qacc, energy = engine_quantities(model, q, qd, tau)
     return CrossCheck(

@@ -21,7 +21,6 @@ which every rollout then applies.
 """
 from __future__ import annotations
 
-import os
 import re
 import xml.etree.ElementTree as ET
 from pathlib import Path

@@ -71,6 +71,10 @@ def select_backend(gl: str = "auto") -> str:
 
 
 def _activate(backend):
+    loaded = os.environ.get("PYOPENGL_PLATFORM") if "OpenGL" in sys.modules else None
+    if loaded not in (None, backend):
+        raise PaaError(f"PyOpenGL was already loaded for {loaded} in this process; set MUJOCO_GL={backend} before"
+                       " importing mujoco or paa_mj (or use --gl auto)")
     os.environ["MUJOCO_GL"] = backend
     os.environ["PYOPENGL_PLATFORM"] = backend
     if "mujoco" in sys.modules:
@@ -80,6 +84,8 @@ def _activate(backend):
 
         from mujoco.rendering.classic import gl_context
 
-        if "OpenGL" in sys.modules and os.environ.get("PYOPENGL_PLATFORM") != backend:
-            raise PaaError(f"PyOpenGL was already loaded for another platform; set MUJOCO_GL={backend} before importing mujoco")
-        gl_context.GLContext = importlib.import_module(f"mujoco.{backend}").GLContext
+        try:
+            gl_context.GLContext = importlib.import_module(f"mujoco.{backend}").GLContext
+        except (ImportError, AttributeError) as err:
+            raise PaaError(f"cannot switch MuJoCo to {backend} in this process ({' '.join(str(err).split())});"
+                           f" set MUJOCO_GL={backend} before importing mujoco") from None

@@ -96,7 +96,7 @@ def theory_table(name, r) -> str:
         f" up-down controllable for every z: {_yes(r['frozen_acrobot_ud_controllable'])}",
         f"  UDD linearly controllable  {_yes(r['udd_controllable'])} (rank {r['udd_controllability']['rank']},"
         f" PBH margin {r['udd_controllability']['pbh_min']:.3g})",
-        f"  LQR gain K (67)            Q = 1e4 I6, R = I2",
+        "  LQR gain K (67)            Q = 1e4 I6, R = I2",
     ]
     for row in r["lqr_K"]:
         lines.append("      [" + "  ".join(f"{v:10.3f}" for v in row) + " ]")

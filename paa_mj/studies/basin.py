@@ -12,6 +12,7 @@ import numpy as np
 from ..control.registry import ControllerSpec
 from ..errors import PaaError
 from ..io import json_writer, npz_writer, write_set
+from ..limits import check_memory, check_steps
 from ..model.robot import Robot
 from ..model.states import Q_DUU, STATE_NAMES, wrap_angle
 from .runner import CHUNK, RolloutSet, run_study
@@ -68,6 +69,12 @@ def basin(robot: Robot, axes=(0, 1), grid=64, t_final=30.0, controller: Controll
     With ``out_dir``, finished chunks are kept there and a rerun resumes.
     """
     spec = ControllerSpec(controller) if isinstance(controller, str) else controller
+    if not (isinstance(grid, (int, np.integer)) and 2 <= grid <= MAX_GRID):
+        raise PaaError(f"--grid must be an integer in [2, {MAX_GRID}], got {grid}")
+    check_memory(grid * grid * 400.0, "basin results", "--grid")
+    if scheduler in ("inline", "local"):
+        check_steps(grid * grid * t_final / float(robot.model.opt.timestep), f"{grid * grid} rollouts of {t_final:g} s",
+                    "--grid or --t-final")
     x0, xs, ys = basin_grid(axes, grid)
     spec.build(robot)  # checks the gains (one line) before any work
     rollouts = RolloutSet(x0, spec)

@@ -34,6 +34,7 @@ import numpy as np
 from ..control.registry import ControllerSpec
 from ..errors import PaaError
 from ..io import json_writer, npz_writer, write_set
+from ..limits import check_memory, check_steps
 from ..model.robot import Robot
 from ..model.states import X0_HANGING
 from ..sim.rollout import simulate_mujoco
@@ -130,6 +131,11 @@ def robustness(robot: Robot, trials=64, t_final=30.0, seed=0, controller: Contro
         if name == "model_error" and any(v >= 100 for v in values):
             raise PaaError(f"--model-error percentages must lie in [0, 100), got {values}")
         chosen[name]["levels"] = values
+    total = trials * sum(len(f["levels"]) for f in chosen.values())
+    check_memory(total * 1000.0, "robustness rollouts", "--trials or the levels")
+    if scheduler in ("inline", "local"):
+        check_steps(total * t_final / float(robot.model.opt.timestep), f"{total} rollouts of {t_final:g} s",
+                    "--trials, the levels or --t-final")
     spec.build(robot)  # checks the gains (one line) before any work
     quiet = ControllerSpec(spec.name, spec.gains, spec.believed, check=False)
     peak = nominal_peak(robot, spec) if {"torque_limit", "torque_noise"} & set(chosen) else None

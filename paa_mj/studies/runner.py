@@ -28,8 +28,7 @@ from tqdm.auto import tqdm
 
 from ..control.registry import ControllerSpec
 from ..errors import PaaError, StudyIncomplete
-from ..limits import check_memory
-from ..model.params import RobotParams
+from ..limits import check_memory, check_steps
 from ..model.robot import Robot, robot_from_xml
 from ..sim.batch import OUTCOMES, BatchResult, simulate_batch
 from .store import ChunkStore
@@ -156,6 +155,9 @@ def run_study(robot: Robot, rollouts: RolloutSet, t_final: float, *, seed=0, sch
     """
     n = len(rollouts)
     check_memory(n * 8.0 * 40, "study results", "the grid or the number of trials")
+    if scheduler in SCHEDULERS:  # here; a remote cluster's size is its own
+        check_steps(n * t_final / float(robot.model.opt.timestep), f"{n} rollouts of {t_final:g} s",
+                    "the grid, the number of trials or --t-final")
     store = store or ChunkStore(None, "")
     starts = list(range(0, n, chunk))
     finished = {}

@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from .base import CompiledForm, Controller, SwitchedForm, kernel, reset_controller, torque_of
-from .region import in_switch_region, region_condition, switch_margin
+from .region import in_switch_region, reading_condition, reading_margin, region_condition, switch_margin
 
 SWING_UP, BALANCE = 0, 1
 
@@ -36,6 +36,26 @@ class RegionCondition:
 
     def compiled(self):
         return region_condition, np.zeros(0)
+
+
+class ReadingCondition:
+    """A candidate reading of the paper's switching code (:func:`~paa_mj.control.region.reading_margin`).
+
+    Not the paper's text: the report computes where it would switch, as a candidate explanation of
+    the paper's switch time.
+    """
+
+    name = "candidate reading of (68)"
+
+    def holds(self, q, qd, t):
+        return self.margin(q, qd, t) < 0
+
+    def margin(self, q, qd, t):
+        q, qd = np.asarray(q, float), np.asarray(qd, float)
+        return reading_margin(q[..., 0], q[..., 1], q[..., 2], qd[..., 0], qd[..., 1], qd[..., 2])
+
+    def compiled(self):
+        return reading_condition, np.zeros(0)
 
 
 @kernel

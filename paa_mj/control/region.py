@@ -61,3 +61,34 @@ def switch_margin(q, qd):
 def distance_from_udd(q, qd):
     """max_i |x_i| with x the error from UDD (angles wrapped) [rad, rad/s]; shape (...,)."""
     return np.max(np.abs(udd_error(q, qd)), axis=-1)
+
+
+# --- a candidate reading of the paper's switch, for the report only ------------------------------------
+
+#: The six limits of (68) in the order [angle, angle, angle, speed, speed, speed], applied by this reading
+#: to the state ordered [q1, qd1, q2, qd2, q3, qd3].
+_READING_LIMITS = (SWITCH_ANGLE, SWITCH_ANGLE, SWITCH_ANGLE, SWITCH_SPEED, SWITCH_SPEED, SWITCH_SPEED)
+
+
+@register_jitable
+def reading_margin(q1, q2, q3, d1, d2, d3):
+    """The margin of a candidate reading of the paper's Matlab switch (negative inside).
+
+    Angles of x reduced into [0, 2 pi) (Matlab's ``mod(x, 2*pi)``) instead of (-pi, pi],
+    and the limits [pi/6, pi/6, pi/6, 0.5, 0.5, 0.5] applied to [q1, qd1, q2 + pi, qd2, q3, qd3]:
+    so qd1 is held to pi/6, q3 to 0.5, and every angle error must be >= 0.
+    """
+    two_pi = 2.0 * math.pi
+    v0 = np.abs(q1 % two_pi) / _READING_LIMITS[0]
+    v1 = np.abs(d1) / _READING_LIMITS[1]
+    v2 = np.abs((q2 + math.pi) % two_pi) / _READING_LIMITS[2]
+    v3 = np.abs(d2) / _READING_LIMITS[3]
+    v4 = np.abs(q3 % two_pi) / _READING_LIMITS[4]
+    v5 = np.abs(d3) / _READING_LIMITS[5]
+    return np.maximum(np.maximum(np.maximum(v0, v1), np.maximum(v2, v3)), np.maximum(v4, v5)) - 1.0
+
+
+@kernel
+def reading_condition(q1, q2, q3, d1, d2, d3, t, params, memory, tau):
+    """Compiled: 1 inside the candidate reading's region."""
+    return 1 if reading_margin(q1, q2, q3, d1, d2, d3) < 0.0 else 0

@@ -215,3 +215,26 @@ def robustness_figure(factor, data, summary):
     ax.grid(True, axis="y", alpha=0.3)
     ax.grid(False, axis="x")
     return fig
+
+
+def sensitivity_figure(rows, t_exact, t_nominal, t_paper):
+    """Histograms of the first switch time under perturbations of (65), one panel per size."""
+    fig, axes = new_figure(len(rows), 1, figsize=(7, 1.9 * len(rows) + 0.6), sharex=True, squeeze=False)
+    times_all = [t for row in rows for t in row["times"] if t is not None]
+    low = min(times_all + [t_exact, t_paper]) - 0.5
+    high = max(times_all + [t_exact, t_paper]) + 0.5
+    bins = np.linspace(low, high, 80)
+    for ax, row in zip(axes[:, 0], rows):
+        times = np.array([t for t in row["times"] if t is not None])
+        ax.hist(times, bins=bins, color="C0", alpha=0.85)
+        never = row["n"] - len(times)
+        ax.set_ylabel("runs")
+        ax.set_title(f"(65) perturbed by {row['perturbation']:g} rad: {row['n']} runs"
+                     + (f", {never} never switched" if never else ""), fontsize=9)
+        for t, style, label in ((t_exact, "-", "exact closed loop"), (t_nominal, "--", "MuJoCo RK4 1 ms from (65)"),
+                                (t_paper, ":", "the paper")):
+            if t is not None:
+                ax.axvline(t, color="k", ls=style, lw=1, label=label)
+    axes[0, 0].legend(loc="upper left", fontsize=7)
+    axes[-1, 0].set_xlabel("first switch time [s]")
+    return fig

@@ -1,16 +1,17 @@
-"""The exact closed loop: (1) integrated by ``solve_ivp`` with the torque evaluated continuously.
+"""The exact closed loop: (1) integrated by SciPy's DOP853 (rtol 1e-10) with the torque evaluated continuously.
 
 No zero-order hold and no time step: the reference against which MuJoCo's
-discretisation is judged. A switching controller switches exactly where its
-condition's margin crosses zero (an event of the integrator, located to solver
-accuracy); integration then restarts under the second controller. Stateless
+discretisation is judged. A switching controller switches where its
+condition's margin first turns negative, watched on the integrator's dense
+output every millisecond (a short visit of the region is not stepped over)
+and located by bisection; integration then restarts under the second controller. Stateless
 controllers run as they are; a controller with internal state that is not a
 :class:`~paa_mj.control.combined.CombinedController` cannot be integrated this way.
 """
 from __future__ import annotations
 
 import numpy as np
-from scipy.integrate import solve_ivp
+from scipy.integrate import DOP853, LSODA, RK45, Radau
 from tqdm.auto import tqdm
 
 from ..control.base import reset_controller, torque_of
@@ -35,8 +36,32 @@ def _phases(controller):
     return [controller], None
 
 
+def _first_entry(margin, dense, t_start, t_end, resolution):
+    """(t, x) where ``margin`` first turns negative on (t_start, t_end] of the dense output, or None.
+
+    The margin is sampled every ``resolution`` seconds (and at the step's end), so that a visit of the
+    region shorter than the solver's step is not stepped over; the crossing is then located by bisection
+    to 1e-12 s.
+    """
+    n = max(2, int(np.ceil((t_end - t_start) / resolution)) + 1)
+    times = np.linspace(t_start, t_end, n)
+    inside = np.flatnonzero(margin(times, dense(times)) < 0)
+    inside = inside[inside > 0]
+    if not inside.size:
+        return None
+    lo, hi = times[inside[0] - 1], times[inside[0]]
+    while hi - lo > 1e-12:
+        mid = 0.5 * (lo + hi)
+        if margin(mid, dense(mid)[:, None])[0] < 0:
+            hi = mid
+        else:
+            lo = mid
+    return hi, dense(hi)
+
+
 def simulate_analytic(robot: Robot, controller="vcl", x0=X0_HANGING, t_final=30.0, sample_dt=0.01, rtol=1e-10,
-                      atol=1e-10, method="DOP853", torque_limit=None, progress=False) -> Trajectory:
+                      atol=1e-10, method="DOP853", torque_limit=None, event_resolution=1e-3,
+                      progress=False) -> Trajectory:
     """Integrate (1) closed by ``controller`` with continuous-time control.
 
     Parameters
@@ -45,8 +70,14 @@ def simulate_analytic(robot: Robot, controller="vcl", x0=X0_HANGING, t_final=30.
     torque_limit : float or (2,), optional
         Saturation [N m], capped by the model's actuator ranges as in MuJoCo.
     rtol, atol, method
-        Passed to :func:`scipy.integrate.solve_ivp`.
+        Tolerances and method ("DOP853", "RK45", "Radau", "LSODA") of SciPy's integrator.
+    event_resolution : float
+        The switching condition is watched on the integrator's dense output every this many
+        seconds [s], so that no visit of the region longer than that is stepped over.
     """
+    integrators = {"DOP853": DOP853, "RK45": RK45, "Radau": Radau, "LSODA": LSODA}
+    if method not in integrators:
+        raise PaaError(f"unknown method {method!r}: use one of {', '.join(integrators)}")
     x0 = check_initial_state(x0)[0]
     steps_for(t_final, 1e-3)
     sample_interval(sample_dt, sample_dt, t_final)
@@ -68,34 +99,46 @@ def simulate_analytic(robot: Robot, controller="vcl", x0=X0_HANGING, t_final=30.
             return np.concatenate([qd, am.acceleration(q, qd, law_torque(law, q, qd, t))])
         return f
 
-    def entered(t, x):
-        return float(condition.margin(x[:3], x[3:], t))
+    def margin(t, x):
+        return np.asarray(condition.margin(x[:3].T, x[3:].T, t), dtype=float)
 
-    entered.terminal, entered.direction = True, -1
     t_eval = np.arange(0.0, t_final + 0.5 * sample_dt, sample_dt)
     t_eval = t_eval[t_eval <= t_final]
     ts, xs, modes = [], [], []
     t0, x, switch_time, phase = 0.0, x0, None, 0
-    if condition is not None and entered(0.0, x0) < 0:
+    if condition is not None and margin(0.0, x0[:, None])[0] < 0:
         switch_time, phase = 0.0, 1
     bar = tqdm(total=t_final, unit="s", disable=None if progress else True, leave=False, desc=f"{robot.name} solve_ivp",
                bar_format="{l_bar}{bar}| {n:.1f}/{total:.1f} s")
-    failure, interrupted = None, False
+    failure, interrupted, recorded = None, False, -np.inf
     try:
         while True:
-            grid = t_eval[(t_eval >= t0) & (t_eval <= t_final)]
-            events = entered if (phase == 0 and condition is not None) else None
-            sol = solve_ivp(field(laws[phase]), (t0, t_final), x, method=method, rtol=rtol, atol=atol,
-                            t_eval=grid, events=events)
-            ts.append(sol.t)
-            xs.append(sol.y.T)
-            modes.append(np.full(len(sol.t), phase, np.int8))
-            bar.update((sol.t[-1] if len(sol.t) else t0) - bar.n)
-            if sol.status == -1:
-                failure = sol.message
-                break
-            if sol.status == 1 and phase == 0:
-                t0, x = float(sol.t_events[0][0]), sol.y_events[0][0]
+            solver = integrators[method](field(laws[phase]), t0, x, t_final, rtol=rtol, atol=atol)
+            watch = phase == 0 and condition is not None
+            segment_t, segment_x, entered = [], [], None
+            while solver.status == "running":
+                t_old = solver.t
+                solver.step()
+                if solver.status == "failed":
+                    failure = "the integrator failed (step size below its limit)"
+                    break
+                dense = solver.dense_output()
+                if watch:
+                    entered = _first_entry(margin, dense, t_old, solver.t, event_resolution)
+                end = solver.t if entered is None else entered[0]
+                grid = t_eval[(t_eval > recorded) & (t_eval <= end)]
+                if grid.size:
+                    segment_t.append(grid)
+                    segment_x.append(dense(grid).T)
+                    recorded = grid[-1]
+                bar.update(end - bar.n)
+                if entered is not None:
+                    break
+            ts.append(np.concatenate(segment_t) if segment_t else np.zeros(0))
+            xs.append(np.concatenate(segment_x) if segment_x else np.zeros((0, 6)))
+            modes.append(np.full(len(ts[-1]), phase, np.int8))
+            if entered is not None and failure is None:
+                t0, x = entered
                 switch_time, phase = t0, 1
                 continue
             break

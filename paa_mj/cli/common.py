@@ -90,6 +90,8 @@ def controller_parent():
     p.add_argument("--controller", default="vcl", metavar="{" + ",".join(BUILTIN) + ",FILE.py:Class}",
                    help="a built-in controller (" + "; ".join(f"{k}: {v[1]}" for k, v in BUILTIN.items())
                    + ") or your own class in a Python file")
+    p.add_argument("--kip-duration", type=positive, metavar="T",
+                   help="duration of the trajopt-effort kip [s] (default 3); the first guess of trajopt's")
     return p
 
 
@@ -131,17 +133,27 @@ def spec_from_args(args, robot, name=None):
     """
     from ..control.registry import GAIN_CONTROLLERS, ControllerSpec
 
+    from ..control.registry import OPTIONS
+
     name = name or args.controller
     if getattr(args, "no_switch", False):
         if name not in ("vcl", "vcl-only"):
             raise PaaError(f"--no-switch means --controller vcl-only; it contradicts --controller {name}")
         name = "vcl-only"
+    options = []
+    if name in OPTIONS:
+        if getattr(args, "torque_limit", None) is not None:
+            options.append(("limit", (args.torque_limit, args.torque_limit)))
+        if getattr(args, "kip_duration", None) is not None:
+            options.append(("duration", args.kip_duration))
+    elif getattr(args, "kip_duration", None) is not None:
+        raise PaaError(f"--kip-duration applies to the controllers {', '.join(OPTIONS)}, not to {name}")
     given = {k: getattr(args, k, None) for k in ("kD", "kP", "kV")}
     if all(v is None for v in given.values()):
-        return ControllerSpec(name)
+        return ControllerSpec(name, options=tuple(options))
     if name not in GAIN_CONTROLLERS:
         raise PaaError(f"--kD, --kP and --kV apply to the controllers {', '.join(GAIN_CONTROLLERS)}, not to {name}")
-    return ControllerSpec(name, tuple(robot.resolve_gains(**given).values()))
+    return ControllerSpec(name, tuple(robot.resolve_gains(**given).values()), options=tuple(options))
 
 
 def print_json(obj):

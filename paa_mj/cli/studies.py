@@ -3,6 +3,7 @@ from __future__ import annotations
 
 from contextlib import nullcontext
 
+from ..errors import PaaError
 from .common import (controller_parent, interrupt_code, interrupt_name, note, output_parent, positive, positive_int,
                      print_json, robot_parent, spec_from_args, study_parent)
 
@@ -72,6 +73,41 @@ def cmd_robustness(args):
     return _finish_study(summary, args, "robustness study")
 
 
+def cmd_compare(args):
+    from ..model.robot import load_robot
+    from ..studies.compare import compare, leaderboard_markdown, write_compare
+    from ..studies.runner import check_scheduler
+
+    names = [n.strip() for n in args.controllers.split(",") if n.strip()]
+    robot = load_robot(args.robot)
+    scheduler = check_scheduler(args.scheduler)
+    video = args.out is not None and not args.no_video
+    if video:
+        from ..outputs.gl import select_backend
+
+        try:
+            select_backend(args.gl)
+        except PaaError as err:
+            note(f"warning: no video: {err}")
+            video = False
+    with _lock(args.out):
+        summary, trajectories, _ = compare(robot, names, torque_limit=args.torque_limit, trials=args.trials,
+                                           quick=args.quick, t_final=args.t_final, seed=args.seed,
+                                           scheduler=scheduler, out_dir=args.out, fresh=args.fresh,
+                                           progress=not args.json, grid=args.grid)
+        if args.out:
+            write_compare(args.out, summary, trajectories, robot, video=video and not summary["interrupted"])
+    if args.json:
+        print_json(summary)
+    else:
+        print(leaderboard_markdown(summary))
+    if summary["interrupted"]:
+        note(f"{interrupt_name()}: the leaderboard is incomplete"
+             + (f"; finished chunks are kept in {args.out}, run the same command to resume" if args.out else ""))
+        return interrupt_code()
+    return 0
+
+
 def cmd_bench(args):
     from ..studies.bench import format_bench, run_bench
 
@@ -112,6 +148,34 @@ def register(sub, parser_class):
     p.add_argument("--model-error", type=float, nargs="+", metavar="PCT",
                    help="controller model errors to test [%%] (default: 0 2 5 10)")
     p.set_defaults(func=cmd_robustness)
+
+    from ..studies.compare import DEFAULT_CONTROLLERS, FACTORS, SIZES
+
+    p = sub.add_parser("compare", parents=[robot_parent(), study_parent(),
+                                           output_parent("leaderboard.md, leaderboard.json, the charts, kips.npz,"
+                                                         " the video and the studies (a rerun resumes)")],
+                       help="a leaderboard of kip controllers: performance, robustness and reach",
+                       description="Score kip controllers from (65) the way RealAIGym scores swing-ups: time, torque,"
+                                   " effort, smoothness and speed of the kip, success under model error, noise,"
+                                   " torque noise, delay, pushes and perturbed starts, and reach over a grid of"
+                                   " starts. Robustness levels: " + ", ".join(f"{k} {v:g}" for k, v in FACTORS.items())
+                                   + ".")
+    p.add_argument("--controllers", default=",".join(DEFAULT_CONTROLLERS), metavar="A,B,...",
+                   help="built-in names or FILE.py:Class, comma-separated")
+    p.add_argument("--torque-limit", type=positive, metavar="T",
+                   help="the same torque limit for every controller [N m] (default: vcl's peak torques from (65))")
+    p.add_argument("--trials", type=positive_int,
+                   help=f"runs per robustness factor (default {SIZES['full']['trials']}, {SIZES['quick']['trials']}"
+                        " with --quick)")
+    p.add_argument("--t-final", type=positive, help="duration of each run [s] (default 30)")
+    p.add_argument("--grid", type=positive_int,
+                   help=f"points per axis of the reach grid over (q1, q2) (default {SIZES['full']['grid']},"
+                        f" {SIZES['quick']['grid']} with --quick)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the disturbances")
+    p.add_argument("--quick", action="store_true", help="fewer trials and a coarser reach grid (a few minutes)")
+    p.add_argument("--no-video", action="store_true", help="skip the side-by-side video")
+    p.add_argument("--gl", choices=("auto", "egl", "osmesa"), default="auto", help="GL backend for the video")
+    p.set_defaults(func=cmd_compare)
 
     p = sub.add_parser("bench", help="costs per step: bare mj_step, closed loop, batch, basin, analytic reference",
                        description="Costs measured in one process, reported as ratios of things measured together.")

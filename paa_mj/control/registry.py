@@ -7,7 +7,16 @@ Built-in names (:data:`BUILTIN`):
 - ``vcl-only``: (40) alone (the paper's Figs. 6-8 and 12-14);
 - ``vc``: the conventional candidate (12) then LQR (67) by (68);
 - ``lqr``: (67) alone;
-- ``passive``: zero torque.
+- ``passive``: zero torque;
+- ``trajopt``: a minimum-time kip from (65) solved by direct collocation
+  (:mod:`paa_mj.control.trajopt`), tracked by time-varying LQR, then (67)
+  (:mod:`paa_mj.control.tvlqr`);
+- ``trajopt-effort``: the same with the kip of least integral of |tau|^2 over
+  a given duration (option ``duration``, default 3 s).
+
+The kips plan within :data:`HEADROOM` of the torque limit (option ``limit``,
+default the robot's actuator limits, else the peak torques of ``vcl`` from
+(65)), leaving the tracking feedback room to act.
 
 A user's controller is ``path/to/file.py:ClassName``: the class is built as
 ``ClassName(robot)`` with the robot of :func:`paa_mj.model.load_robot` and needs
@@ -23,13 +32,18 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 from ..errors import PaaError
 from ..model.params import RobotParams
+from ..model.states import X0_HANGING
 from .base import Controller
 from .combined import CombinedController, RegionCondition
 from .energy import ConventionalController, EnergyVCLController
 from .lqr import LQRController
 from .passive import PassiveController
+from .trajopt import INTERVALS, solve_kip
+from .tvlqr import kip_controller
 
 #: Controllers that take the gains kD, kP, kV of (40) / (12).
 GAIN_CONTROLLERS = ("vcl", "vcl-only", "vc", "vc-only")
@@ -37,6 +51,40 @@ GAIN_CONTROLLERS = ("vcl", "vcl-only", "vc", "vc-only")
 
 def _gains(robot, gains):
     return robot.resolve_gains(**(gains or {}))
+
+
+#: Fraction of the torque limit a planned kip may use (the rest is the tracking controller's).
+HEADROOM = 0.9
+#: Duration of a min-effort kip when none is given [s].
+EFFORT_DURATION = 3.0
+
+
+def vcl_peak(robot) -> np.ndarray:
+    """Peak |tau2|, |tau3| [N m] of the paper's controller's kip from (65), 30 s (every step)."""
+    from ..sim.batch import simulate_batch
+
+    if not robot.gains:
+        raise PaaError(f"robot {robot.name} stores no gains of (40): give the torque limit of the kip (--torque-limit)")
+    return simulate_batch(robot, X0_HANGING[None], 30.0, controller=build_vcl(robot, check=False)).max_abs_tau[0]
+
+
+def _kip_bound(robot, limit):
+    limits = np.minimum(robot.torque_limits, np.inf if limit is None else np.asarray(limit, float))
+    if not np.all(np.isfinite(limits)):
+        limits = np.minimum(limits, vcl_peak(robot))
+    return HEADROOM * limits
+
+
+def build_trajopt(robot, gains=None, check=True, limit=None, duration=None, intervals=INTERVALS):
+    """The minimum-time kip, tracked by TVLQR, then (67)."""
+    kip = solve_kip(robot.analytic, _kip_bound(robot, limit), "min-time", duration=duration, intervals=intervals)
+    return kip_controller(robot.analytic, kip, name="trajopt")
+
+
+def build_trajopt_effort(robot, gains=None, check=True, limit=None, duration=EFFORT_DURATION, intervals=INTERVALS):
+    """The kip of least effort over ``duration`` seconds, tracked by TVLQR, then (67)."""
+    kip = solve_kip(robot.analytic, _kip_bound(robot, limit), "min-effort", duration=duration, intervals=intervals)
+    return kip_controller(robot.analytic, kip, name="trajopt-effort")
 
 
 def build_vcl(robot, gains=None, check=True):
@@ -78,7 +126,11 @@ BUILTIN = {
     "vc-only": (build_vc_only, "conventional candidate (12) alone"),
     "lqr": (build_lqr, "LQR (67) alone"),
     "passive": (build_passive, "zero torque"),
+    "trajopt": (build_trajopt, "minimum-time kip by collocation, tracked by TVLQR, then (67)"),
+    "trajopt-effort": (build_trajopt_effort, "least-effort kip over a duration, tracked by TVLQR, then (67)"),
 }
+#: Controllers that take options, and which.
+OPTIONS = {"trajopt": ("limit", "duration", "intervals"), "trajopt-effort": ("limit", "duration", "intervals")}
 
 
 def register(name: str, builder, description: str):
@@ -134,6 +186,7 @@ class ControllerSpec:
     gains: tuple | None = None
     believed: RobotParams | None = None
     check: bool = True
+    options: tuple = ()
 
     def __post_init__(self):
         if is_user_controller(self.name):
@@ -147,6 +200,11 @@ class ControllerSpec:
                 raise PaaError(f"gains kD, kP, kV apply to the controllers {', '.join(GAIN_CONTROLLERS)},"
                                f" not to {self.short_name}")
             object.__setattr__(self, "gains", tuple(float(g) for g in self.gains))
+        options = dict(self.options)
+        unknown = sorted(set(options) - set(OPTIONS.get(self.name, ())))
+        if unknown:
+            raise PaaError(f"option(s) {', '.join(unknown)} do not apply to the controller {self.short_name}")
+        object.__setattr__(self, "options", tuple(sorted((k, _hashable(v)) for k, v in options.items())))
 
     @property
     def short_name(self) -> str:
@@ -169,15 +227,20 @@ class ControllerSpec:
                 raise PaaError(f"controller {self.short_name} has no method torque(q, qd, t)")
             return controller
         gains = None if self.gains is None else dict(zip(("kD", "kP", "kV"), self.gains))
-        return BUILTIN[self.name][0](believed, gains=gains, check=self.check)
+        return BUILTIN[self.name][0](believed, gains=gains, check=self.check, **dict(self.options))
 
 
-def make_controller(name: str, robot, gains: dict | None = None, check: bool = True):
+def _hashable(value):
+    return tuple(float(v) for v in np.ravel(value)) if np.ndim(value) else value
+
+
+def make_controller(name: str, robot, gains: dict | None = None, check: bool = True, **options):
     """The controller ``name`` (built-in or ``file.py:ClassName``) for ``robot``.
 
-    ``gains`` ({"kD", "kP", "kV"}, any subset) override the robot's stored gains.
+    ``gains`` ({"kD", "kP", "kV"}, any subset) override the robot's stored gains;
+    ``options`` are the controller's own (:data:`OPTIONS`).
     """
     values = None
     if gains:
         values = tuple(robot.resolve_gains(**gains).values())
-    return ControllerSpec(name, values, check=check).build(robot)
+    return ControllerSpec(name, values, check=check, options=tuple(options.items())).build(robot)

@@ -201,7 +201,8 @@ def robustness_figure(factor, data, summary):
     high = np.array([100 * lv.get("high", lv["success_rate"] or 0) for lv in levels])
     fig, ax = new_figure(figsize=(5.5, 3.6))
     x = np.arange(len(labels))
-    ax.bar(x, rates, color="C0", yerr=[np.nan_to_num(rates - low), np.nan_to_num(high - rates)], capsize=4,
+    ax.bar(x, rates, color="C0", yerr=[np.clip(np.nan_to_num(rates - low), 0, None),
+                                       np.clip(np.nan_to_num(high - rates), 0, None)], capsize=4,
            error_kw={"elinewidth": 1, "ecolor": "0.25"})
     for i, r in enumerate(rates):
         if np.isfinite(r):
@@ -237,4 +238,63 @@ def sensitivity_figure(rows, t_exact, t_nominal, t_paper):
                 ax.axvline(t, color="k", ls=style, lw=1, label=label)
     axes[0, 0].legend(loc="upper left", fontsize=7)
     axes[-1, 0].set_xlabel("first switch time [s]")
+    return fig
+
+
+def leaderboard_figure(summary):
+    """Robustness per factor (bars with 95 % intervals) and the performance metrics relative to the best."""
+    names = list(summary["controllers"])
+    factors = list(summary["factors"])
+    fig, (top, bottom) = new_figure(2, 1, figsize=(9, 7.5), constrained_layout=True)
+    width = 0.8 / max(1, len(names))
+    x = np.arange(len(factors))
+    for i, name in enumerate(names):
+        rob = summary["controllers"][name]["robustness"]
+        rates = np.array([np.nan if rob[f]["rate"] is None else 100 * rob[f]["rate"] for f in factors])
+        low = np.array([100 * rob[f]["low"] for f in factors])
+        high = np.array([100 * rob[f]["high"] for f in factors])
+        top.bar(x + (i - (len(names) - 1) / 2) * width, rates, width, label=name, color=f"C{i}",
+                yerr=[np.clip(np.nan_to_num(rates - low), 0, None), np.clip(np.nan_to_num(high - rates), 0, None)],
+                capsize=2,
+                error_kw={"elinewidth": 0.8, "ecolor": "0.3"}, hatch=["", "//", "..", "xx", "\\\\", "++"][i % 6])
+    top.set_xticks(x, [summary["factors"][f]["label"] for f in factors], fontsize=8)
+    top.set_ylim(0, 110)
+    top.set_ylabel("success [%] (95 % interval)")
+    top.set_title(f"{summary['robot']}: robustness, {summary['trials']} runs per factor from (65)")
+    top.legend(ncol=len(names), fontsize=8, loc="lower right", bbox_to_anchor=(1.0, 1.06), frameon=False)
+    metrics = [("t_balanced", "time to balance"), ("int_tau2", "int |tau|^2 dt"), ("work", "work"),
+               ("smoothness", "torque change"), ("max_speed", "peak speed")]
+    x = np.arange(len(metrics))
+    for i, name in enumerate(names):
+        row = summary["controllers"][name]
+        values = []
+        for key, _ in metrics:
+            column = [summary["controllers"][n][key] for n in names if summary["controllers"][n][key] is not None]
+            best = min(column) if column else None
+            values.append(np.nan if row[key] is None or not best else row[key] / best)
+        bottom.bar(x + (i - (len(names) - 1) / 2) * width, values, width, label=name, color=f"C{i}",
+                   hatch=["", "//", "..", "xx", "\\\\", "++"][i % 6])
+    bottom.set_yscale("log")
+    bottom.set_xticks(x, [label for _, label in metrics], fontsize=8)
+    bottom.set_ylabel("relative to the best (1 = best)")
+    bottom.set_title("performance of the kip from (65) (lower is better; missing: did not balance)")
+    return fig
+
+
+def overlay_figure(trajectories, summary):
+    """All controllers' angles and torques against time, overlaid."""
+    names = list(trajectories)
+    fig, axes = new_figure(5, 1, figsize=(8, 10), sharex=True, constrained_layout=True)
+    labels = ["q$_1$ [rad]", "q$_2$ + $\\pi$ [rad]", "q$_3$ [rad]", "$\\tau_2$ [N m]", "$\\tau_3$ [N m]"]
+    for i, name in enumerate(names):
+        traj = trajectories[name]
+        series = [traj["q"][:, 0], traj["q"][:, 1] + np.pi, traj["q"][:, 2], traj["tau"][:, 0], traj["tau"][:, 1]]
+        for ax, values in zip(axes, series):
+            ax.plot(traj["t"], values, color=f"C{i}", ls=LINESTYLES[i % len(LINESTYLES)], lw=1.2, label=name)
+    for ax, label in zip(axes, labels):
+        ax.set_ylabel(label)
+    axes[0].legend(ncol=len(names), fontsize=8, loc="upper right")
+    axes[0].set_title(f"{summary['robot']}: the kips from (65), torque limit"
+                      f" [{summary['torque_limit'][0]:.0f}, {summary['torque_limit'][1]:.0f}] N m")
+    axes[-1].set_xlabel("t [s]")
     return fig

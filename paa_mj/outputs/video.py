@@ -208,3 +208,28 @@ def filmstrip(robot: Robot, traj: Trajectory, path, n_poses=8, width=320, height
     with atomic_path(path, suffix=".png") as tmp:
         strip.save(tmp, format="PNG")
     return path
+
+
+def render_side_by_side(robot: Robot, trajectories: dict, path, fps=30, width=320, height=360, camera="side"):
+    """One video of several controllers' kips side by side, each tile titled; shorter runs hold their last frame."""
+    from PIL import Image, ImageDraw
+
+    runs = {name: Trajectory(traj["t"], traj["q"], traj["qd"], traj["tau"], np.zeros(len(traj["t"])),
+                             np.zeros(len(traj["t"])), traj["mode"]) for name, traj in trajectories.items()}
+    end = max(float(traj.t[-1]) for traj in runs.values())
+    for traj in runs.values():
+        check_video_request(traj, fps, width * len(runs), height)
+
+    def tiles():
+        sources = {name: frames(robot, traj, fps, width, height, camera) for name, traj in runs.items()}
+        last = {}
+        for _ in range(int(np.floor(end * fps)) + 1):
+            row = []
+            for name, source in sources.items():
+                last[name] = next(source, last.get(name))
+                img = Image.fromarray(last[name])
+                ImageDraw.Draw(img).text((10, height - 22), name, fill=(255, 255, 255))
+                row.append(np.asarray(img))
+            yield np.concatenate(row, axis=1)
+
+    return write_video(path, tiles(), fps, width * len(runs), height)

@@ -37,7 +37,7 @@ from ..io import json_writer, npz_writer, write_set
 from ..limits import check_memory, check_steps
 from ..model.robot import Robot
 from ..model.states import X0_HANGING
-from ..sim.rollout import simulate_mujoco
+from ..sim.batch import simulate_batch
 from .runner import CHUNK, RolloutSet, run_study
 from .store import ChunkStore, study_key
 
@@ -91,16 +91,16 @@ def _pushes(rng, level, b1):
     return out
 
 
-def nominal_peak(robot: Robot, spec: ControllerSpec, t_final=30.0) -> float:
+def nominal_peak(robot: Robot, spec: ControllerSpec, torque_limit=None, t_final=30.0) -> float:
     """The largest |tau| of the controller's kip from (65) (the scale of the torque factors) [N m]."""
-    traj = simulate_mujoco(robot, spec.build(robot), X0_HANGING, t_final, sample_dt=robot.model.opt.timestep,
-                           stop_on_divergence=False)
-    return float(np.max(np.abs(traj.tau)))
+    result = simulate_batch(robot, X0_HANGING[None], t_final, controller=spec.build(robot), torque_limit=torque_limit,
+                            retire=False)
+    return float(np.max(result.max_abs_tau))
 
 
 def robustness(robot: Robot, trials=64, t_final=30.0, seed=0, controller: ControllerSpec | str = "vcl",
                factors=DEFAULT_FACTORS, levels=None, start="random", progress=False, scheduler="inline",
-               out_dir=None, fresh=False, model_error=None, chunk=CHUNK):
+               out_dir=None, fresh=False, model_error=None, chunk=CHUNK, torque_limit=None):
     """Success rate against each factor; returns (summary dict, arrays dict).
 
     Parameters
@@ -109,6 +109,8 @@ def robustness(robot: Robot, trials=64, t_final=30.0, seed=0, controller: Contro
     levels : dict, optional
         Levels to use instead of a factor's defaults (``model_error`` also takes ``model_error=``).
     start : "random" or "hanging"
+    torque_limit : float or (2,), optional
+        A saturation [N m] for every rollout (the torque_limit factor goes below it).
     """
     spec = ControllerSpec(controller) if isinstance(controller, str) else controller
     if not (isinstance(trials, (int, np.integer)) and 1 <= trials <= MAX_TRIALS):
@@ -137,8 +139,9 @@ def robustness(robot: Robot, trials=64, t_final=30.0, seed=0, controller: Contro
         check_steps(total * t_final / float(robot.model.opt.timestep), f"{total} rollouts of {t_final:g} s",
                     "--trials, the levels or --t-final")
     spec.build(robot)  # checks the gains (one line) before any work
-    quiet = ControllerSpec(spec.name, spec.gains, spec.believed, check=False)
-    peak = nominal_peak(robot, spec) if {"torque_limit", "torque_noise"} & set(chosen) else None
+    quiet = ControllerSpec(spec.name, spec.gains, spec.believed, check=False, options=spec.options)
+    base_limit = np.broadcast_to(np.inf if torque_limit is None else np.asarray(torque_limit, float), (2,))
+    peak = nominal_peak(robot, spec, base_limit) if {"torque_limit", "torque_noise"} & set(chosen) else None
     base = initial_states(trials, seed, start)
     dt = robot.model.opt.timestep
     rng = np.random.default_rng([seed, 1])
@@ -151,25 +154,28 @@ def robustness(robot: Robot, trials=64, t_final=30.0, seed=0, controller: Contro
                     start_state += rng.uniform(-level, level, 6)
                 x0.append(start_state)
                 e = level / 100 if factor == "model_error" else 0.0
-                specs.append(ControllerSpec(spec.name, spec.gains, robot.params.scaled(1 + e, 1 - e), check=False)
+                specs.append(ControllerSpec(spec.name, spec.gains, robot.params.scaled(1 + e, 1 - e), check=False,
+                                            options=spec.options)
                              if e else quiet)
-                limit.append(level * peak if factor == "torque_limit" else math.inf)
+                limit.append(np.minimum(base_limit, level * peak if factor == "torque_limit" else math.inf))
                 noise.append([level, level] if factor == "noise" else [0.0, 0.0])
                 tau_noise.append(level * peak if factor == "torque_noise" else 0.0)
                 delay.append(int(round(level * 1e-3 / dt)) if factor == "delay" else 0)
                 pushes.append(_pushes(rng, level, robot.analytic.b1) if factor == "pushes" and level > 0
                               else np.zeros((PUSHES_PER_RUN, 5)))
                 index.append((factor, level_i))
-    rollouts = RolloutSet(np.array(x0), specs, torque_limit=np.array(limit)[:, None].repeat(2, 1),
+    rollouts = RolloutSet(np.array(x0), specs, torque_limit=np.array(limit),
                           noise_std=np.array(noise), torque_noise=np.array(tau_noise), delay_steps=np.array(delay),
                           pushes=np.array(pushes) if "pushes" in chosen else None)
     key = study_key({"study": "robustness", "robot": robot.xml, "t_final": t_final, "seed": seed, "chunk": chunk,
+                     "options": [list(o) for o in spec.options],
                      **rollouts.definition()})
     result = run_study(robot, rollouts, t_final, seed=seed, scheduler=scheduler, chunk=chunk,
                        store=ChunkStore(out_dir, key, fresh), progress=progress)
     completed = result.meta["completed"]
     success = result.held
     summary = {"robot": robot.name, "controller": spec.short_name, "trials": trials, "t_final": t_final, "seed": seed,
+               "torque_limit": None if np.all(np.isinf(base_limit)) else base_limit.tolist(),
                "start": start, "completed_fraction": float(np.mean(completed)),
                "success": "under the balance controller and inside region (68) at t_final, without divergence",
                "nominal_peak_torque": peak, "interrupted": result.interrupted, "factors": {}}

@@ -120,7 +120,7 @@ class RolloutSet:
 
 
 def _spec_dict(spec: ControllerSpec):
-    return {"name": spec.name, "gains": spec.gains, "check": spec.check,
+    return {"name": spec.name, "gains": spec.gains, "check": spec.check, "options": [list(o) for o in spec.options],
             "believed": None if spec.believed is None else spec.believed.as_dict()}
 
 

@@ -1,0 +1,248 @@
+"""A kip by optimal control: direct collocation of (1) with CasADi and IPOPT.
+
+The trajectory from (65) to UDD (8) is transcribed by Hermite-Simpson
+collocation on N intervals: knot states x_k and torques u_k, midpoint states
+and torques, and at each interval
+
+    x_m     = (x_k + x_{k+1}) / 2 + h / 8 (f_k - f_{k+1})
+    x_{k+1} = x_k + h / 6 (f_k + 4 f_m + f_{k+1}),      h = T / N,
+
+with f the right-hand side of (1) written by the same formulas as the rest of
+the package (:mod:`paa_mj.model.equations`, evaluated on CasADi symbols), and
+|tau_j| <= bound_j at every knot and midpoint. Two objectives:
+
+- ``min-time``: minimise T (plus 1e-7 of the effort, which picks one of the
+  many time-optimal torque profiles);
+- ``min-effort``: minimise the integral of |tau|^2 dt (Simpson's rule) for a
+  given duration T.
+
+Solutions are cached on disk (``$PAA_MJ_CACHE`` or ``~/.cache/paa_mj``), keyed
+by the robot, the bounds, the objective, the duration and the grid, so a
+trajectory is solved once per machine.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import PaaError
+from ..model import equations as eq
+from ..model.dynamics import AnalyticModel
+from ..model.states import Q_UDD, X0_HANGING
+
+OBJECTIVES = ("min-time", "min-effort")
+#: Collocation intervals by default.
+INTERVALS = 100
+#: Bounds on the time of a min-time kip [s].
+TIME_RANGE = (0.2, 20.0)
+CACHE_VERSION = 1
+
+
+def casadi():
+    import casadi as ca
+
+    try:  # CasADi 3.8+: numpy functions on CasADi values return CasADi values, silently
+        ca.GlobalOptions.setNumpyMode(-1)
+    except AttributeError:
+        pass
+    return ca
+
+
+def dynamics_function(am: AnalyticModel):
+    """(1) as a CasADi function f(x, u) -> x_dot, x = [q, qd], u = [tau2, tau3]."""
+    ca = casadi()
+    x, u = ca.SX.sym("x", 6), ca.SX.sym("u", 2)
+    qdd = eq.acceleration(am.constants, x[0], x[1], x[2], x[3], x[4], x[5], u[0], u[1])
+    return ca.Function("f", [x, u], [ca.vertcat(x[3], x[4], x[5], *qdd)])
+
+
+@dataclass(frozen=True)
+class Kip:
+    """A solved kip: knots, midpoints and torques of the Hermite-Simpson transcription.
+
+    Attributes
+    ----------
+    duration : float
+        T [s].
+    x, u : ndarray (N + 1, 6), (N + 1, 2)
+        States and torques at the knots t_k = k T / N.
+    x_mid, u_mid : ndarray (N, 6), (N, 2)
+        At the interval midpoints.
+    objective : str
+    cost : float
+        The objective's value (T [s] or the integral of |tau|^2 [N^2 m^2 s]).
+    bound : ndarray (2,)
+        The torque bounds of the solve [N m].
+    """
+
+    duration: float
+    x: np.ndarray
+    u: np.ndarray
+    x_mid: np.ndarray
+    u_mid: np.ndarray
+    objective: str
+    cost: float
+    bound: np.ndarray
+
+    @property
+    def intervals(self) -> int:
+        return len(self.x_mid)
+
+    @property
+    def knot_times(self):
+        return np.linspace(0.0, self.duration, self.intervals + 1)
+
+    def effort(self) -> float:
+        """The integral of |tau|^2 dt by Simpson's rule [N^2 m^2 s]."""
+        h = self.duration / self.intervals
+        sq = np.sum(self.u**2, axis=1)
+        return float(np.sum(h / 6 * (sq[:-1] + 4 * np.sum(self.u_mid**2, axis=1) + sq[1:])))
+
+    def sample(self, times, am: AnalyticModel):
+        """The reference (x, u) at ``times`` [s], by the interpolants of the transcription.
+
+        States: cubic Hermite on each interval (from the knots and (1) there); torques:
+        the quadratic through the knots and the midpoint. Clamped to [0, T].
+        """
+        times = np.clip(np.asarray(times, float), 0.0, self.duration)
+        h = self.duration / self.intervals
+        k = np.minimum((times / h).astype(int), self.intervals - 1)
+        s = (times - k * h) / h
+        f = np.stack([np.concatenate([self.x[i, 3:], am.acceleration(self.x[i, :3], self.x[i, 3:], self.u[i])])
+                      for i in range(len(self.x))])
+        h00, h10, h01, h11 = 2 * s**3 - 3 * s**2 + 1, s**3 - 2 * s**2 + s, -2 * s**3 + 3 * s**2, s**3 - s**2
+        x = (h00[:, None] * self.x[k] + h10[:, None] * h * f[k] + h01[:, None] * self.x[k + 1]
+             + h11[:, None] * h * f[k + 1])
+        u = (2 * (s - 0.5) * (s - 1))[:, None] * self.u[k] + (-4 * s * (s - 1))[:, None] * self.u_mid[k] \
+            + (2 * s * (s - 0.5))[:, None] * self.u[k + 1]
+        return x, u
+
+    def defects(self, am: AnalyticModel) -> float:
+        """The largest violation of the collocation equations, evaluated with NumPy's (1) [rad, rad/s]."""
+        h = self.duration / self.intervals
+
+        def f(x, u):
+            return np.concatenate([x[..., 3:], am.acceleration(x[..., :3], x[..., 3:], u)], axis=-1)
+
+        fk, fk1, fm = f(self.x[:-1], self.u[:-1]), f(self.x[1:], self.u[1:]), f(self.x_mid, self.u_mid)
+        d_mid = self.x_mid - (0.5 * (self.x[:-1] + self.x[1:]) + h / 8 * (fk - fk1))
+        d_step = self.x[1:] - (self.x[:-1] + h / 6 * (fk + 4 * fm + fk1))
+        return float(max(np.max(np.abs(d_mid)), np.max(np.abs(d_step))))
+
+    def arrays(self) -> dict:
+        return {"duration": self.duration, "x": self.x, "u": self.u, "x_mid": self.x_mid, "u_mid": self.u_mid,
+                "objective": self.objective, "cost": self.cost, "bound": self.bound}
+
+
+def cache_dir() -> Path:
+    root = os.environ.get("PAA_MJ_CACHE") or os.path.join(os.environ.get("XDG_CACHE_HOME") or
+                                                          os.path.expanduser("~/.cache"), "paa_mj")
+    return Path(root) / "trajopt"
+
+
+def _key(am, bound, objective, duration, intervals, x0, xN):
+    text = json.dumps({"v": CACHE_VERSION, "robot": am.key(), "bound": np.asarray(bound).tolist(),
+                       "objective": objective, "duration": duration, "intervals": intervals,
+                       "x0": np.asarray(x0).tolist(), "xN": np.asarray(xN).tolist()})
+    return hashlib.sha256(text.encode()).hexdigest()[:24]
+
+
+def solve_kip(am: AnalyticModel, bound, objective="min-time", duration=None, intervals=INTERVALS, x0=X0_HANGING,
+              xN=None, use_cache=True, max_iter=3000) -> Kip:
+    """Solve (or load from the cache) the kip from ``x0`` to ``xN`` (default UDD at rest).
+
+    Parameters
+    ----------
+    am : AnalyticModel
+    bound : float or (2,)
+        Torque bounds [N m], > 0.
+    objective : "min-time" or "min-effort"
+    duration : float
+        T [s] of a min-effort kip (required there); the initial guess of a min-time one.
+    intervals : int
+        Collocation intervals N.
+
+    Raises
+    ------
+    PaaError
+        Bad input, or IPOPT did not converge (one line with IPOPT's status and what to try).
+    """
+    from ..io import write_npz
+
+    if objective not in OBJECTIVES:
+        raise PaaError(f"unknown objective {objective!r}: use {' or '.join(OBJECTIVES)}")
+    bound = np.broadcast_to(np.asarray(bound, float), (2,)).copy()
+    if not np.all(np.isfinite(bound) & (bound > 0)):
+        raise PaaError(f"torque bounds of the kip must be finite and > 0, got {bound.tolist()}")
+    if objective == "min-effort" and not (duration is not None and np.isfinite(duration) and duration > 0):
+        raise PaaError("a min-effort kip needs a duration > 0 [s]")
+    if not (isinstance(intervals, (int, np.integer)) and 4 <= intervals <= 2000):
+        raise PaaError(f"collocation intervals must be an integer in [4, 2000], got {intervals}")
+    x0 = np.asarray(x0, float)
+    xN = np.concatenate([Q_UDD, np.zeros(3)]) if xN is None else np.asarray(xN, float)
+    key = _key(am, bound, objective, duration, intervals, x0, xN)
+    path = cache_dir() / f"{key}.npz"
+    if use_cache and path.is_file():
+        try:
+            with np.load(path, allow_pickle=False) as z:
+                return Kip(float(z["duration"]), z["x"], z["u"], z["x_mid"], z["u_mid"], str(z["objective"]),
+                           float(z["cost"]), z["bound"])
+        except Exception:  # a damaged cache entry is solved again
+            pass
+    kip = _solve(am, bound, objective, duration, intervals, x0, xN, max_iter)
+    if use_cache:
+        try:
+            write_npz(path, **kip.arrays())
+        except PaaError:
+            pass  # an unwritable cache costs a solve next time, nothing else
+    return kip
+
+
+def _solve(am, bound, objective, duration, intervals, x0, xN, max_iter) -> Kip:
+    ca = casadi()
+    f = dynamics_function(am)
+    N = intervals
+    opti = ca.Opti()
+    X, Xm = opti.variable(6, N + 1), opti.variable(6, N)
+    U, Um = opti.variable(2, N + 1), opti.variable(2, N)
+    T = opti.variable() if objective == "min-time" else float(duration)
+    h = T / N
+    effort = 0
+    for k in range(N):
+        fk, fk1, fm = f(X[:, k], U[:, k]), f(X[:, k + 1], U[:, k + 1]), f(Xm[:, k], Um[:, k])
+        opti.subject_to(Xm[:, k] == 0.5 * (X[:, k] + X[:, k + 1]) + h / 8 * (fk - fk1))
+        opti.subject_to(X[:, k + 1] == X[:, k] + h / 6 * (fk + 4 * fm + fk1))
+        effort += h / 6 * (ca.sumsqr(U[:, k]) + 4 * ca.sumsqr(Um[:, k]) + ca.sumsqr(U[:, k + 1]))
+    opti.subject_to(X[:, 0] == x0)
+    opti.subject_to(X[:, N] == xN)
+    for j in range(2):
+        opti.subject_to(opti.bounded(-bound[j], U[j, :], bound[j]))
+        opti.subject_to(opti.bounded(-bound[j], Um[j, :], bound[j]))
+    if objective == "min-time":
+        opti.subject_to(opti.bounded(*TIME_RANGE, T))
+        opti.set_initial(T, duration or 3.0)
+        opti.minimize(T + 1e-7 * effort)
+    else:
+        opti.minimize(effort)
+    s = np.linspace(0.0, 1.0, N + 1)
+    guess = x0[:, None] + (xN - x0)[:, None] * s
+    opti.set_initial(X, guess)
+    opti.set_initial(Xm, 0.5 * (guess[:, :-1] + guess[:, 1:]))
+    opti.solver("ipopt", {"print_time": False}, {"print_level": 0, "sb": "yes", "max_iter": max_iter, "tol": 1e-9})
+    try:
+        sol = opti.solve()
+    except RuntimeError:
+        status = opti.debug.stats().get("return_status", "failed")
+        raise PaaError(f"the {objective} kip did not converge (IPOPT: {status}) with torque bounds"
+                       f" {bound.round(3).tolist()} N m" + (f" and duration {duration:g} s" if objective == "min-effort"
+                                                             else "") + "; try higher bounds, a longer duration or"
+                       " more intervals") from None
+    duration_found = float(sol.value(T)) if objective == "min-time" else float(duration)
+    return Kip(duration_found, np.array(sol.value(X)).T, np.array(sol.value(U)).T, np.array(sol.value(Xm)).T,
+               np.array(sol.value(Um)).T, objective, float(sol.value(T if objective == "min-time" else effort)),
+               bound)

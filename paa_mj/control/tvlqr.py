@@ -1,0 +1,174 @@
+"""Time-varying LQR tracking of a stored trajectory, and the optimised kip as a controller.
+
+Along a reference (x_ref(t), u_ref(t)) of duration T, (1) linearised gives
+A(t), B(t) (exact derivatives of :mod:`paa_mj.model.equations` by CasADi). The
+Riccati differential equation
+
+    -dS/dt = A^T S + S A - S B R^-1 B^T S + Q,     S(T) = S_UDD
+
+is integrated backwards from T to 0 with SciPy (S_UDD the solution of the
+algebraic Riccati equation of (67) at UDD, so the hand-over is seamless), and
+
+    tau = u_ref(t) - K(t) (x - x_ref(t)),   K = R^-1 B^T S,
+
+with the angle error wrapped to (-pi, pi]. References and gains are tabled
+every ``table_dt`` seconds and interpolated linearly; the compiled kernel reads
+the same table. After T the LQR (67) takes over (:func:`kip_controller`).
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba.extending import register_jitable
+from scipy.integrate import solve_ivp
+from scipy.linalg import solve_continuous_are
+
+from ..errors import PaaError
+from ..model.dynamics import AnalyticModel
+from ..model.states import wrap
+from ..theory.linear import LQR_Q, LQR_R, udd_linearization
+from .base import CompiledForm, Controller, kernel
+from .combined import CombinedController, TimeCondition
+from .lqr import LQRController
+from .trajopt import Kip, casadi, dynamics_function
+
+#: Table step of the tracking controller [s] (the physics step of the named robots).
+TABLE_DT = 1e-3
+_HEADER = 2  # params = [n, dt, x_ref (n x 6), u_ref (n x 2), K (n x 12)]
+
+
+@register_jitable
+def tvlqr_torque(params, t, q1, q2, q3, d1, d2, d3):
+    """tau = u_ref(t) - K(t) (x - x_ref(t)) from the table in ``params`` (linear interpolation, clamped)."""
+    n = int(params[0])
+    dt = params[1]
+    s = t / dt
+    i = int(min(max(np.floor(s), 0.0), n - 2.0))
+    w = min(max(s - i, 0.0), 1.0)
+    xr, ur, kr = _HEADER, _HEADER + 6 * n, _HEADER + 8 * n
+    e = []
+    for j, value in enumerate((q1, q2, q3, d1, d2, d3)):
+        ref = (1.0 - w) * params[xr + 6 * i + j] + w * params[xr + 6 * (i + 1) + j]
+        e.append(wrap(value - ref) if j < 3 else value - ref)
+    out = []
+    for row in range(2):
+        u = (1.0 - w) * params[ur + 2 * i + row] + w * params[ur + 2 * (i + 1) + row]
+        for j in range(6):
+            gain = (1.0 - w) * params[kr + 12 * i + 6 * row + j] + w * params[kr + 12 * (i + 1) + 6 * row + j]
+            u = u - gain * e[j]
+        out.append(u)
+    return out[0], out[1]
+
+
+@kernel
+def tvlqr_kernel(q1, q2, q3, d1, d2, d3, t, params, memory, tau):
+    """Compiled tracking (mode 0: following the stored trajectory)."""
+    tau[0], tau[1] = tvlqr_torque(params, t, q1, q2, q3, d1, d2, d3)
+    return 0
+
+
+def riccati_gains(am: AnalyticModel, times, x_ref, u_ref, Q=LQR_Q, R=LQR_R):
+    """K(t) at ``times`` (n, 2, 6) of the LQR along the reference, S(T) from (67)'s Riccati equation at UDD."""
+    ca = casadi()
+    f = dynamics_function(am)
+    x, u = ca.SX.sym("x", 6), ca.SX.sym("u", 2)
+    jac = ca.Function("AB", [x, u], [ca.jacobian(f(x, u), x), ca.jacobian(f(x, u), u)])
+    pairs = [jac(x_ref[i], u_ref[i]) for i in range(len(times))]
+    A_all = np.array([np.array(a) for a, _ in pairs])
+    B_all = np.array([np.array(b) for _, b in pairs])
+    A_udd, B_udd = udd_linearization(am)
+    S_end = solve_continuous_are(A_udd, B_udd, Q, R)
+    R_inv = np.linalg.inv(R)
+
+    def at(t, tables):
+        s = np.clip(t / (times[1] - times[0]), 0, len(times) - 1.000001)
+        i = int(s)
+        return (1 - (s - i)) * tables[i] + (s - i) * tables[min(i + 1, len(times) - 1)]
+
+    def rhs(t, s_flat):
+        S = s_flat.reshape(6, 6)
+        A, B = at(t, A_all), at(t, B_all)
+        dS = -(A.T @ S + S @ A - S @ B @ R_inv @ B.T @ S + Q)
+        return (0.5 * (dS + dS.T)).reshape(-1)
+
+    sol = solve_ivp(rhs, (times[-1], times[0]), S_end.reshape(-1), method="LSODA", rtol=1e-8, atol=1e-6,
+                    dense_output=True)
+    if not sol.success:
+        raise PaaError(f"the Riccati equation of the tracking controller failed: {sol.message}")
+    S = sol.sol(times).T.reshape(-1, 6, 6)
+    return np.einsum("ij,njk,nkl->nil", R_inv, B_all.transpose(0, 2, 1), S)
+
+
+class TVLQRController(Controller):
+    """Feedforward u_ref plus time-varying LQR feedback along a solved :class:`~paa_mj.control.trajopt.Kip`.
+
+    Parameters
+    ----------
+    model : AnalyticModel
+        The robot the tracking gains are computed for.
+    kip : Kip
+    table_dt : float
+        Step of the reference and gain table [s].
+    """
+
+    name = "tvlqr"
+
+    def __init__(self, model: AnalyticModel, kip: Kip, table_dt=TABLE_DT):
+        self.model, self.kip = model, kip
+        n = int(np.ceil(kip.duration / table_dt)) + 1
+        self.times = np.arange(n) * table_dt
+        self.params = _cached_table(model, kip, self.times, table_dt)
+
+    @property
+    def duration(self):
+        return self.kip.duration
+
+    def reference(self, t):
+        """(x_ref, u_ref) at time t as the controller tables them."""
+        x, u = self.kip.sample(np.atleast_1d(t), self.model)
+        return x[0], u[0]
+
+    def torque(self, q, qd, t=0.0):
+        q, qd = np.asarray(q, float), np.asarray(qd, float)
+        t2, t3 = tvlqr_torque(self.params, float(t), q[..., 0], q[..., 1], q[..., 2], qd[..., 0], qd[..., 1],
+                              qd[..., 2])
+        return np.stack(np.broadcast_arrays(t2, t3), -1)
+
+    def compiled(self) -> CompiledForm:
+        return CompiledForm(tvlqr_kernel, self.params)
+
+    def describe(self) -> dict:
+        return {"controller": self.name, "objective": self.kip.objective, "duration": self.kip.duration,
+                "bound": self.kip.bound.tolist()}
+
+
+def _cached_table(model, kip, times, table_dt):
+    """The controller's table [n, dt, x_ref, u_ref, K], from the trajectory cache when it is there."""
+    import hashlib
+
+    from ..io import write_npz
+    from .trajopt import cache_dir
+
+    digest = hashlib.sha256(repr((model.key(), table_dt, LQR_Q.tolist(), LQR_R.tolist())).encode()
+                            + b"".join(np.ascontiguousarray(a).tobytes() for a in (kip.x, kip.u, kip.x_mid, kip.u_mid))
+                            ).hexdigest()[:24]
+    path = cache_dir() / f"tvlqr-{digest}.npz"
+    if path.is_file():
+        try:
+            with np.load(path, allow_pickle=False) as z:
+                return np.array(z["params"])
+        except Exception:  # a damaged entry is computed again
+            pass
+    x_ref, u_ref = kip.sample(times, model)
+    K = riccati_gains(model, times, x_ref, u_ref)
+    params = np.concatenate([[len(times), table_dt], x_ref.reshape(-1), u_ref.reshape(-1), K.reshape(-1)])
+    try:
+        write_npz(path, params=params)
+    except PaaError:
+        pass
+    return params
+
+
+def kip_controller(model: AnalyticModel, kip: Kip, name="trajopt") -> CombinedController:
+    """Track ``kip`` by TVLQR, then balance by the LQR (67) once it has ended (t >= T)."""
+    tracking = TVLQRController(model, kip)
+    return CombinedController(tracking, LQRController.for_model(model), TimeCondition(kip.duration), name=name)

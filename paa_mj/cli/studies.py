@@ -108,6 +108,38 @@ def cmd_compare(args):
     return 0
 
 
+def cmd_atlas(args):
+    from ..model.robot import load_robot
+    from ..studies.atlas import atlas, parse_range, parse_vary, write_atlas
+    from ..studies.runner import check_scheduler
+
+    vary = parse_vary(args.vary)
+    factor_range = parse_range(args.range)
+    robot = load_robot(args.robot)
+    scheduler = check_scheduler(args.scheduler)
+    if args.starts is not None and not args.simulate:
+        raise PaaError("--starts applies with --simulate only")
+    with _lock(args.out):
+        summary, arrays = atlas(robot, vary, factor_range, args.grid, simulate=args.simulate,
+                                starts=4 if args.starts is None else args.starts, t_final=args.t_final,
+                                seed=args.seed, scheduler=scheduler, out_dir=args.out, fresh=args.fresh,
+                                progress=not args.json)
+        if args.out:
+            write_atlas(args.out, summary, arrays)
+    if args.json:
+        print_json(summary)
+    else:
+        print(f"atlas of {summary['robot']} over ({', '.join(summary['vary'])}), {summary['grid']} x {summary['grid']}"
+              " robots" + (f"; wrote {args.out}/atlas_theory.png, atlas.json, atlas.npz" if args.out else ""))
+        for line in summary["findings"]:
+            print(f"  {line}")
+    if summary["interrupted"]:
+        note(f"{interrupt_name()}: the atlas is incomplete"
+             + (f"; finished chunks are kept in {args.out}, run the same command to resume" if args.out else ""))
+        return interrupt_code()
+    return 0
+
+
 def cmd_bench(args):
     from ..studies.bench import format_bench, run_bench
 
@@ -176,6 +208,25 @@ def register(sub, parser_class):
     p.add_argument("--no-video", action="store_true", help="skip the side-by-side video")
     p.add_argument("--gl", choices=("auto", "egl", "osmesa"), default="auto", help="GL backend for the video")
     p.set_defaults(func=cmd_compare)
+
+    from ..studies.atlas import DEFAULT_RANGE, MAX_GRID as ATLAS_GRID, PARAMETERS
+
+    p = sub.add_parser("atlas", parents=[robot_parent(), study_parent(),
+                                         output_parent("atlas.json, atlas.npz, the maps and the finished chunks")],
+                       help="which robots can kip: Theorem 1 and the simulated kip over body proportions",
+                       description="Scale two parameters of a robot over a log grid of factors and map, for every"
+                                   " robot of the family, E_r, constraint (54), deltabar (30), controllability at UDD,"
+                                   " kD_min, eta1, eta2 and gains by the rule kD = 1.05 kD_min, kP = 1.05 max(eta1,"
+                                   " eta2), kV = kD x (kV/kD of the base); with --simulate, the kip itself.")
+    p.add_argument("--vary", default="l1,m1", metavar="P1,P2", help=f"two of {', '.join(PARAMETERS)}")
+    p.add_argument("--range", default=f"{DEFAULT_RANGE[0]:g}:{DEFAULT_RANGE[1]:g}", metavar="LOW:HIGH",
+                   help="the scale factors' range (log-spaced)")
+    p.add_argument("--grid", type=positive_int, default=32, help=f"factors per parameter, 2..{ATLAS_GRID}")
+    p.add_argument("--simulate", action="store_true", help="also run the kip of every robot in MuJoCo")
+    p.add_argument("--starts", type=int, help="random starts per robot with --simulate (default 4), besides (65)")
+    p.add_argument("--t-final", type=positive, default=30.0, help="duration of each simulated kip [s]")
+    p.add_argument("--seed", type=int, default=0, help="seed of the random starts")
+    p.set_defaults(func=cmd_atlas)
 
     p = sub.add_parser("bench", help="costs per step: bare mj_step, closed loop, batch, basin, analytic reference",
                        description="Costs measured in one process, reported as ratios of things measured together.")

@@ -9,6 +9,8 @@ by automatic differentiation, so there is no step size to choose.
 """
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from ..model import equations as eq
@@ -27,6 +29,25 @@ def _casadi():
     return casadi
 
 
+@functools.lru_cache(maxsize=None)
+def _jacobian_function(law):
+    """J(x, c, gains, override, value): the closed loop's Jacobian with the robot and gains as parameters.
+
+    Built and differentiated once per law; ``override`` = 1 replaces E - E_r in Lambda by ``value``.
+    """
+    ca = _casadi()
+    x, c, gains = ca.SX.sym("x", 6), ca.SX.sym("c", len(eq.CONSTANTS)), ca.SX.sym("gains", 3)
+    override, value = ca.SX.sym("override"), ca.SX.sym("value")
+    q1, q2, q3, d1, d2, d3 = (x[i] for i in range(6))
+    kD, kP, kV = gains[0], gains[1], gains[2]
+    de, k22, k23, k33, u1, u2 = energy_terms(c, kD, kV, q1, q2, q3, d1, d2, d3)
+    de = ca.if_else(override > 0.5, value, de)
+    tau2, tau3 = (vcl_law if law == "vcl" else conventional_law)(c, kP, de, k22, k23, k33, u1, u2, q2, q3)
+    qdd = eq.acceleration(c, q1, q2, q3, d1, d2, d3, tau2, tau3)
+    field = ca.vertcat(d1, d2, d3, *qdd)
+    return ca.Function("J", [x, c, gains, override, value], [ca.jacobian(field, x)])
+
+
 def closed_loop_jacobian(am: AnalyticModel, kD, kP, kV, law="vcl", state=None, lambda_energy=None) -> np.ndarray:
     """The exact 6 x 6 Jacobian of x_dot = [qd, M^-1 (B tau(x) - H - G)] at ``state`` (default DUU, at rest).
 
@@ -37,19 +58,12 @@ def closed_loop_jacobian(am: AnalyticModel, kD, kP, kV, law="vcl", state=None, l
         Evaluate Lambda (38) with this value of E - E_r instead of the state's own
         (only Lambda; the rest of (40) is unchanged).
     """
-    ca = _casadi()
-    x = ca.SX.sym("x", 6)
-    q1, q2, q3, d1, d2, d3 = (x[i] for i in range(6))
-    c = am.constants
-    de, k22, k23, k33, u1, u2 = energy_terms(c, kD, kV, q1, q2, q3, d1, d2, d3)
-    if lambda_energy is not None:
-        de = lambda_energy
-    tau2, tau3 = (vcl_law if law == "vcl" else conventional_law)(c, kP, de, k22, k23, k33, u1, u2, q2, q3)
-    qdd = eq.acceleration(c, q1, q2, q3, d1, d2, d3, tau2, tau3)
-    field = ca.vertcat(d1, d2, d3, *qdd)
+    if law not in ("vcl", "conventional"):
+        raise ValueError(f"unknown law {law!r}")
     point = np.concatenate([Q_DUU, np.zeros(3)]) if state is None else np.asarray(state, float)
-    jacobian = ca.Function("J", [x], [ca.jacobian(field, x)])
-    return np.array(jacobian(point), dtype=float)
+    J = _jacobian_function(law)(point, am.constants, [kD, kP, kV], 0.0 if lambda_energy is None else 1.0,
+                                0.0 if lambda_energy is None else float(lambda_energy))
+    return np.array(J, dtype=float)
 
 
 def sorted_eigenvalues(J):

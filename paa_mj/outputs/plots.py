@@ -298,3 +298,94 @@ def overlay_figure(trajectories, summary):
                       f" [{summary['torque_limit'][0]:.0f}, {summary['torque_limit'][1]:.0f}] N m")
     axes[-1].set_xlabel("t [s]")
     return fig
+
+
+def _atlas_axes(ax, summary, arrays, field_for_boundary=True):
+    """Log axes of the two factors, the (54) boundary and the base robot."""
+    from matplotlib.ticker import FixedLocator, NullLocator, ScalarFormatter
+
+    f1, f2 = arrays["factors_1"], arrays["factors_2"]
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    for axis, values in ((ax.xaxis, f1), (ax.yaxis, f2)):
+        ticks = [t for t in (0.125, 0.25, 0.5, 1, 2, 4, 8, 16) if values.min() <= t <= values.max()]
+        axis.set_major_locator(FixedLocator(ticks))
+        axis.set_major_formatter(ScalarFormatter())
+        axis.set_minor_locator(NullLocator())
+    ax.set_xlabel(f"{summary['vary'][0]} factor")
+    ax.set_ylabel(f"{summary['vary'][1]} factor")
+    ax.grid(False)
+    shape = (len(f1), len(f2))
+    holds = arrays["holds_54"].reshape(shape).astype(float)
+    if field_for_boundary and 0 < holds.mean() < 1:
+        ax.contour(f1, f2, holds.T, levels=[0.5], colors="k", linewidths=1.2, linestyles="--")
+    E_r = arrays["E_r"].reshape(shape)
+    if np.nanmin(E_r) < 0 < np.nanmax(E_r):
+        ax.contour(f1, f2, E_r.T, levels=[0.0], colors="0.2", linewidths=1.0, linestyles=":")
+    if f1.min() <= 1 <= f1.max() and f2.min() <= 1 <= f2.max():
+        ax.plot([1.0], [1.0], marker="*", ms=12, color="white", markeredgecolor="k", ls="none")
+
+
+def atlas_theory_figure(summary, arrays):
+    """Maps of the theory over the family: E_r, (54), deltabar, controllability, kD_min, eta1, eta2, Theorem 1."""
+    f1, f2 = arrays["factors_1"], arrays["factors_2"]
+    shape = (len(f1), len(f2))
+    panels = [("E_r", "E_r [J]", "RdBu", True), ("holds_54", "(54) holds", "Greens", False),
+              ("deltabar_min", "min deltabar (30)", "RdBu", True), ("udd_controllable", "UDD controllable", "Greens", False),
+              ("theorem1", "Theorem 1 applies", "Greens", False), ("kD_min", "kD_min (41)", "viridis", False),
+              ("eta1", "eta1 (59)", "viridis", False), ("eta2", "eta2 (60)", "viridis", False),
+              ("duu_growth", "growth rate at DUU [1/s]", "RdBu", True),
+              ("lqr_sampled_stable", "LQR (67) stable at the time step", "Greens", False)]
+    fig, axes = new_figure(2, 5, figsize=(21, 7.6), constrained_layout=True)
+    for ax, (key, title, cmap, signed) in zip(axes.ravel(), panels):
+        values = arrays[key].reshape(shape).astype(float)
+        if arrays[key].dtype == bool:
+            mesh = ax.pcolormesh(f1, f2, values.T, cmap=cmap, vmin=-0.2, vmax=1.2, shading="nearest")
+        elif signed:
+            finite = values[np.isfinite(values)]
+            span = float(np.max(np.abs(finite))) if finite.size else 1.0
+            mesh = ax.pcolormesh(f1, f2, values.T, cmap=cmap, vmin=-span, vmax=span, shading="nearest")
+        else:
+            from matplotlib.colors import LogNorm
+
+            positive = values[np.isfinite(values) & (values > 0)]
+            norm = None
+            if positive.size and positive.max() > positive.min():
+                norm = LogNorm(max(positive.min(), positive.max() * 1e-4), positive.max(), clip=True)
+            mesh = ax.pcolormesh(f1, f2, np.where(values > 0, values, np.nan).T, cmap=cmap, norm=norm, shading="nearest")
+        fig.colorbar(mesh, ax=ax, shrink=0.85)
+        _atlas_axes(ax, summary, arrays)
+        ax.set_title(title)
+    fig.suptitle(f"Atlas of {summary['robot']} over ({summary['vary'][0]}, {summary['vary'][1]}):"
+                 " dashed, where (54) starts to fail; dotted, E_r = 0; star, the base robot")
+    return fig
+
+
+def atlas_outcome_figure(summary, arrays):
+    """The simulated kip over the family, beside the share of random starts that balance."""
+    from matplotlib.colors import BoundaryNorm, ListedColormap
+
+    from ..studies.atlas import OUTCOMES
+
+    f1, f2 = arrays["factors_1"], arrays["factors_2"]
+    shape = (len(f1), len(f2))
+    outcome = arrays["outcome"].reshape(shape).astype(float)
+    fig, (left, right) = new_figure(1, 2, figsize=(12, 5), constrained_layout=True)
+    colours = OUTCOME_COLOURS
+    cmap = ListedColormap(colours).with_extremes(bad="white")
+    left.pcolormesh(f1, f2, np.ma.masked_less(outcome, 0).T, cmap=cmap,
+                    norm=BoundaryNorm(np.arange(-0.5, len(OUTCOMES) + 0.5), cmap.N), shading="nearest")
+    counts = summary["counts"]
+    left.legend([plt.Rectangle((0, 0), 1, 1, color=c) for c in colours],
+                [f"{name} ({counts.get(name, 0)})" for name in OUTCOMES], loc="upper center",
+                bbox_to_anchor=(0.5, -0.12), ncol=2, fontsize=8, frameon=False)
+    _atlas_axes(left, summary, arrays)
+    left.set_title("the kip from (65)")
+    share = arrays["balanced_starts"].reshape(shape)
+    mesh = right.pcolormesh(f1, f2, 100 * share.T, cmap="viridis", vmin=0, vmax=100, shading="nearest")
+    fig.colorbar(mesh, ax=right, label="balanced from random starts [%]")
+    _atlas_axes(right, summary, arrays)
+    right.set_title(f"{summary['starts']} random starts per robot")
+    fig.suptitle(f"Simulated kips of {summary['robot']}'s family over ({summary['vary'][0]}, {summary['vary'][1]}),"
+                 f" {summary['t_final']:g} s; dashed: where (54) starts to fail; dotted: E_r = 0")
+    return fig

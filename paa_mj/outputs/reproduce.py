@@ -366,7 +366,7 @@ def _report_text(results, runs, video_path, seconds):
               "## 5. Other differences, stated plainly", "",
               f"- **Bounds.** kD_min, eta1 and eta2 differ from the paper's rounded values by"
               f" {rel(th1['kD_min'], p1['kD_min']):.1e}, {rel(th1['eta1'], p1['eta1']):.1e} and"
-              f" {rel(th1['eta2'], p1['eta2']):.1e} (relative); our maxima come from a grid refined by Nelder-Mead and"
+              f" {rel(th1['eta2'], p1['eta2']):.1e} (relative); our maxima come from a coarse grid refined by zoomed grids and"
               " are checked against a 1501 x 1501 grid in the tests.",
               f"- **Table 2 and (30).** deltabar of the frozen-q3 Acrobot ranges over [{th2['deltabar_min']:.4g},"
               f" {th2['deltabar_max']:.4g}]: it reaches 0 exactly where f(z) = 1 (z = 0), so for Table 2 the frozen"

@@ -371,6 +371,13 @@ def advance_compiled(first, second, condition, r, step_to, params, model_ptr, da
     return st[I_STATUS]
 
 
+@njit(types.int64(KERNEL_TYPE, KERNEL_TYPE, KERNEL_TYPE, *(types.float64,) * 7, types.float64[:], types.float64[:],
+                   types.float64[:]), cache=True)
+def evaluate_once(first, second, condition, q1, q2, q3, d1, d2, d3, t, params, memory, tau):
+    """:func:`call_controller` with a fixed signature, so that calls from Python compile once."""
+    return call_controller(first, second, condition, q1, q2, q3, d1, d2, d3, t, params, memory, tau)
+
+
 @dataclass(frozen=True, eq=False)
 class Packed:
     """A compiled controller as the engine calls it: three kernels, one parameter vector, one initial memory."""
@@ -406,8 +413,8 @@ def evaluate(form, q, qd, t=0.0, memory=None):
     out = np.empty(2)
     for i in range(len(q)):
         mem = (packed.memory if memory is None else np.asarray(memory, float)).copy()
-        modes[i] = call_controller(packed.first, packed.second, packed.condition, *q[i], *qd[i], float(t),
-                                   packed.params, mem, out)
+        modes[i] = evaluate_once(packed.first, packed.second, packed.condition, *q[i], *qd[i], float(t),
+                                 packed.params, mem, out)
         tau[i] = out
     return tau, modes
 
@@ -422,18 +429,12 @@ def retirement_certificate(plant, K, dt):
     UDD and sampled with zero-order hold at ``dt``; ``level`` =
     :data:`RETIRE_FRACTION` x BALANCE_TOL.
     """
-    from scipy.linalg import expm
-
-    from ..theory.linear import udd_linearization
+    from ..theory.linear import sampled_closed_loop
 
     none = np.zeros(N_CERT), 0.0
     if K is None:
         return none
-    A, B = udd_linearization(plant)
-    block = np.zeros((8, 8))
-    block[:6, :6], block[:6, 6:] = A, B
-    sampled = expm(block * dt)
-    phi = sampled[:6, :6] - sampled[:6, 6:] @ np.asarray(K, float)
+    phi = sampled_closed_loop(plant, K, dt)
     if not np.all(np.isfinite(phi)):
         return none
     eigenvalues, vectors = np.linalg.eig(phi)

@@ -132,9 +132,62 @@ def _run_chunk(xml, name, kwargs, t_final, seed, nthread, retire):
     return out
 
 
+def map_chunks(task, payloads, *, scheduler="inline", store=None, progress=False, desc="chunks", is_complete=None,
+               shared=None):
+    """Run ``task(shared, payload)`` for every payload, in this process or on Dask, keeping each result in ``store``.
+
+    Results already in ``store`` (and complete, by ``is_complete``) are not computed again;
+    each new one is saved as it arrives. ``shared`` is sent to each Dask worker once.
+
+    Returns
+    -------
+    (dict index -> result, interrupted)
+        The finished results; ``interrupted`` after Ctrl-C, SIGTERM or a result that
+        ``is_complete`` refuses (the task saw the interrupt itself).
+
+    Raises
+    ------
+    StudyIncomplete
+        Every Dask worker was lost; the finished results are kept in ``store``.
+    """
+    store = store or ChunkStore(None, "")
+    is_complete = is_complete or (lambda result: True)
+    finished = {}
+    for index in range(len(payloads)):
+        kept = store.load(index)
+        if kept is not None and is_complete(kept):
+            finished[index] = kept
+    todo = [index for index in range(len(payloads)) if index not in finished]
+    bar = tqdm(total=len(payloads), initial=len(finished), unit="chunk", disable=None if progress else True,
+               desc=desc)
+    interrupted = False
+    try:
+        if scheduler == "inline":
+            for index in todo:
+                result = task(shared, payloads[index])
+                if not is_complete(result):  # stopped inside the chunk: nothing of it is kept
+                    interrupted = True
+                    break
+                finished[index] = result
+                store.save(index, result)
+                bar.update(1)
+        elif todo:
+            _run_on_dask(task, shared, payloads, todo, scheduler, finished, store, bar)
+    except KeyboardInterrupt:
+        interrupted = True
+    finally:
+        bar.close()
+    return finished, interrupted
+
+
+def _rollout_task(shared, payload):
+    xml, name, t_final, seed, retire, nthread = shared
+    return _run_chunk(xml, name, payload, t_final, seed, nthread, retire)
+
+
 def run_study(robot: Robot, rollouts: RolloutSet, t_final: float, *, seed=0, scheduler="inline", store=None,
-              chunk=CHUNK, retire=True, progress=False, definition=None) -> BatchResult:
-    """All rollouts of a study, chunk by chunk, resuming from ``store``.
+              chunk=CHUNK, retire=True, progress=False) -> BatchResult:
+    """All rollouts of a study, chunk by chunk, resuming from ``store`` (:func:`map_chunks`).
 
     Parameters
     ----------
@@ -147,45 +200,18 @@ def run_study(robot: Robot, rollouts: RolloutSet, t_final: float, *, seed=0, sch
     BatchResult
         Rollouts of unfinished chunks are marked incomplete (``meta["completed"]``)
         and the result ``interrupted``.
-
-    Raises
-    ------
-    StudyIncomplete
-        Every Dask worker was lost; the finished chunks are kept in ``store``.
     """
     n = len(rollouts)
     check_memory(n * 8.0 * 40, "study results", "the grid or the number of trials")
     if scheduler in SCHEDULERS:  # here; a remote cluster's size is its own
         check_steps(n * t_final / float(robot.model.opt.timestep), f"{n} rollouts of {t_final:g} s",
                     "the grid, the number of trials or --t-final")
-    store = store or ChunkStore(None, "")
     starts = list(range(0, n, chunk))
-    finished = {}
-    for index, start in enumerate(starts):
-        kept = store.load(index)
-        if kept is not None and len(kept.get("x0", [])) == min(chunk, n - start) and kept["completed"].all():
-            finished[index] = kept
-    todo = [(index, start) for index, start in enumerate(starts) if index not in finished]
-    bar = tqdm(total=len(starts), initial=len(finished), unit="chunk", disable=None if progress else True,
-               desc=f"{n} rollouts")
-    interrupted = False
-    try:
-        if scheduler == "inline":
-            for index, start in todo:
-                result = _run_chunk(robot.xml, robot.name, rollouts.chunk(start, min(start + chunk, n)), t_final,
-                                    seed, None, retire)
-                if not result["completed"].all():  # stopped inside the chunk: nothing of it is kept
-                    interrupted = True
-                    break
-                finished[index] = result
-                store.save(index, result)
-                bar.update(1)
-        elif todo:
-            _run_on_dask(robot, rollouts, todo, chunk, n, t_final, seed, retire, scheduler, finished, store, bar)
-    except KeyboardInterrupt:
-        interrupted = True
-    finally:
-        bar.close()
+    payloads = [rollouts.chunk(start, min(start + chunk, n)) for start in starts]
+    shared = (robot.xml, robot.name, t_final, seed, retire, None if scheduler == "inline" else 1)
+    finished, interrupted = map_chunks(_rollout_task, payloads, scheduler=scheduler, store=store, progress=progress,
+                                       desc=f"{n} rollouts", shared=shared,
+                                       is_complete=lambda result: bool(np.all(result["completed"])))
     return _merge(rollouts, starts, finished, chunk, n, interrupted, scheduler)
 
 
@@ -207,11 +233,10 @@ def _quiet_dask():
             logging.getLogger(name).setLevel(level)
 
 
-def _run_on_dask(robot, rollouts, todo, chunk, n, t_final, seed, retire, scheduler, finished, store, bar):
+def _run_on_dask(task, shared, payloads, todo, scheduler, finished, store, bar):
     from distributed import Client, LocalCluster, as_completed
 
     total = len(finished) + len(todo)
-
     with _quiet_dask():
         cluster = None
         try:
@@ -229,9 +254,8 @@ def _run_on_dask(robot, rollouts, todo, chunk, n, t_final, seed, retire, schedul
                 except (OSError, TimeoutError, ValueError) as err:
                     raise PaaError(f"cannot reach the Dask scheduler {scheduler}: {' '.join(str(err).split())}") from None
             with client:
-                xml = client.scatter(robot.xml, broadcast=True)
-                futures = {client.submit(_run_chunk, xml, robot.name, rollouts.chunk(start, min(start + chunk, n)),
-                                         t_final, seed, 1, retire, pure=False): index for index, start in todo}
+                remote = client.scatter(shared, broadcast=True)
+                futures = {client.submit(task, remote, payloads[index], pure=False): index for index in todo}
                 try:
                     for future in as_completed(futures):
                         try:

@@ -22,8 +22,10 @@ from ..io import _json_default, ensure_dir, write_npz
 
 
 def study_key(definition: dict) -> str:
-    """A digest of a study's definition (any JSON-able dict with arrays)."""
-    text = json.dumps(definition, sort_keys=True, default=_json_default)
+    """A digest of a study's definition (any JSON-able dict with arrays) and of the package's version."""
+    from .. import __version__
+
+    text = json.dumps({"version": __version__, **definition}, sort_keys=True, default=_json_default)
     return hashlib.sha256(text.encode()).hexdigest()[:20]
 
 

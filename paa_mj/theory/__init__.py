@@ -2,7 +2,7 @@
 
 - :mod:`~paa_mj.theory.conditions`: kD_min (41), eta1 (59), eta2 (60), constraint (54), deltabar (30);
 - :mod:`~paa_mj.theory.linear`: linearisation at UDD, controllability, the LQR gain of (67);
-- :mod:`~paa_mj.theory.maxima`: the grid-plus-Nelder-Mead maxima these need.
+- :mod:`~paa_mj.theory.maxima`: the coarse-grid-plus-zoom maxima these need.
 
 The closed-loop analysis at DUU needs controller (40) and lives in
 :mod:`paa_mj.control.closed_loop`; the whole report is

@@ -7,8 +7,8 @@
 
 Everything is computed from an :class:`~paa_mj.model.dynamics.AnalyticModel`;
 no number of the paper is used. Maxima over angles come from
-:func:`~paa_mj.theory.maxima.grid_maximum` (grid, then Nelder-Mead), far better
-than the 1e-4 relative accuracy the theory needs. See ``docs/model.md``.
+:func:`~paa_mj.theory.maxima.grid_maximum` (a coarse grid, then zoomed grids), far
+better than the 1e-4 relative accuracy the theory needs. See ``docs/model.md``.
 """
 from __future__ import annotations
 
@@ -48,7 +48,7 @@ def kd_bound_function(am: AnalyticModel, q2, q3):
 def kd_min(am: AnalyticModel) -> Maximum:
     """kD_min of (41): controller (40) is singularity-free iff kD > kD_min [J kg m^2]."""
     return grid_maximum(lambda y, z: kd_bound_function(am, y, z), [(0, TWO_PI), (0, TWO_PI)],
-                        n=(361, 361), periodic=(True, True))
+                        n=(121, 121), periodic=(True, True))
 
 
 # --- (59), (60) ---------------------------------------------------------------------
@@ -64,7 +64,7 @@ def eta1_function(am: AnalyticModel, y, z):
 def eta1(am: AnalyticModel) -> Maximum:
     """eta1 of (59): Theorem 1 needs kP > eta1."""
     return grid_maximum(lambda y, z: eta1_function(am, y, z), [(0, np.pi), (0, TWO_PI)],
-                        n=(361, 361), periodic=(False, True))
+                        n=(61, 121), periodic=(False, True))
 
 
 def eta2_function(am: AnalyticModel, z):
@@ -76,7 +76,7 @@ def eta2_function(am: AnalyticModel, z):
 
 def eta2(am: AnalyticModel) -> Maximum:
     """eta2 of (60): Theorem 1 needs kP > eta2."""
-    return grid_maximum(lambda z: eta2_function(am, z), [(np.pi, TWO_PI)], n=(20001,))
+    return grid_maximum(lambda z: eta2_function(am, z), [(np.pi, TWO_PI)], n=(2001,))
 
 
 # --- (54) -------------------------------------------------------------------------

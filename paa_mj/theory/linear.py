@@ -55,9 +55,27 @@ def udd_controllability(am: AnalyticModel, tol=1e-10) -> Controllability:
 
 
 def lqr_gain(am: AnalyticModel, Q=LQR_Q, R=LQR_R):
-    """LQR gain K of (67) from python-control on the UDD linearisation: tau = -K x."""
-    import control
+    """LQR gain K of (67) on the UDD linearisation: tau = -K x, K = R^-1 B^T S with S the stabilising
+    solution of the continuous algebraic Riccati equation (SciPy)."""
+    from scipy.linalg import solve_continuous_are
 
     A, Bl = udd_linearization(am)
-    K, _, _ = control.lqr(A, Bl, Q, R, method="scipy")
-    return np.asarray(K)
+    S = solve_continuous_are(A, Bl, Q, R)
+    return np.linalg.solve(R, Bl.T @ S)
+
+
+def sampled_closed_loop(am: AnalyticModel, K, dt):
+    """Phi = Ad - Bd K: the linearisation at UDD sampled with zero-order hold at ``dt`` [s], under tau = -K x."""
+    from scipy.linalg import expm
+
+    A, B = udd_linearization(am)
+    block = np.zeros((8, 8))
+    block[:6, :6], block[:6, 6:] = A, B
+    sampled = expm(block * dt)
+    return sampled[:6, :6] - sampled[:6, 6:] @ np.asarray(K, float)
+
+
+def sampled_spectral_radius(am: AnalyticModel, K, dt) -> float:
+    """The spectral radius of :func:`sampled_closed_loop` (below 1: the sampled balance is stable)."""
+    phi = sampled_closed_loop(am, K, dt)
+    return float(np.max(np.abs(np.linalg.eigvals(phi)))) if np.all(np.isfinite(phi)) else float("inf")

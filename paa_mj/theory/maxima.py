@@ -1,10 +1,9 @@
-"""Maxima over angles by a grid refined by Nelder-Mead: the bounds of Theorem 1 need them to 1e-4 or better."""
+"""Maxima over angles by a coarse grid and zoomed grids: the bounds of Theorem 1 need them to 1e-4 or better."""
 from __future__ import annotations
 
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import optimize
 
 
 @dataclass(frozen=True)
@@ -26,8 +25,15 @@ class Maximum:
     grid_value: float
 
 
-def grid_maximum(fun, bounds, n=(401, 401), periodic=None, n_starts=6):
-    """Maximise ``fun`` over a box: a grid, then Nelder-Mead from the best local maxima.
+def grid_maximum(fun, bounds, n=(121, 121), periodic=None, n_starts=6, zoom=21, tol=1e-11):
+    """Maximise ``fun`` over a box: a coarse grid, then zoomed grids around its best local maxima.
+
+    The coarse grid finds the peaks; around each of the ``n_starts`` best (distinct) grid
+    maxima, a ``zoom``-point grid per coordinate over +-1 coarse cell is evaluated, recentred
+    on its best point and shrunk to +-1 of its own cells, until the cells are below ``tol``
+    (radians). Every step is one vectorised evaluation, so a maximum costs a few thousand
+    evaluations in a handful of NumPy calls; the value is exact to rounding for smooth
+    functions (the error falls with the square of the final cell).
 
     Parameters
     ----------
@@ -35,17 +41,16 @@ def grid_maximum(fun, bounds, n=(401, 401), periodic=None, n_starts=6):
         Vectorised: takes one array per coordinate (same shape) and returns values.
     bounds : sequence of (low, high)
     n : sequence of int
-        Grid points per coordinate.
+        Coarse grid points per coordinate.
     periodic : sequence of bool, optional
-        Coordinates on which the refinement may wander past the bounds.
+        Coordinates that wrap (the zoomed grids may cross their bounds).
     n_starts : int
-        How many grid local maxima to refine.
+        How many coarse local maxima to refine.
     """
     dim = len(bounds)
     periodic = periodic or (False,) * dim
     axes = [np.linspace(lo, hi, k) for (lo, hi), k in zip(bounds, n)]
-    mesh = np.meshgrid(*axes, indexing="ij")
-    values = np.asarray(fun(*mesh), dtype=float)
+    values = np.asarray(fun(*np.meshgrid(*axes, indexing="ij")), dtype=float)
     values = np.where(np.isfinite(values), values, -np.inf)
     order = np.argsort(values, axis=None)[::-1]
     starts, taken = [], np.zeros(values.shape, bool)
@@ -55,27 +60,30 @@ def grid_maximum(fun, bounds, n=(401, 401), periodic=None, n_starts=6):
             continue
         starts.append(idx)
         # Skip the neighbourhood of a start: refinements from next-door cells find the same peak.
-        window = tuple(slice(max(0, i - 5), i + 6) for i in idx)
+        window = tuple(slice(max(0, i - 3), i + 4) for i in idx)
         taken[window] = True
         if len(starts) == n_starts:
             break
     grid_value = float(values[starts[0]])
-    best_value, best_x = grid_value, tuple(float(axes[d][starts[0][d]]) for d in range(dim))
-    local_bounds = [(None, None) if p else b for b, p in zip(bounds, periodic)]
-
-    def negative(x):
-        v = fun(*[np.asarray(xi) for xi in x])
-        return -float(v) if np.isfinite(v) else np.inf
-
+    best_value, best_x = grid_value, np.array([axes[d][starts[0][d]] for d in range(dim)])
+    cells = np.array([(hi - lo) / (k - 1) for (lo, hi), k in zip(bounds, n)])
+    lows, highs = np.array([b[0] for b in bounds]), np.array([b[1] for b in bounds])
+    offsets = np.linspace(-1.0, 1.0, zoom)
     for idx in starts:
-        x0 = np.array([axes[d][idx[d]] for d in range(dim)])
-        res = optimize.minimize(negative, x0, method="Nelder-Mead", bounds=local_bounds,
-                                options={"xatol": 1e-12, "fatol": 1e-13 * max(1.0, abs(grid_value)),
-                                         "maxiter": 4000})
-        if -res.fun > best_value:
-            best_value, best_x = float(-res.fun), tuple(float(v) for v in res.x)
-    best_x = tuple(lo + (x - lo) % (hi - lo) if p else x
+        centre, half = np.array([axes[d][idx[d]] for d in range(dim)]), cells.copy()
+        value = float(values[idx])
+        while np.max(half) > tol:
+            grids = [centre[d] + half[d] * offsets for d in range(dim)]
+            grids = [g if periodic[d] else np.clip(g, lows[d], highs[d]) for d, g in enumerate(grids)]
+            mesh = np.meshgrid(*grids, indexing="ij")
+            local = np.asarray(fun(*mesh), dtype=float)
+            local = np.where(np.isfinite(local), local, -np.inf)
+            best = np.unravel_index(int(np.argmax(local)), local.shape)
+            if local[best] >= value:
+                value, centre = float(local[best]), np.array([mesh[d][best] for d in range(dim)])
+            half = half * 2.0 / (zoom - 1)
+        if value > best_value:
+            best_value, best_x = value, centre
+    best_x = tuple(float(lo + (x - lo) % (hi - lo)) if p else float(x)
                    for x, (lo, hi), p in zip(best_x, bounds, periodic))
     return Maximum(best_value, best_x, grid_value)
-
-

@@ -1,0 +1,307 @@
+"""Which robots can kip: the theory of Theorem 1 and the simulated kip over a family of body proportions.
+
+A family is made from a base robot by scaling two of its parameters (each one of
+m1, m2, m3, l1, l2, l3) by factors on a log-spaced grid. Scaling a length scales
+that link's lc with it and its J with the square; scaling a mass scales its J
+with it. For every robot of the family:
+
+- the theory: E_r (9), constraint (54) (holds, f_min, f_max), the range of
+  deltabar (30), linear controllability at UDD, kD_min (41), eta1 (59), eta2 (60);
+- gains by one rule (:func:`gain_rule`) that meets Theorem 1's bounds wherever
+  they are finite: kD = 1.05 kD_min, kP = 1.05 max(eta1, eta2), and kV in the base
+  robot's ratio kV / kD (kV = kD when the base stores no gains);
+- with ``simulate``: the kip from (65) and from N random starts in MuJoCo through
+  the batch engine, each robot its own plant and controller; its outcome is
+  balanced, stuck away from UDD (V stays above 0) or diverged.
+
+"Theorem 1 applies" means E_r > 0, (54) holds and UDD is linearly controllable
+(the gains meet the rest by construction). The confusion table of that against
+the simulated kip is the atlas's finding.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..control.registry import ControllerSpec
+from ..errors import PaaError
+from ..io import json_writer, npz_writer, write_set
+from ..limits import check_memory, check_steps
+from ..model.dynamics import AnalyticModel
+from ..model.params import RobotParams
+from ..model.robot import Robot
+from ..model.states import X0_HANGING
+from ..theory.conditions import constraint_54, eta1, eta2, frozen_acrobot_controllable, kd_min
+from ..control.closed_loop import duu_eigenvalues
+from ..theory.linear import lqr_gain, sampled_spectral_radius, udd_controllability
+from .basin import OUTCOME_NAMES, classify
+from .runner import RolloutSet, map_chunks, run_study
+from .store import ChunkStore, study_key
+
+PARAMETERS = ("m1", "m2", "m3", "l1", "l2", "l3")
+DEFAULT_RANGE = (0.25, 4.0)
+MAX_GRID = 256
+#: Gains of the rule: this much above each bound.
+MARGIN = 1.05
+OUTCOMES = OUTCOME_NAMES
+THEORY_CHUNK = 32
+START_SPREAD = (np.pi, 1.0)  # random starts: angles uniform over a full turn, speeds within +-1 rad/s
+
+
+def parse_vary(text) -> tuple[str, str]:
+    names = [n.strip() for n in str(text).split(",")]
+    if len(names) != 2 or names[0] == names[1] or any(n not in PARAMETERS for n in names):
+        raise PaaError(f"--vary needs two different parameters out of {', '.join(PARAMETERS)}, got {text!r}")
+    return names[0], names[1]
+
+
+def parse_range(text) -> tuple[float, float]:
+    try:
+        low, high = (float(v) for v in str(text).split(":"))
+    except ValueError:
+        raise PaaError(f"--range must be LOW:HIGH, two positive factors, got {text!r}") from None
+    if not (math.isfinite(low) and math.isfinite(high) and 0 < low < high):
+        raise PaaError(f"--range must be LOW:HIGH with 0 < LOW < HIGH, got {text!r}")
+    return low, high
+
+
+def scale(params: RobotParams, name: str, factor: float) -> RobotParams:
+    """``params`` with one mass or length scaled (a length takes its lc along and its J with the square)."""
+    m, l, lc, J = params.m.copy(), params.l.copy(), params.lc.copy(), params.J.copy()
+    i = int(name[1]) - 1
+    if name[0] == "m":
+        m[i] *= factor
+        J[i] *= factor
+    else:
+        l[i] *= factor
+        lc[i] *= factor
+        J[i] *= factor**2
+    return RobotParams(m=m, l=l, lc=lc, J=J, g=params.g, name=params.name)
+
+
+def grid_factors(low, high, grid):
+    """``grid`` log-spaced factors from low to high, with 1 itself where the grid passes within rounding."""
+    factors = np.geomspace(low, high, grid)
+    near_one = np.isclose(factors, 1.0, rtol=1e-9)
+    factors[near_one] = 1.0
+    return factors
+
+
+def gain_rule(kd, e1, e2, base_gains):
+    """The atlas's gains: kD = 1.05 kD_min, kP = 1.05 max(eta1, eta2), kV = kD x (kV / kD of the base)."""
+    ratio = base_gains["kV"] / base_gains["kD"] if base_gains else 1.0
+    kD = MARGIN * kd
+    return {"kD": kD, "kP": MARGIN * max(e1, e2), "kV": ratio * kD}
+
+
+def robot_theory(params: RobotParams, base_gains=None, dt=1e-3) -> dict:
+    """Everything the atlas says of one robot, from the theory alone.
+
+    Besides Theorem 1's quantities: ``duu_growth``, the largest real part of the closed
+    loop's eigenvalues at DUU with the rule's gains [1/s] (how fast a kip leaves DUU; near
+    0, it lingers there), and ``lqr_sampled_stable``, whether the LQR (67) balances the
+    linearisation sampled with zero-order hold at ``dt`` (the simulation's step).
+    """
+    am = AnalyticModel.from_params(params)
+    kd, e1, e2 = kd_min(am), eta1(am), eta2(am)
+    c54 = constraint_54(am)
+    _, db_min, db_max = frozen_acrobot_controllable(am)
+    controllable = udd_controllability(am).controllable
+    E_r = float(am.E_r)
+    gains = gain_rule(kd.value, e1.value, e2.value, base_gains)
+    growth = float(np.max(duu_eigenvalues(am, **gains)[0].real)) if np.all(np.isfinite(list(gains.values()))) \
+        else float("nan")
+    radius = sampled_spectral_radius(am, lqr_gain(am), dt) if controllable else float("inf")
+    return {"params": {"m": params.m.tolist(), "l": params.l.tolist(), "lc": params.lc.tolist(), "J": params.J.tolist()},
+            "E_r": E_r, "holds_54": bool(c54.holds), "f_min": float(c54.f_min), "f_max": float(c54.f_max),
+            "deltabar_min": db_min, "deltabar_max": db_max, "udd_controllable": bool(controllable),
+            "kD_min": kd.value, "eta1": e1.value, "eta2": e2.value, "gains": gains, "duu_growth": growth,
+            "lqr_sampled_stable": bool(radius < 1.0),
+            "theorem1": bool(E_r > 0 and c54.holds and controllable)}
+
+
+_NUMBERS = ("E_r", "f_min", "f_max", "deltabar_min", "deltabar_max", "kD_min", "eta1", "eta2", "duu_growth")
+_FLAGS = ("holds_54", "udd_controllable", "lqr_sampled_stable", "theorem1")
+
+
+def _theory_task(shared, payload):
+    base_gains, dt = shared
+    rows = [robot_theory(RobotParams(m=p[0], l=p[1], lc=p[2], J=p[3]), base_gains, dt) for p in payload]
+    out = {key: np.array([row[key] for row in rows], float) for key in _NUMBERS}
+    out.update({key: np.array([row[key] for row in rows], bool) for key in _FLAGS})
+    out["gains"] = np.array([[row["gains"][k] for k in ("kD", "kP", "kV")] for row in rows])
+    return out
+
+
+def atlas(robot: Robot, vary=("l1", "m1"), factor_range=DEFAULT_RANGE, grid=32, simulate=False, starts=4,
+          t_final=30.0, seed=0, scheduler="inline", out_dir=None, fresh=False, progress=False):
+    """The atlas of a family of robots; returns (summary, arrays).
+
+    The family is ordered with the first parameter's factor as the slow index.
+    """
+    if not (isinstance(grid, (int, np.integer)) and 2 <= grid <= MAX_GRID):
+        raise PaaError(f"--grid must be an integer in [2, {MAX_GRID}], got {grid}")
+    if not (isinstance(starts, (int, np.integer)) and 0 <= starts <= 10_000):
+        raise PaaError(f"--starts must be an integer in [0, 10000], got {starts}")
+    n = grid * grid
+    check_memory(n * 4000.0, "the atlas", "--grid")
+    if simulate and scheduler in ("inline", "local"):
+        check_steps(n * (starts + 1) * t_final / float(robot.model.opt.timestep),
+                    f"{n * (starts + 1)} kips of {t_final:g} s", "--grid, --starts or --t-final")
+    f1, f2 = grid_factors(*factor_range, grid), grid_factors(*factor_range, grid)
+    family = [scale(scale(robot.params, vary[0], a), vary[1], b) for a in f1 for b in f2]
+    key = {"study": "atlas", "robot": robot.xml, "vary": list(vary), "range": list(factor_range), "grid": grid}
+    payloads = [[(p.m, p.l, p.lc, p.J) for p in family[i:i + THEORY_CHUNK]] for i in range(0, n, THEORY_CHUNK)]
+    store = ChunkStore(out_dir, study_key({**key, "part": "theory"}), fresh)
+    finished, interrupted = map_chunks(_theory_task, payloads, scheduler=scheduler, store=store, progress=progress,
+                                       desc=f"theory of {n} robots",
+                                       shared=(robot.gains, float(robot.model.opt.timestep)))
+    arrays = {"factors_1": f1, "factors_2": f2}
+    for name in _NUMBERS + _FLAGS + ("gains",):
+        parts = [finished[i][name] if i in finished else
+                 np.full((len(payloads[i]),) + ((3,) if name == "gains" else ()), np.nan if name not in _FLAGS else False)
+                 for i in range(len(payloads))]
+        arrays[name] = np.concatenate(parts)
+    arrays["theory_done"] = np.concatenate([np.full(len(payloads[i]), i in finished) for i in range(len(payloads))])
+    summary = {"robot": robot.name, "vary": list(vary), "factors": [f1.tolist(), f2.tolist()],
+               "range": list(factor_range), "grid": grid,
+               "gain_rule": "kD = 1.05 kD_min, kP = 1.05 max(eta1, eta2), kV = kD x (kV/kD of the base robot)",
+               "interrupted": interrupted, "simulated": bool(simulate)}
+    if simulate and not interrupted:
+        outcome, reached, balanced_starts, interrupted = _simulate(robot, family, arrays, starts, t_final, seed,
+                                                                   scheduler, out_dir, fresh, progress, key)
+        arrays["outcome"], arrays["reached_68"], arrays["balanced_starts"] = outcome, reached, balanced_starts
+        summary["interrupted"] = interrupted
+        summary["starts"], summary["t_final"] = starts, t_final
+    summary["robots"] = _robot_rows(family, arrays, f1, f2)
+    summary["counts"] = _counts(arrays, simulate and "outcome" in arrays)
+    summary["findings"] = _findings(summary, arrays)
+    return summary, arrays
+
+
+def _simulate(robot, family, arrays, starts, t_final, seed, scheduler, out_dir, fresh, progress, key):
+    rng = np.random.default_rng(seed)
+    x0, specs, plants, owner = [], [], [], []
+    for r, params in enumerate(family):
+        gains = tuple(arrays["gains"][r])
+        if not np.all(np.isfinite(gains)) or min(gains) <= 0:
+            continue
+        spec = ControllerSpec("vcl", gains, params, check=False)
+        starts_r = [X0_HANGING] + [np.concatenate([rng.uniform(-START_SPREAD[0], START_SPREAD[0], 3),
+                                                   rng.uniform(-START_SPREAD[1], START_SPREAD[1], 3)])
+                                   for _ in range(starts)]
+        for state in starts_r:
+            x0.append(state)
+            specs.append(spec)
+            plants.append(params)
+            owner.append(r)
+    owner = np.array(owner, int)
+    outcome = np.full(len(family), -1, np.int8)
+    reached = np.zeros(len(family), bool)
+    balanced_starts = np.full(len(family), np.nan)
+    if not x0:
+        return outcome, reached, balanced_starts, False
+    rollouts = RolloutSet(np.array(x0), specs, plants=plants)
+    store = ChunkStore(out_dir, study_key({**key, "part": "kips", "starts": starts, "t_final": t_final, "seed": seed}),
+                       fresh)
+    result = run_study(robot, rollouts, t_final, seed=seed, scheduler=scheduler, store=store, progress=progress)
+    done = result.meta["completed"]
+    codes = classify(result)
+    for r in np.unique(owner):
+        rows = np.flatnonzero(owner == r)
+        kip = rows[0]
+        if not done[kip]:
+            continue
+        outcome[r] = codes[kip]
+        reached[r] = bool(np.isfinite(result.switch_time[kip]))
+        if len(rows) > 1 and done[rows[1:]].all():
+            balanced_starts[r] = float(np.mean(result.success()[rows[1:]]))
+    return outcome, reached, balanced_starts, result.interrupted
+
+
+def _robot_rows(family, arrays, f1, f2):
+    rows = []
+    grid2 = len(f2)
+    for r, params in enumerate(family):
+        if not arrays["theory_done"][r]:
+            continue
+        row = {"factors": [float(f1[r // grid2]), float(f2[r % grid2])],
+               "params": {"m": params.m.tolist(), "l": params.l.tolist(), "lc": params.lc.tolist(),
+                          "J": params.J.tolist()}}
+        for name in _NUMBERS:
+            value = float(arrays[name][r])
+            row[name] = value if math.isfinite(value) else None
+        for name in _FLAGS:
+            row[name] = bool(arrays[name][r])
+        row["gains"] = dict(zip(("kD", "kP", "kV"), arrays["gains"][r].tolist()))
+        if "outcome" in arrays:
+            code = int(arrays["outcome"][r])
+            row["outcome"] = None if code < 0 else OUTCOMES[code]
+            row["swing_up_reaches_68"] = None if code < 0 else bool(arrays["reached_68"][r])
+            value = float(arrays["balanced_starts"][r])
+            row["balanced_from_random_starts"] = value if math.isfinite(value) else None
+        rows.append(row)
+    return rows
+
+
+def _counts(arrays, simulated):
+    done = arrays["theory_done"]
+    counts = {"robots": int(done.sum()), "E_r > 0": int(np.sum((arrays["E_r"] > 0) & done)),
+              "(54) holds": int(np.sum(arrays["holds_54"] & done)),
+              "UDD controllable": int(np.sum(arrays["udd_controllable"] & done)),
+              "Theorem 1 applies": int(np.sum(arrays["theorem1"] & done))}
+    if simulated:
+        ran = arrays["outcome"] >= 0
+        kip = arrays["reached_68"] & ran
+        theorem = arrays["theorem1"]
+        counts.update({name: int(np.sum(arrays["outcome"] == code)) for code, name in enumerate(OUTCOMES)})
+        counts["confusion"] = {
+            "theorem applies, swing-up reaches (68)": int(np.sum(theorem & kip)),
+            "theorem applies, swing-up does not": int(np.sum(theorem & ~kip & ran)),
+            "theorem does not apply, swing-up reaches (68)": int(np.sum(~theorem & kip)),
+            "theorem does not apply, swing-up does not": int(np.sum(~theorem & ~kip & ran)),
+        }
+    return counts
+
+
+def _findings(summary, arrays):
+    """What the map shows, in sentences."""
+    counts = summary["counts"]
+    lines = [f"{counts['Theorem 1 applies']} of {counts['robots']} robots meet Theorem 1's conditions on the robot"
+             f" (E_r > 0 on {counts['E_r > 0']}, (54) on {counts['(54) holds']}, UDD controllable on"
+             f" {counts['UDD controllable']})."]
+    if "confusion" in counts:
+        c = counts["confusion"]
+        lines.append(f"The swing-up (40) from (65) reaches region (68) on {c['theorem applies, swing-up reaches (68)']}"
+                     f" of the robots where Theorem 1 applies and not on {c['theorem applies, swing-up does not']};"
+                     f" where it does not apply, it reaches (68) on {c['theorem does not apply, swing-up reaches (68)']}"
+                     f" and not on {c['theorem does not apply, swing-up does not']}.")
+        if c["theorem does not apply, swing-up reaches (68)"]:
+            lines.append("Constraint (54) (with E_r > 0) is sufficient for the guarantee, not necessary for a kip: some"
+                         " robots outside the theorem still swing up from (65).")
+        inside = arrays["theorem1"] & (arrays["outcome"] >= 0) & ~arrays["reached_68"]
+        if inside.any():
+            stuck = int(np.sum(inside & (arrays["outcome"] == OUTCOMES.index("never switched, stuck at DUU"))))
+            lines.append(f"Of the {int(inside.sum())} robots inside the theorem whose swing-up did not reach (68) within"
+                         f" {summary['t_final']:g} s, {stuck} sat at DUU: Theorem 1 allows DUU as a limit and only"
+                         " promises it is unstable; there its growth rate is as small as"
+                         f" {np.nanmin(arrays['duu_growth'][inside]):.2g} /s.")
+        lost = (arrays["outcome"] == OUTCOMES.index("switched, not balanced")) | \
+            (arrays["reached_68"] & (arrays["outcome"] == OUTCOMES.index("diverged")))
+        if lost.any():
+            unstable = int(np.sum(lost & ~arrays["lqr_sampled_stable"]))
+            lines.append(f"{int(lost.sum())} robots reached (68) and then lost the balance; on {unstable} of them the"
+                         " LQR (67) with the paper's weights is unstable when sampled at the simulation's step.")
+    return lines
+
+
+def write_atlas(out_dir, summary, arrays):
+    """atlas.json, atlas.npz and the maps (PNG, SVG) as one set."""
+    from ..outputs.plots import atlas_outcome_figure, atlas_theory_figure, figure_writers
+
+    writers = {"atlas.json": json_writer(summary), "atlas.npz": npz_writer(**arrays)}
+    writers.update(figure_writers(atlas_theory_figure(summary, arrays), "atlas_theory"))
+    if "outcome" in arrays:
+        writers.update(figure_writers(atlas_outcome_figure(summary, arrays), "atlas_outcome"))
+    return write_set(out_dir, writers)

@@ -1,15 +1,24 @@
 """The kip as a Gymnasium environment: ``paa_mj/GymnastKip-v0`` (extra ``paa_mj[gym]``).
 
-Observation (float32, 9): cos q_i, sin q_i for i = 1, 2, 3, then qd [rad/s].
-Action (float32, 2): shoulder and hip torques [N m], bounded by ``torque_limit``
-(default 2 b1 / 1 rad, above the paper's peak torques). One environment step is
-``frame_skip`` physics steps with the torque held (default one 1 ms RK4 step, as
-the paper's controller). Reward: minus the squared distance to UDD,
--(|x_angles|^2 / (3 pi^2) + 1e-3 |qd|^2 + 1e-8 |tau|^2), angles wrapped.
-Terminated when the state diverges (non-finite, runaway speeds, MuJoCo
-warnings); truncated at ``max_episode_seconds``. ``info`` carries the raw,
-unwrapped ``q`` and ``qd``: controller (40) needs the unwrapped q2.
+Observation space
+    ``Box(9,)`` float32: cos q_i, sin q_i for i = 1, 2, 3, then qd [rad/s] (unbounded).
+Action space
+    ``Box(2,)`` float32: the shoulder and hip torques [N m] within +-``torque_limit``
+    (default 2 b1 / 1 rad, above the paper's peak torques), or, with
+    ``normalize_actions=True``, in [-1, 1] and scaled by ``torque_limit``.
+Dynamics
+    One environment step is ``frame_skip`` physics steps with the torque held
+    (default one RK4 step of 1 ms, as the paper's controller runs).
+Reward
+    Minus the squared distance to UDD: :math:`-(|x_{angles}|^2 / (3 \\pi^2) + 10^{-3} |\\dot q|^2 + 10^{-8} |\\tau|^2)`,
+    x the error from UDD with the angles wrapped; 0 at UDD, -10 when the simulation diverges.
+Termination and truncation
+    Terminated when the state diverges (non-finite, runaway speeds, MuJoCo warnings);
+    truncated after ``max_episode_seconds``.
+Info
+    The raw, unwrapped ``q`` and ``qd`` and the ``time``: controller (40) needs the unwrapped q2.
 
+A controller of the package as a policy: :func:`controller_policy` (``policy(obs, info) -> action``).
 Importing this module registers the environment; ``gym.make("paa_mj.gym_env:paa_mj/GymnastKip-v0")``
 imports it by itself.
 """
@@ -31,7 +40,7 @@ class GymnastKipEnv(gym.Env):
     metadata = {"render_modes": ["rgb_array"], "render_fps": 30}
 
     def __init__(self, robot="gymnast", render_mode=None, max_episode_seconds=30.0, frame_skip=1,
-                 torque_limit=None, init_noise=0.05, width=480, height=360):
+                 torque_limit=None, init_noise=0.05, width=480, height=360, normalize_actions=False):
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
         self.robot = load_robot(robot)
@@ -43,7 +52,9 @@ class GymnastKipEnv(gym.Env):
         self.torque_limit = float(torque_limit if torque_limit is not None else 2 * self.robot.analytic.b1)
         self.init_noise = float(init_noise)
         self.render_mode, self.width, self.height = render_mode, width, height
-        self.action_space = spaces.Box(-self.torque_limit, self.torque_limit, (2,), np.float32)
+        self.normalize_actions = bool(normalize_actions)
+        bound = 1.0 if self.normalize_actions else self.torque_limit
+        self.action_space = spaces.Box(-bound, bound, (2,), np.float32)
         high = np.array([1, 1, 1, 1, 1, 1, np.inf, np.inf, np.inf], np.float32)
         self.observation_space = spaces.Box(-high, high, dtype=np.float32)
         self._renderer = None
@@ -57,6 +68,7 @@ class GymnastKipEnv(gym.Env):
         return {"q": self.data.qpos.copy(), "qd": self.data.qvel.copy(), "time": float(self.data.time)}
 
     def reset(self, *, seed=None, options=None):
+        """Back to (65) (or ``options["x0"]``) with the angles perturbed by up to ``init_noise`` [rad]."""
         super().reset(seed=seed)
         mujoco.mj_resetData(self.model, self.data)
         x0 = np.asarray((options or {}).get("x0", X0_HANGING), dtype=float)
@@ -69,8 +81,21 @@ class GymnastKipEnv(gym.Env):
         self._steps = 0
         return self._obs(), self._info()
 
+    def action_to_torque(self, action):
+        """The torques [N m] an action asks for (scaled when actions are normalised), within the limit."""
+        action = np.asarray(action, dtype=float)
+        if self.normalize_actions:
+            action = action * self.torque_limit
+        return np.clip(action, -self.torque_limit, self.torque_limit)
+
+    def torque_to_action(self, tau):
+        """The action that asks for the torques ``tau`` [N m], as float32."""
+        tau = np.clip(np.asarray(tau, dtype=float), -self.torque_limit, self.torque_limit)
+        return (tau / self.torque_limit if self.normalize_actions else tau).astype(np.float32)
+
     def step(self, action):
-        tau = np.clip(np.asarray(action, dtype=float), -self.torque_limit, self.torque_limit)
+        """Hold the action's torques over ``frame_skip`` physics steps; (obs, reward, terminated, truncated, info)."""
+        tau = self.action_to_torque(action)
         self.data.ctrl[:] = tau
         for _ in range(self.frame_skip):
             mujoco.mj_step(self.model, self.data)
@@ -98,6 +123,27 @@ class GymnastKipEnv(gym.Env):
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
+
+
+def controller_policy(controller, env: GymnastKipEnv):
+    """A policy ``policy(obs, info) -> action`` from a controller of the package (name or object).
+
+    The controller reads the unwrapped state in ``info`` and its torques become actions of ``env``
+    (normalised when the environment's actions are). Call ``policy.reset()`` with ``env.reset()``.
+    """
+    from .control.base import reset_controller, torque_of
+    from .control.registry import make_controller
+
+    env = getattr(env, "unwrapped", env)
+    if isinstance(controller, str):
+        controller = make_controller(controller, env.robot)
+
+    def policy(obs, info):
+        return env.torque_to_action(torque_of(controller, info["q"][None], info["qd"][None], info["time"])[0])
+
+    policy.reset = lambda: reset_controller(controller)
+    policy.controller = controller
+    return policy
 
 
 def register():

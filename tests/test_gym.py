@@ -16,6 +16,31 @@ def test_passes_gymnasiums_checker():
     env.close()
 
 
+def test_normalised_actions_pass_without_the_action_space_warning():
+    import warnings
+
+    env = GymnastKipEnv(normalize_actions=True, max_episode_seconds=0.1)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        check_env(env, skip_render_check=True)
+    assert not [w for w in caught if "symmetric and normalized" in str(w.message)]
+    assert env.action_space.low.tolist() == [-1, -1] and env.action_space.high.tolist() == [1, 1]
+    np.testing.assert_allclose(env.action_to_torque([0.5, -1.0]), [0.5 * env.torque_limit, -env.torque_limit])
+
+
+def test_a_registered_controller_as_the_policy():
+    from paa_mj.gym_env import controller_policy
+
+    env = GymnastKipEnv(normalize_actions=True, init_noise=0.0, max_episode_seconds=25.0)
+    policy = controller_policy("vcl", env)
+    obs, info = env.reset(seed=0)
+    policy.reset()
+    truncated = terminated = False
+    while not (truncated or terminated):
+        obs, reward, terminated, truncated, info = env.step(policy(obs, info))
+    assert not terminated and policy.controller.mode == 1 and reward > -1e-6
+
+
 def test_seeded_and_deterministic():
     def episode(seed):
         env = GymnastKipEnv(max_episode_seconds=0.5)

@@ -3,11 +3,14 @@
 Both come from one derivation. With qd_a = [d2, d3], an error e of the actuated
 coordinates and the matrix Phi with de/dt = Phi qd_a,
 
-    V      = 1/2 (E - E_r)^2 + 1/2 kD qd_a^T qd_a + 1/2 kP e^T e                (34), (12)
-    Lambda = (E - E_r) I2 + kD B^T M^-1 B                                       (38)
-    tau    = Lambda^-1 (kD B^T M^-1 (H + G) - kV qd_a - kP Phi^T e)              (40)
+.. math::
 
-make dV/dt = -kV qd_a^T qd_a (36) along (1). The paper's controller (40) uses
+    V &= \\tfrac12 (E - E_r)^2 + \\tfrac12 k_D \\dot q_a^\\top \\dot q_a + \\tfrac12 k_P e^\\top e
+        &\\quad (34), (12) \\\\
+    \\Lambda &= (E - E_r) I_2 + k_D B^\\top M^{-1} B &\\quad (38) \\\\
+    \\tau &= \\Lambda^{-1} \\left(k_D B^\\top M^{-1} (H + G) - k_V \\dot q_a - k_P \\Phi^\\top e\\right) &\\quad (40)
+
+make :math:`\\dot V = -k_V \\dot q_a^\\top \\dot q_a` (36) along (1). The paper's controller (40) uses
 the virtual composite link, e = qbar_a - q_ar (13), (11), Phi = Psi (21); the
 conventional candidate (12), which the paper set aside as hard to analyse, uses
 e = q_a - q_ar and Phi = I. Units: kD [J kg m^2], kP [J^2/rad^2], kV [J^2 s/rad^2].

@@ -1,7 +1,10 @@
 """The LQR balance controller (67) at UDD.
 
-    tau = -K x,   x = [q1, q2 + pi, q3, d1, d2, d3] (angles wrapped to (-pi, pi])
+.. math::
 
+    \\tau = -K x, \\qquad x = (q_1,\\ q_2 + \\pi,\\ q_3,\\ \\dot q_1,\\ \\dot q_2,\\ \\dot q_3)
+
+(angles wrapped to :math:`(-\\pi, \\pi]`)
 with K from the linearisation of (1) at UDD and the paper's weights
 Q = 1e4 I6, R = I2 (:func:`paa_mj.theory.linear.lqr_gain`).
 """

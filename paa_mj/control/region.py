@@ -1,7 +1,7 @@
 """The switching region (68) and the tolerances that judge a balance.
 
 Region (68): with x = [q1, q2 + pi, q3, d1, d2, d3] the error from UDD (angles
-wrapped to (-pi, pi]), every |x_i| < pi/6 and every |x_{i+3}| < 0.5 rad/s. The
+wrapped to (-pi, pi]), every :math:`|x_i| < \\pi/6` and every :math:`|x_{i+3}| < 0.5` rad/s. The
 paper switches from swing-up (40) to the LQR (67) the first time the state is
 inside. A run is *balanced* when its final state is within :data:`BALANCE_TOL`
 of UDD in every coordinate.
@@ -16,7 +16,7 @@ from numba.extending import register_jitable
 from ..model.states import udd_error, udd_error_components
 from .base import kernel
 
-#: Region (68): |angle error| < pi/6 [rad] and |speed| < 0.5 [rad/s], per joint.
+#: Region (68): each angle error within pi/6 [rad] and each speed within 0.5 [rad/s].
 SWITCH_ANGLE = math.pi / 6
 SWITCH_SPEED = 0.5
 #: A final state within this distance of UDD (each coordinate, rad and rad/s) counts as balanced.
@@ -25,7 +25,7 @@ BALANCE_TOL = 1e-3
 
 @register_jitable
 def region_margin(q1, q2, q3, d1, d2, d3):
-    """max(|x_i| / (pi/6), |x_{i+3}| / 0.5) - 1: negative exactly inside region (68)."""
+    """:math:`\\max(|x_i| / (\\pi/6), |x_{i+3}| / 0.5) - 1`: negative exactly inside region (68)."""
     x1, x2, x3 = udd_error_components(q1, q2, q3)
     angles = np.maximum(np.maximum(np.abs(x1), np.abs(x2)), np.abs(x3)) / SWITCH_ANGLE
     speeds = np.maximum(np.maximum(np.abs(d1), np.abs(d2)), np.abs(d3)) / SWITCH_SPEED
@@ -59,7 +59,7 @@ def switch_margin(q, qd):
 
 
 def distance_from_udd(q, qd):
-    """max_i |x_i| with x the error from UDD (angles wrapped) [rad, rad/s]; shape (...,)."""
+    """:math:`\\max_i |x_i|` with x the error from UDD (angles wrapped) [rad, rad/s]; shape (...,)."""
     return np.max(np.abs(udd_error(q, qd)), axis=-1)
 
 

@@ -11,7 +11,7 @@ Built-in names (:data:`BUILTIN`):
 - ``trajopt``: a minimum-time kip from (65) solved by direct collocation
   (:mod:`paa_mj.control.trajopt`), tracked by time-varying LQR, then (67)
   (:mod:`paa_mj.control.tvlqr`);
-- ``trajopt-effort``: the same with the kip of least integral of |tau|^2 over
+- ``trajopt-effort``: the same with the kip of least integral of :math:`|\\tau|^2` over
   a given duration (option ``duration``, default 3 s).
 
 The kips plan within :data:`HEADROOM` of the torque limit (option ``limit``,
@@ -60,7 +60,7 @@ EFFORT_DURATION = 3.0
 
 
 def vcl_peak(robot) -> np.ndarray:
-    """Peak |tau2|, |tau3| [N m] of the paper's controller's kip from (65), 30 s (every step)."""
+    """Peak torques :math:`|\\tau_2|, |\\tau_3|` [N m] of the paper's controller's kip from (65), 30 s (every step)."""
     from ..sim.batch import simulate_batch
 
     if not robot.gains:

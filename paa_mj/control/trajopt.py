@@ -4,16 +4,18 @@ The trajectory from (65) to UDD (8) is transcribed by Hermite-Simpson
 collocation on N intervals: knot states x_k and torques u_k, midpoint states
 and torques, and at each interval
 
-    x_m     = (x_k + x_{k+1}) / 2 + h / 8 (f_k - f_{k+1})
-    x_{k+1} = x_k + h / 6 (f_k + 4 f_m + f_{k+1}),      h = T / N,
+.. math::
+
+    x_m &= \\tfrac12 (x_k + x_{k+1}) + \\tfrac{h}{8} (f_k - f_{k+1}) \\\\
+    x_{k+1} &= x_k + \\tfrac{h}{6} (f_k + 4 f_m + f_{k+1}), \\qquad h = T / N,
 
 with f the right-hand side of (1) written by the same formulas as the rest of
 the package (:mod:`paa_mj.model.equations`, evaluated on CasADi symbols), and
-|tau_j| <= bound_j at every knot and midpoint. Two objectives:
+:math:`|\\tau_j| \\le` bound_j at every knot and midpoint. Two objectives:
 
 - ``min-time``: minimise T (plus 1e-7 of the effort, which picks one of the
   many time-optimal torque profiles);
-- ``min-effort``: minimise the integral of |tau|^2 dt (Simpson's rule) for a
+- ``min-effort``: minimise the integral of :math:`|\\tau|^2` dt (Simpson's rule) for a
   given duration T.
 
 Solutions are cached on disk (``$PAA_MJ_CACHE`` or ``~/.cache/paa_mj``), keyed
@@ -75,7 +77,7 @@ class Kip:
         At the interval midpoints.
     objective : str
     cost : float
-        The objective's value (T [s] or the integral of |tau|^2 [N^2 m^2 s]).
+        The objective's value (T [s] or the integral of :math:`|\\tau|^2` [N^2 m^2 s]).
     bound : ndarray (2,)
         The torque bounds of the solve [N m].
     """
@@ -98,7 +100,7 @@ class Kip:
         return np.linspace(0.0, self.duration, self.intervals + 1)
 
     def effort(self) -> float:
-        """The integral of |tau|^2 dt by Simpson's rule [N^2 m^2 s]."""
+        """The integral of :math:`|\\tau|^2` dt by Simpson's rule [N^2 m^2 s]."""
         h = self.duration / self.intervals
         sq = np.sum(self.u**2, axis=1)
         return float(np.sum(h / 6 * (sq[:-1] + 4 * np.sum(self.u_mid**2, axis=1) + sq[1:])))

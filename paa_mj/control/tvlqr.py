@@ -4,12 +4,16 @@ Along a reference (x_ref(t), u_ref(t)) of duration T, (1) linearised gives
 A(t), B(t) (exact derivatives of :mod:`paa_mj.model.equations` by CasADi). The
 Riccati differential equation
 
-    -dS/dt = A^T S + S A - S B R^-1 B^T S + Q,     S(T) = S_UDD
+.. math::
+
+    -\\dot S = A^\\top S + S A - S B R^{-1} B^\\top S + Q, \\qquad S(T) = S_{UDD}
 
 is integrated backwards from T to 0 with SciPy (S_UDD the solution of the
 algebraic Riccati equation of (67) at UDD, so the hand-over is seamless), and
 
-    tau = u_ref(t) - K(t) (x - x_ref(t)),   K = R^-1 B^T S,
+.. math::
+
+    \\tau = u_{ref}(t) - K(t) \\left(x - x_{ref}(t)\\right), \\qquad K = R^{-1} B^\\top S,
 
 with the angle error wrapped to (-pi, pi]. References and gains are tabled
 every ``table_dt`` seconds and interpolated linearly; the compiled kernel reads

@@ -1,6 +1,8 @@
 """The analytic model of the paper on NumPy arrays: equation of motion (1) with (2)-(7).
 
-    M(q) qdd + H(q, qd) + G(q) = B tau,   B = [[0, 0], [1, 0], [0, 1]]
+.. math::
+
+    M(q)\\,\\ddot q + H(q, \\dot q) + G(q) = B\\,\\tau
 
 Every method takes arrays with any leading batch shape: ``q`` and ``qd`` of
 shape (..., 3) [rad, rad/s], ``tau`` of shape (..., 2) [N m]. Energies are in J.

@@ -1,6 +1,9 @@
 """The equation of motion (1)-(7), written once for NumPy and for compiled code.
 
-    M(q) qdd + H(q, qd) + G(q) = B tau,   B = [[0, 0], [1, 0], [0, 1]]
+.. math::
+
+    M(q)\\,\\ddot q + H(q, \\dot q) + G(q) = B\\,\\tau, \\qquad
+    B = \\begin{bmatrix} 0 & 0 \\\\ 1 & 0 \\\\ 0 & 1 \\end{bmatrix}
 
 Every function here is plain Python over scalars *or* NumPy arrays (elementwise,
 any broadcastable shapes) and is registered with numba

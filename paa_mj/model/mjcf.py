@@ -376,7 +376,7 @@ def torque_limits_from_model(model: mujoco.MjModel, source: str = "model") -> np
 def params_from_model(model: mujoco.MjModel, source: str = "model") -> RobotParams:
     """Read the paper's parameters back from a compiled gymnast model.
 
-    Reads masses (``body_mass``), COM distances (``|body_ipos|``, or 0 where the
+    Reads masses (``body_mass``), COM distances (the norm of ``body_ipos``, or 0 where the
     compiler merged the inertial frame into the body frame), link lengths
     (child body offsets; link 3 from its ``feet`` site, or the farthest geom
     or site of link 3 when that site is missing), inertias about the hinge axis

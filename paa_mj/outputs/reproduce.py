@@ -15,7 +15,7 @@ import warnings
 from pathlib import Path
 
 import numpy as np
-from tqdm.auto import tqdm
+from tqdm import tqdm
 
 from ..control.closed_loop import duu_eigenvalues
 from ..control.gains import TheoryWarning

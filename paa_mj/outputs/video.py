@@ -135,7 +135,7 @@ def check_video_request(traj: Trajectory, fps, width, height):
 
 def frames(robot: Robot, traj: Trajectory, fps=30, width=640, height=480, camera="side", progress=False):
     """The labelled frames of the video of ``traj``, one at a time (uint8, (height, width, 3))."""
-    from tqdm.auto import tqdm
+    from tqdm import tqdm
 
     times, q, modes = frame_states(traj, fps)
     trace_len = max(1, int(round(TRACE_SECONDS * fps)))

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 from scipy.integrate import DOP853, LSODA, RK45, Radau
-from tqdm.auto import tqdm
+from tqdm import tqdm
 
 from ..control.base import reset_controller, torque_of
 from ..control.combined import CombinedController

@@ -43,15 +43,15 @@ class BatchResult:
     balanced : final state within :data:`~paa_mj.control.region.BALANCE_TOL` of UDD, not diverged.
     final_state : the last good state [q, qd]; for a retired rollout, its state at retirement.
     E_minus_Er_final, V_final : E - E_r [J] and V of (34) [J^2] there (V: NaN without an energy controller).
-    max_abs_tau : peak |tau2|, |tau3| [N m].
+    max_abs_tau : peak :math:`|\\tau_2|, |\\tau_3|` [N m].
     diverged : stopped for a non-finite or runaway state, a non-finite torque or a MuJoCo warning.
     held : under the balance controller and inside region (68) at the end (success under noise).
     t_end : when the rollout stopped [s] (t_final, retirement, or the last good state).
     status : engine status code (:data:`~paa_mj.sim.engine.STATUS_TEXT`).
     t_region : first entry of the true state into region (68) [s], NaN if never.
     t_balanced : from when on the state stayed within BALANCE_TOL of UDD [s], NaN if not balanced.
-    int_tau2 : integral of |tau|^2 dt [N^2 m^2 s]; work : integral of |tau . qd_a| dt [J].
-    smoothness : RMS of the torque change per second [N m/s]; max_speed : peak |qd_i| [rad/s].
+    int_tau2 : integral of :math:`|\\tau|^2` dt [N^2 m^2 s]; work : integral of :math:`|\\tau \\cdot \\dot q_a|` dt [J].
+    smoothness : RMS of the torque change per second [N m/s]; max_speed : peak :math:`|\\dot q_i|` [rad/s].
     """
 
     x0: np.ndarray

@@ -26,11 +26,11 @@ Retirement: a rollout under the balance controller (mode 1) stops early once
 its balance can no longer fail. Linearised at UDD and sampled with zero-order
 hold at the time step, the closed loop of the plant and the controller's
 balance gain K is x_{k+1} = Phi x_k. Writing x = sum_m c_m v_m over the
-eigenvectors of Phi (all |eigenvalues| < 1), every future |x_i| is at most
-sum_m |c_m| |v_m,i| (the *modal bound*, tight when one mode dominates). A rollout
+eigenvectors of Phi (all eigenvalues inside the unit circle), every future :math:`|x_i|` is at most
+:math:`\\sum_m |c_m| |v_{m,i}|` (the *modal bound*, tight when one mode dominates). A rollout
 retires when that bound is below 0.9 :data:`~paa_mj.control.region.BALANCE_TOL`
 in every coordinate: it would stay balanced to the end, and its peak torques
-can no longer grow (|K x| only shrinks there). It reports its state and time
+can no longer grow (:math:`|K x|` only shrinks there). It reports its state and time
 at retirement. Retirement is off where the bound does not hold: with noise,
 delay, pushes still to come, or an unstable sampled loop.
 """
@@ -47,7 +47,7 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 from numba import njit, types
-from tqdm.auto import tqdm
+from tqdm import tqdm
 
 from ..control.base import KERNEL_TYPE, CompiledForm, SwitchedForm, kernel, mode_of, reset_controller, torque_of
 from ..control.region import BALANCE_TOL, inside_region
@@ -76,7 +76,7 @@ N_ISTATE = 7
 (F_TAU2, F_TAU3, F_INT_TAU2, F_WORK, F_SMOOTH, F_SPEED, F_PREV2, F_PREV3,
  F_Q1, F_Q2, F_Q3, F_D1, F_D2, F_D3) = range(14)
 N_FSTATE = 14
-#: Width of a retirement certificate: Re and Im of V^-1 and |V| (6 x 6 each), V the eigenvectors of Phi.
+#: Width of a retirement certificate: Re and Im of V^-1 and the moduli of V (6 x 6 each), V the eigenvectors of Phi.
 N_CERT = 108
 #: A rollout retires when its modal bound is below this fraction of BALANCE_TOL.
 RETIRE_FRACTION = 0.9
@@ -217,7 +217,7 @@ def actuate(r, step, dt, mode, tau_cmd, ctrl, qpos, qvel, setup, cert, delay_lin
 
 @njit(cache=True)
 def modal_bound(cert, x1, x2, x3, d1, d2, d3):
-    """max_i sum_m |c_m| |v_m,i| with c = V^-1 x: a bound on every future |x_i| of the sampled linear loop."""
+    """:math:`\\max_i \\sum_m |c_m| |v_{m,i}|` with :math:`c = V^{-1} x`: a bound on every future :math:`|x_i|` of the sampled linear loop."""
     x = (x1, x2, x3, d1, d2, d3)
     bound = 0.0
     amplitude = np.empty(6)
@@ -424,7 +424,7 @@ def evaluate(form, q, qd, t=0.0, memory=None):
 def retirement_certificate(plant, K, dt):
     """(certificate, level) of the retirement rule for ``plant`` under tau = -K x, or (zeros, 0) if none.
 
-    The certificate holds Re V^-1, Im V^-1 and |V| (row by row) for the
+    The certificate holds Re V^-1, Im V^-1 and the moduli of V (row by row) for the
     eigenvectors V of the closed loop Phi = Ad - Bd K of the plant linearised at
     UDD and sampled with zero-order hold at ``dt``; ``level`` =
     :data:`RETIRE_FRACTION` x BALANCE_TOL.

@@ -6,7 +6,7 @@ there), and is scored on
 
 - performance (:data:`METRICS`): when it first enters region (68) (``t_region``),
   from when it stays within 1e-3 of UDD (``t_balanced``), peak torques, the
-  integral of |tau|^2 dt, the work integral of |tau . qd_a| dt, the RMS of the
+  integral of :math:`|\\tau|^2` dt, the work integral of :math:`|\\tau \\cdot \\dot q_a|` dt, the RMS of the
   torque change per second (smoothness) and the peak joint speed; success means
   balanced at the end, and a failure says why;
 - robustness (:data:`FACTORS`): the success rate, with its 95 % Wilson interval,

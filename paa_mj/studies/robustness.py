@@ -13,7 +13,7 @@ Factors (:data:`FACTORS`):
   while MuJoCo simulates the true robot [%];
 - ``noise``: Gaussian measurement noise on q [rad] and qd [rad/s];
 - ``torque_noise``: Gaussian noise on each applied torque, as a fraction of the
-  nominal peak |tau| of the controller's kip from (65);
+  nominal peak torque of the controller's kip from (65);
 - ``torque_limit``: saturation at a fraction of that peak;
 - ``delay``: control delay [ms];
 - ``pushes``: three Gaussian pulses of torque on the hands (joint 1) at random
@@ -92,7 +92,7 @@ def _pushes(rng, level, b1):
 
 
 def nominal_peak(robot: Robot, spec: ControllerSpec, torque_limit=None, t_final=30.0) -> float:
-    """The largest |tau| of the controller's kip from (65) (the scale of the torque factors) [N m]."""
+    """The largest torque of the controller's kip from (65) (the scale of the torque factors) [N m]."""
     result = simulate_batch(robot, X0_HANGING[None], t_final, controller=spec.build(robot), torque_limit=torque_limit,
                             retire=False)
     return float(np.max(result.max_abs_tau))

@@ -24,7 +24,7 @@ import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
-from tqdm.auto import tqdm
+from tqdm import tqdm
 
 from ..control.registry import ControllerSpec
 from ..errors import PaaError, StudyIncomplete

@@ -99,7 +99,7 @@ def switch_entries(robot: Robot, count=5, t_final=40.0, condition="region", solu
     """The first ``count`` entries of the exact closed loop of (40) into the region.
 
     Returns a list of ``{"t_enter", "duration", "min_margin", "lqr_balances"}``; the
-    margin is max(|x_i| / limit_i) - 1, so -0.4 means the state went 40 % inside the
+    margin is :math:`\\max_i(|x_i| / \\mathrm{limit}_i) - 1`, so -0.4 means the state went 40 % inside the
     region's tightest limit and a value near 0 is a graze.
     """
     solution = solution or exact_swing_up(robot, t_final)

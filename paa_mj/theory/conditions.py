@@ -107,7 +107,7 @@ class Constraint54:
     f_min, f_max : float
         Extremes of f on [0, 2 pi] (+-inf when the denominator vanishes).
     closest_to_one : float
-        min |f(z) - 1| over z, with ``z_closest`` where it happens.
+        :math:`\\min_z |f(z) - 1|`, with ``z_closest`` where it happens.
     """
 
     holds: bool
@@ -119,7 +119,7 @@ class Constraint54:
 
 
 def constraint_54(am: AnalyticModel, n=40001) -> Constraint54:
-    """Check (54). f = 1 is treated as reached when |f - 1| <= 1e-9 (rounding)."""
+    """Check (54). f = 1 is treated as reached when :math:`|f - 1| \\le 10^{-9}` (rounding)."""
     gamma, eps, lam = constraint_terms(am)
     z = np.linspace(0, TWO_PI, n)
     # Work with h(z) = Gamma beta2bar - (Eps cos z + Lam): f = 1 exactly where h = 0, and h

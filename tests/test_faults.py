@@ -136,6 +136,10 @@ CONTRADICTIONS = [
     ("--no-switch with another controller", ["simulate", "--no-switch", "--controller", "lqr"], "contradicts"),
     ("gains for a controller without gains", ["simulate", "--controller", "passive", "--kP", "3"],
      "apply to the controllers"),
+    ("a GL backend without a video", ["reproduce", "--no-video", "--gl", "egl"], "--no-video skips"),
+    ("--fresh without --out", ["basin", "--fresh"], "without --out nothing is kept"),
+    ("--kip-duration for a controller without a kip", ["simulate", "--kip-duration", "2"], "--kip-duration applies"),
+    ("--starts without --simulate", ["atlas", "--starts", "2"], "--starts applies with --simulate only"),
 ]
 
 

@@ -176,6 +176,14 @@ def interrupt_name() -> str:
     return "terminated (SIGTERM)" if _received["signal"] == signal.SIGTERM else "interrupted"
 
 
+def finish(interrupted, what, out=None, kept="finished chunks are kept in {out}, run the same command to resume"):
+    """0, or after an interruption one line on stderr (what was done, where it is kept) and 130/143."""
+    if not interrupted:
+        return 0
+    note(f"{interrupt_name()}: {what}" + (f"; {kept.format(out=out)}" if out else ""))
+    return interrupt_code()
+
+
 def install_signal_handlers():
     """SIGTERM is handled like Ctrl-C (finished work is kept), and remembered for the exit code."""
     def on_term(signum, frame):

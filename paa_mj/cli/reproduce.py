@@ -9,11 +9,13 @@ def cmd_reproduce(args):
     from ..outputs.reproduce import reproduce
 
     gl_backend = None
+    if args.gl is not None and args.no_video:
+        raise PaaError("--gl chooses the backend of the video, which --no-video skips")
     if not args.no_video:
         from ..outputs.gl import select_backend
 
         try:
-            gl_backend = select_backend(args.gl)
+            gl_backend = select_backend(args.gl or "auto")
         except PaaError as err:
             note(f"warning: no video: {err}")
     report = reproduce(args.out, quick=args.quick, video=gl_backend is not None)
@@ -28,5 +30,5 @@ def register(sub, parser_class):
     p.add_argument("--out", default="out/reproduction", metavar="DIR", help="output folder")
     p.add_argument("--quick", action="store_true", help="smaller studies (for tests)")
     p.add_argument("--no-video", action="store_true", help="skip the video")
-    p.add_argument("--gl", choices=("auto", "egl", "osmesa"), default="auto", help="GL backend for the video")
+    p.add_argument("--gl", choices=("auto", "egl", "osmesa"), help="GL backend for the video (default: auto)")
     p.set_defaults(func=cmd_reproduce)

@@ -4,7 +4,7 @@ from __future__ import annotations
 import argparse
 
 from ..errors import PaaError, SimulationDiverged
-from .common import (controller_parent, interrupt_code, interrupt_name, note, output_parent,
+from .common import (controller_parent, finish, output_parent,
                      physics_parent, positive, positive_int, print_json, robot_parent, spec_from_args)
 
 
@@ -76,11 +76,8 @@ def cmd_simulate(args):
         print(f"  E - E_r at the end   {summary['E_minus_Er_final']:.6g} J")
         print(f"  V at the end         {summary['V_final']:.6g}")
         print(f"  max |tau2|, |tau3|   {summary['max_abs_tau'][0]:.2f}, {summary['max_abs_tau'][1]:.2f} N m")
-    if traj.meta.get("interrupted"):
-        note(f"{interrupt_name()} at t = {summary['final_time']:.3f} s"
-             + (f"; kept what was computed in {args.out}" if args.out else ""))
-        return interrupt_code()
-    return 0
+    return finish(traj.meta.get("interrupted", False), f"stopped at t = {summary['final_time']:.3f} s", args.out,
+                  kept="kept what was computed in {out}")
 
 
 def cmd_render(args):

@@ -4,7 +4,7 @@ from __future__ import annotations
 from contextlib import nullcontext
 
 from ..errors import PaaError
-from .common import (controller_parent, interrupt_code, interrupt_name, note, output_parent, positive, positive_int,
+from .common import (controller_parent, finish, note, output_parent, positive, positive_int,
                      print_json, robot_parent, spec_from_args, study_parent)
 
 
@@ -15,11 +15,12 @@ def _lock(out):
 
 
 def _finish_study(summary, args, what):
-    if summary["interrupted"]:
-        kept = f"; finished chunks are kept in {args.out}, run the same command to resume" if args.out else ""
-        note(f"{interrupt_name()}: {100 * summary['completed_fraction']:.0f} % of the {what} done{kept}")
-        return interrupt_code()
-    return 0
+    return finish(summary["interrupted"], f"{100 * summary['completed_fraction']:.0f} % of the {what} done", args.out)
+
+
+def _check_fresh(args):
+    if args.fresh and not args.out:
+        raise PaaError("--fresh forgets the chunks kept in --out; without --out nothing is kept")
 
 
 def _study(args, run, write):
@@ -27,6 +28,7 @@ def _study(args, run, write):
     from ..model.robot import load_robot
     from ..studies.runner import check_scheduler
 
+    _check_fresh(args)
     robot = load_robot(args.robot)
     spec = spec_from_args(args, robot)
     scheduler = check_scheduler(args.scheduler)
@@ -79,6 +81,10 @@ def cmd_compare(args):
     from ..studies.runner import check_scheduler
 
     names = [n.strip() for n in args.controllers.split(",") if n.strip()]
+    if args.gl is not None and (args.no_video or args.out is None):
+        raise PaaError("--gl chooses the backend of the video, which " + ("--no-video skips" if args.no_video else
+                                                                          "is only made with --out"))
+    _check_fresh(args)
     robot = load_robot(args.robot)
     scheduler = check_scheduler(args.scheduler)
     video = args.out is not None and not args.no_video
@@ -86,7 +92,7 @@ def cmd_compare(args):
         from ..outputs.gl import select_backend
 
         try:
-            select_backend(args.gl)
+            select_backend(args.gl or "auto")
         except PaaError as err:
             note(f"warning: no video: {err}")
             video = False
@@ -101,11 +107,7 @@ def cmd_compare(args):
         print_json(summary)
     else:
         print(leaderboard_markdown(summary))
-    if summary["interrupted"]:
-        note(f"{interrupt_name()}: the leaderboard is incomplete"
-             + (f"; finished chunks are kept in {args.out}, run the same command to resume" if args.out else ""))
-        return interrupt_code()
-    return 0
+    return finish(summary["interrupted"], "the leaderboard is incomplete", args.out)
 
 
 def cmd_atlas(args):
@@ -119,6 +121,7 @@ def cmd_atlas(args):
     scheduler = check_scheduler(args.scheduler)
     if args.starts is not None and not args.simulate:
         raise PaaError("--starts applies with --simulate only")
+    _check_fresh(args)
     with _lock(args.out):
         summary, arrays = atlas(robot, vary, factor_range, args.grid, simulate=args.simulate,
                                 starts=4 if args.starts is None else args.starts, t_final=args.t_final,
@@ -133,11 +136,7 @@ def cmd_atlas(args):
               " robots" + (f"; wrote {args.out}/atlas_theory.png, atlas.json, atlas.npz" if args.out else ""))
         for line in summary["findings"]:
             print(f"  {line}")
-    if summary["interrupted"]:
-        note(f"{interrupt_name()}: the atlas is incomplete"
-             + (f"; finished chunks are kept in {args.out}, run the same command to resume" if args.out else ""))
-        return interrupt_code()
-    return 0
+    return finish(summary["interrupted"], "the atlas is incomplete", args.out)
 
 
 def cmd_bench(args):
@@ -206,7 +205,7 @@ def register(sub, parser_class):
     p.add_argument("--seed", type=int, default=0, help="seed of the disturbances")
     p.add_argument("--quick", action="store_true", help="fewer trials and a coarser reach grid (a few minutes)")
     p.add_argument("--no-video", action="store_true", help="skip the side-by-side video")
-    p.add_argument("--gl", choices=("auto", "egl", "osmesa"), default="auto", help="GL backend for the video")
+    p.add_argument("--gl", choices=("auto", "egl", "osmesa"), help="GL backend for the video (default: auto)")
     p.set_defaults(func=cmd_compare)
 
     from ..studies.atlas import DEFAULT_RANGE, MAX_GRID as ATLAS_GRID, PARAMETERS

@@ -19,23 +19,13 @@ from ..model.states import Q_DUU
 from .energy import conventional_law, energy_terms, vcl_law
 
 
-def _casadi():
-    import casadi
-
-    try:  # CasADi 3.8+: numpy functions on CasADi values return CasADi values, silently
-        casadi.GlobalOptions.setNumpyMode(-1)
-    except AttributeError:
-        pass
-    return casadi
-
-
 @functools.lru_cache(maxsize=None)
 def _jacobian_function(law):
     """J(x, c, gains, override, value): the closed loop's Jacobian with the robot and gains as parameters.
 
     Built and differentiated once per law; ``override`` = 1 replaces E - E_r in Lambda by ``value``.
     """
-    ca = _casadi()
+    ca = eq.casadi_module()
     x, c, gains = ca.SX.sym("x", 6), ca.SX.sym("c", len(eq.CONSTANTS)), ca.SX.sym("gains", 3)
     override, value = ca.SX.sym("override"), ca.SX.sym("value")
     q1, q2, q3, d1, d2, d3 = (x[i] for i in range(6))

@@ -234,7 +234,7 @@ def _hashable(value):
     return tuple(float(v) for v in np.ravel(value)) if np.ndim(value) else value
 
 
-def make_controller(name: str, robot, gains: dict | None = None, check: bool = True, **options):
+def make_controller(name: str, robot, gains: dict | None = None, check: bool = True, **options) -> Controller:
     """The controller ``name`` (built-in or ``file.py:ClassName``) for ``robot``.
 
     ``gains`` ({"kD", "kP", "kV"}, any subset) override the robot's stored gains;

@@ -45,19 +45,9 @@ TIME_RANGE = (0.2, 20.0)
 CACHE_VERSION = 1
 
 
-def casadi():
-    import casadi as ca
-
-    try:  # CasADi 3.8+: numpy functions on CasADi values return CasADi values, silently
-        ca.GlobalOptions.setNumpyMode(-1)
-    except AttributeError:
-        pass
-    return ca
-
-
 def dynamics_function(am: AnalyticModel):
     """(1) as a CasADi function f(x, u) -> x_dot, x = [q, qd], u = [tau2, tau3]."""
-    ca = casadi()
+    ca = eq.casadi_module()
     x, u = ca.SX.sym("x", 6), ca.SX.sym("u", 2)
     qdd = eq.acceleration(am.constants, x[0], x[1], x[2], x[3], x[4], x[5], u[0], u[1])
     return ca.Function("f", [x, u], [ca.vertcat(x[3], x[4], x[5], *qdd)])
@@ -206,7 +196,7 @@ def solve_kip(am: AnalyticModel, bound, objective="min-time", duration=None, int
 
 
 def _solve(am, bound, objective, duration, intervals, x0, xN, max_iter) -> Kip:
-    ca = casadi()
+    ca = eq.casadi_module()
     f = dynamics_function(am)
     N = intervals
     opti = ca.Opti()

@@ -33,7 +33,8 @@ from ..theory.linear import LQR_Q, LQR_R, udd_linearization
 from .base import CompiledForm, Controller, kernel
 from .combined import CombinedController, TimeCondition
 from .lqr import LQRController
-from .trajopt import Kip, casadi, dynamics_function
+from ..model.equations import casadi_module
+from .trajopt import Kip, dynamics_function
 
 #: Table step of the tracking controller [s] (the physics step of the named robots).
 TABLE_DT = 1e-3
@@ -72,7 +73,7 @@ def tvlqr_kernel(q1, q2, q3, d1, d2, d3, t, params, memory, tau):
 
 def riccati_gains(am: AnalyticModel, times, x_ref, u_ref, Q=LQR_Q, R=LQR_R):
     """K(t) at ``times`` (n, 2, 6) of the LQR along the reference, S(T) from (67)'s Riccati equation at UDD."""
-    ca = casadi()
+    ca = casadi_module()
     f = dynamics_function(am)
     x, u = ca.SX.sym("x", 6), ca.SX.sym("u", 2)
     jac = ca.Function("AB", [x, u], [ca.jacobian(f(x, u), x), ca.jacobian(f(x, u), u)])

@@ -72,7 +72,7 @@ def engine_quantities(model: mujoco.MjModel, q, qd, tau):
     return M, bias, qacc, energy
 
 
-def cross_check(model: mujoco.MjModel, samples=1000, seed=0) -> CrossCheck:
+def cross_check(model: mujoco.MjModel, samples: int = 1000, seed: int = 0) -> CrossCheck:
     """Compare MuJoCo with the analytic model built from the same compiled ``model``."""
     from ..limits import check_memory
 

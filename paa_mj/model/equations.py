@@ -27,6 +27,21 @@ CONSTANTS = ("a11", "a22", "a33", "a12", "a13", "a23", "b1", "b2", "b3")
 A11, A22, A33, A12, A13, A23, B1, B2, B3 = range(len(CONSTANTS))
 
 
+def casadi_module():
+    """CasADi, set so that the NumPy calls of these formulas return CasADi values on CasADi symbols.
+
+    The formulas then build symbolic expressions as they are, for exact derivatives
+    (:mod:`paa_mj.control.closed_loop`) and trajectory optimisation (:mod:`paa_mj.control.trajopt`).
+    """
+    import casadi
+
+    try:  # CasADi 3.8+: numpy functions on CasADi values return CasADi values, silently
+        casadi.GlobalOptions.setNumpyMode(-1)
+    except AttributeError:
+        pass
+    return casadi
+
+
 def robot_constants(params) -> np.ndarray:
     """The constants (3), (4) of a :class:`~paa_mj.model.params.RobotParams`, as the vector ``c``.
 

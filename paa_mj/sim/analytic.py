@@ -59,9 +59,9 @@ def _first_entry(margin, dense, t_start, t_end, resolution):
     return hi, dense(hi)
 
 
-def simulate_analytic(robot: Robot, controller="vcl", x0=X0_HANGING, t_final=30.0, sample_dt=0.01, rtol=1e-10,
-                      atol=1e-10, method="DOP853", torque_limit=None, event_resolution=1e-3,
-                      progress=False) -> Trajectory:
+def simulate_analytic(robot: Robot, controller="vcl", x0=X0_HANGING, t_final: float = 30.0, sample_dt: float = 0.01,
+                      rtol: float = 1e-10, atol: float = 1e-10, method: str = "DOP853", torque_limit=None,
+                      event_resolution: float = 1e-3, progress: bool = False) -> Trajectory:
     """Integrate (1) closed by ``controller`` with continuous-time control.
 
     Parameters

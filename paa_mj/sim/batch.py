@@ -15,6 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..control.region import BALANCE_TOL, in_switch_region
 from ..control.registry import ControllerSpec
@@ -268,10 +269,12 @@ def _lyapunov(controller, plant, q, qd):
     return type(swing)(plant, swing.kD, swing.kP, swing.kV, check=False).lyapunov(q, qd)
 
 
-def simulate_batch(robot: Robot, x0, t_final=30.0, controller="vcl", dt=None, integrator=None, plants=None,
-                   torque_limit=None, noise_std=None, torque_noise=None, delay_steps=None, pushes=None, seed=0,
-                   rollout_ids=None, record=False, sample_dt=0.01, retire=True, nthread=None,
-                   progress=False) -> BatchResult:
+def simulate_batch(robot: Robot, x0: ArrayLike, t_final: float = 30.0, controller="vcl", dt: float | None = None,
+                   integrator: str | None = None, plants: list | None = None, torque_limit: ArrayLike | None = None,
+                   noise_std: ArrayLike | None = None, torque_noise: ArrayLike | None = None,
+                   delay_steps: ArrayLike | None = None, pushes: ArrayLike | None = None, seed: int = 0,
+                   rollout_ids: ArrayLike | None = None, record: bool = False, sample_dt: float = 0.01,
+                   retire: bool = True, nthread: int | None = None, progress: bool = False) -> BatchResult:
     """Closed-loop rollouts of N initial states at once.
 
     Parameters

@@ -9,6 +9,7 @@ through :func:`paa_mj.sim.batch.simulate_batch` give the same numbers, bit for b
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import SimulationDiverged
 from ..model.robot import Robot
@@ -32,9 +33,12 @@ def trajectory_quantities(controller, robot: Robot, q, qd):
     return e_err, np.broadcast_to(_lyapunov(controller, robot.analytic, q, qd), e_err.shape).astype(float)
 
 
-def simulate_mujoco(robot: Robot, controller="vcl", x0=X0_HANGING, t_final=30.0, dt=None, integrator=None,
-                    sample_dt=0.01, progress=False, stop_on_divergence=True, retire=False, torque_limit=None,
-                    noise_std=None, torque_noise=None, delay_steps=None, pushes=None, seed=0) -> Trajectory:
+def simulate_mujoco(robot: Robot, controller="vcl", x0: ArrayLike = X0_HANGING, t_final: float = 30.0,
+                    dt: float | None = None, integrator: str | None = None, sample_dt: float = 0.01,
+                    progress: bool = False, stop_on_divergence: bool = True, retire: bool = False,
+                    torque_limit: ArrayLike | None = None, noise_std: ArrayLike | None = None,
+                    torque_noise: float | None = None, delay_steps: int | None = None,
+                    pushes: ArrayLike | None = None, seed: int = 0) -> Trajectory:
     """Run ``controller`` on the MuJoCo model for ``t_final`` seconds and record it.
 
     Parameters

@@ -292,7 +292,9 @@ def _findings(summary, arrays):
         if lost.any():
             unstable = int(np.sum(lost & ~arrays["lqr_sampled_stable"]))
             lines.append(f"{int(lost.sum())} robots reached (68) and then lost the balance; on {unstable} of them the"
-                         " LQR (67) with the paper's weights is unstable when sampled at the simulation's step.")
+                         " LQR (67) with the paper's weights is unstable when sampled at the simulation's step"
+                         + (", on the others it is stable, so they entered (68) outside the basin of (67) or had"
+                            " not settled by the end." if unstable < int(lost.sum()) else "."))
     return lines
 
 

@@ -60,8 +60,9 @@ def classify(result) -> np.ndarray:
     return np.where(result.diverged, DIVERGED, code).astype(np.int8)
 
 
-def basin(robot: Robot, axes=(0, 1), grid=64, t_final=30.0, controller: ControllerSpec | str = "vcl", progress=False,
-          scheduler="inline", out_dir=None, fresh=False, chunk=CHUNK):
+def basin(robot: Robot, axes: tuple[int, int] = (0, 1), grid: int = 64, t_final: float = 30.0,
+          controller: ControllerSpec | str = "vcl", progress: bool = False, scheduler: str = "inline",
+          out_dir=None, fresh: bool = False, chunk: int = CHUNK) -> tuple[dict, dict]:
     """Run the basin study; returns (summary dict, arrays dict).
 
     ``scheduler``: "inline", "local" (a local Dask cluster) or a Dask scheduler

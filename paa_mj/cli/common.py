@@ -10,6 +10,8 @@ import math
 import signal
 import sys
 
+import numpy as np
+
 from ..errors import PaaError
 
 EXIT_BAD_INPUT, EXIT_DIVERGED, EXIT_INCOMPLETE = 2, 3, 4
@@ -144,6 +146,10 @@ def spec_from_args(args, robot, name=None):
     if name in OPTIONS:
         if getattr(args, "torque_limit", None) is not None:
             options.append(("limit", (args.torque_limit, args.torque_limit)))
+        elif not np.all(np.isfinite(robot.torque_limits)):
+            from ..sim.batch import kip_peak_torques
+
+            options.append(("limit", tuple(kip_peak_torques(robot, "vcl").tolist())))
         if getattr(args, "kip_duration", None) is not None:
             options.append(("duration", args.kip_duration))
     elif getattr(args, "kip_duration", None) is not None:

@@ -43,7 +43,8 @@ def _study(args, run, write):
 
 
 def cmd_basin(args):
-    from ..studies.basin import basin, parse_axes, write_basin
+    from ..outputs.results import write_basin
+    from ..studies.basin import basin, parse_axes
 
     axes = parse_axes(args.axes)
     summary = _study(args, lambda robot, spec, common: basin(robot, axes, args.grid, args.t_final, controller=spec,
@@ -57,7 +58,8 @@ def cmd_basin(args):
 
 
 def cmd_robustness(args):
-    from ..studies.robustness import robustness, write_robustness
+    from ..outputs.results import write_robustness
+    from ..studies.robustness import robustness
 
     factors = [f.strip() for f in args.factors.split(",") if f.strip()]
     summary = _study(args, lambda robot, spec, common: robustness(
@@ -77,7 +79,8 @@ def cmd_robustness(args):
 
 def cmd_compare(args):
     from ..model.robot import load_robot
-    from ..studies.compare import compare, leaderboard_markdown, write_compare
+    from ..outputs.results import leaderboard_markdown, write_compare
+    from ..studies.compare import compare
     from ..studies.runner import check_scheduler
 
     names = [n.strip() for n in args.controllers.split(",") if n.strip()]
@@ -112,7 +115,8 @@ def cmd_compare(args):
 
 def cmd_atlas(args):
     from ..model.robot import load_robot
-    from ..studies.atlas import atlas, parse_range, parse_vary, write_atlas
+    from ..outputs.results import write_atlas
+    from ..studies.atlas import atlas, parse_range, parse_vary
     from ..studies.runner import check_scheduler
 
     vary = parse_vary(args.vary)

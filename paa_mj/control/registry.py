@@ -15,8 +15,8 @@ Built-in names (:data:`BUILTIN`):
   a given duration (option ``duration``, default 3 s).
 
 The kips plan within :data:`HEADROOM` of the torque limit (option ``limit``,
-default the robot's actuator limits, else the peak torques of ``vcl`` from
-(65)), leaving the tracking feedback room to act.
+or the robot's actuator ranges; the command line defaults to the peak torques
+of ``vcl`` from (65)), leaving the tracking feedback room to act.
 
 A user's controller is ``path/to/file.py:ClassName``: the class is built as
 ``ClassName(robot)`` with the robot of :func:`paa_mj.model.load_robot` and needs
@@ -36,7 +36,6 @@ import numpy as np
 
 from ..errors import PaaError
 from ..model.params import RobotParams
-from ..model.states import X0_HANGING
 from .base import Controller
 from .combined import CombinedController, RegionCondition
 from .energy import ConventionalController, EnergyVCLController
@@ -59,19 +58,11 @@ HEADROOM = 0.9
 EFFORT_DURATION = 3.0
 
 
-def vcl_peak(robot) -> np.ndarray:
-    """Peak torques :math:`|\\tau_2|, |\\tau_3|` [N m] of the paper's controller's kip from (65), 30 s (every step)."""
-    from ..sim.batch import simulate_batch
-
-    if not robot.gains:
-        raise PaaError(f"robot {robot.name} stores no gains of (40): give the torque limit of the kip (--torque-limit)")
-    return simulate_batch(robot, X0_HANGING[None], 30.0, controller=build_vcl(robot, check=False)).max_abs_tau[0]
-
-
 def _kip_bound(robot, limit):
     limits = np.minimum(robot.torque_limits, np.inf if limit is None else np.asarray(limit, float))
     if not np.all(np.isfinite(limits)):
-        limits = np.minimum(limits, vcl_peak(robot))
+        raise PaaError("a planned kip needs a torque limit: give limit=(T2, T3) [N m] or a model with actuator ranges"
+                       " (the command line uses the peak torques of vcl from (65))")
     return HEADROOM * limits
 
 

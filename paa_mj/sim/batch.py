@@ -332,3 +332,11 @@ def simulate_batch(robot: Robot, x0: ArrayLike, t_final: float = 30.0, controlle
                        interrupted=outcome.interrupted, trajectories=trajectories,
                        meta={"robot": robot.name, "dt": plan.dt, "t_final": float(t_final), "n_steps": plan.n_steps,
                              "status_text": STATUS_TEXT, "completed": completed})
+
+
+def kip_peak_torques(robot: Robot, controller="vcl", torque_limit=None, t_final: float = 30.0) -> np.ndarray:
+    """Peak torques :math:`|\\tau_2|, |\\tau_3|` [N m] of a controller's kip from (65), over every step (the scale of torque limits)."""
+    from ..model.states import X0_HANGING
+
+    return simulate_batch(robot, X0_HANGING[None], t_final, controller=controller, torque_limit=torque_limit,
+                          retire=False).max_abs_tau[0]

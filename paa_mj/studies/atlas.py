@@ -26,7 +26,6 @@ import numpy as np
 
 from ..control.registry import ControllerSpec
 from ..errors import PaaError
-from ..io import json_writer, npz_writer, write_set
 from ..limits import check_memory, check_steps
 from ..model.dynamics import AnalyticModel
 from ..model.params import RobotParams
@@ -296,14 +295,3 @@ def _findings(summary, arrays):
                          + (", on the others it is stable, so they entered (68) outside the basin of (67) or had"
                             " not settled by the end." if unstable < int(lost.sum()) else "."))
     return lines
-
-
-def write_atlas(out_dir, summary, arrays):
-    """atlas.json, atlas.npz and the maps (PNG, SVG) as one set."""
-    from ..outputs.plots import atlas_outcome_figure, atlas_theory_figure, figure_writers
-
-    writers = {"atlas.json": json_writer(summary), "atlas.npz": npz_writer(**arrays)}
-    writers.update(figure_writers(atlas_theory_figure(summary, arrays), "atlas_theory"))
-    if "outcome" in arrays:
-        writers.update(figure_writers(atlas_outcome_figure(summary, arrays), "atlas_outcome"))
-    return write_set(out_dir, writers)

@@ -11,7 +11,6 @@ import numpy as np
 
 from ..control.registry import ControllerSpec
 from ..errors import PaaError
-from ..io import json_writer, npz_writer, write_set
 from ..limits import check_memory, check_steps
 from ..model.robot import Robot
 from ..model.states import Q_DUU, STATE_NAMES, wrap_angle
@@ -100,12 +99,3 @@ def basin(robot: Robot, axes: tuple[int, int] = (0, 1), grid: int = 64, t_final:
     arrays = {"x_values": xs, "y_values": ys, **{k: np.asarray(v) for k, v in result.arrays().items()},
               "outcome": outcome, "completed": completed}
     return summary, arrays
-
-
-def write_basin(out_dir, summary, arrays):
-    """basin.npz, summary.json and the basin figure (PNG, SVG) in ``out_dir``, as one set."""
-    from ..outputs.plots import basin_figure, figure_writers
-
-    writers = {"basin.npz": npz_writer(**arrays), "summary.json": json_writer(summary)}
-    writers.update(figure_writers(basin_figure(summary, arrays), "basin"))
-    return write_set(out_dir, writers)

@@ -24,16 +24,14 @@ with ``vcl``'s.
 """
 from __future__ import annotations
 
-import math
 
 import numpy as np
 
-from ..control.registry import OPTIONS, ControllerSpec, vcl_peak
+from ..control.registry import OPTIONS, ControllerSpec
 from ..errors import PaaError
-from ..io import json_writer, npz_writer, write_set
 from ..model.robot import Robot
 from ..model.states import X0_HANGING
-from ..sim.batch import simulate_batch
+from ..sim.batch import kip_peak_torques, simulate_batch
 from .basin import basin
 from .robustness import robustness
 
@@ -104,7 +102,7 @@ def compare(robot: Robot, controllers=DEFAULT_CONTROLLERS, torque_limit=None, tr
         raise PaaError("--controllers needs at least one controller")
     specs = {name: None for name in names}
     limit = np.full(2, float(torque_limit)) if torque_limit is not None else \
-        np.minimum(vcl_peak(robot), robot.torque_limits)
+        np.minimum(kip_peak_torques(robot, "vcl"), robot.torque_limits)
     for name in names:
         specs[name] = _spec(name, limit)
         specs[name].build(robot)  # gains, files and solves checked (one line) before any study runs
@@ -117,7 +115,7 @@ def compare(robot: Robot, controllers=DEFAULT_CONTROLLERS, torque_limit=None, tr
         spec = specs[name]
         controller = spec.build(robot)
         metrics, trajectories[name] = performance(robot, controller, limit, sizes["t_final"])
-        folder = None if out_dir is None else f"{out_dir}/studies/{_folder(name)}"
+        folder = None if out_dir is None else f"{out_dir}/studies/{folder_name(name)}"
         rob, _ = robustness(robot, trials=sizes["trials"], t_final=sizes["t_final"], seed=seed, controller=spec,
                             factors=list(FACTORS), levels={k: [v] for k, v in FACTORS.items()}, start="hanging",
                             progress=progress, scheduler=scheduler, out_dir=folder, fresh=fresh, torque_limit=limit)
@@ -142,7 +140,7 @@ def compare(robot: Robot, controllers=DEFAULT_CONTROLLERS, torque_limit=None, tr
     return summary, trajectories, basins
 
 
-def _folder(name):
+def folder_name(name):
     return "".join(ch if ch.isalnum() or ch in "-_" else "_" for ch in name.rsplit("/", 1)[-1])
 
 
@@ -158,64 +156,3 @@ def _versus(rows):
         out[name] = {"t_balanced": row["t_balanced"] / ref["t_balanced"] if ref["t_balanced"] else None,
                      "int_tau2": row["int_tau2"] / ref["int_tau2"], "work": row["work"] / ref["work"]}
     return out
-
-
-def _cell(value, fmt):
-    return "-" if value is None or (isinstance(value, float) and math.isnan(value)) else format(value, fmt)
-
-
-def leaderboard_markdown(summary) -> str:
-    """``leaderboard.md``: controllers as rows, as RealAIGym lays its leaderboards out."""
-    from ..control.registry import BUILTIN
-
-    lines = [f"# Kip leaderboard: {summary['robot']}", "",
-             f"From (65) in MuJoCo (RK4, 1 ms), {summary['t_final']:g} s, every controller under the torque limit"
-             f" [{summary['torque_limit'][0]:.1f}, {summary['torque_limit'][1]:.1f}] N m. Robustness: {summary['trials']}"
-             f" runs per factor from (65), success = under the balance controller inside region (68) at the end; reach:"
-             f" balanced from a {summary['grid']} x {summary['grid']} grid of (q1, q2).", "",
-             "## Performance", "",
-             "| controller | what | success | t_region [s] | t_balanced [s] | max \\|tau2\\|, \\|tau3\\| [N m] |"
-             " int \\|tau\\|^2 dt [N^2 m^2 s] | work [J] | smoothness [N m/s] | max speed [rad/s] |",
-             "|---|---|---|---|---|---|---|---|---|---|"]
-    for name, row in summary["controllers"].items():
-        what = BUILTIN[name][1] if name in BUILTIN else "user's controller"
-        success = "yes" if row["success"] else f"no: {row['why']}"
-        lines.append(f"| {name} | {what} | {success} | {_cell(row['t_region'], '.3f')} |"
-                     f" {_cell(row['t_balanced'], '.3f')} | {row['max_tau'][0]:.1f}, {row['max_tau'][1]:.1f} |"
-                     f" {row['int_tau2']:.4g} | {row['work']:.4g} | {row['smoothness']:.4g} | {row['max_speed']:.2f} |")
-    factors = list(summary["factors"])
-    lines += ["", "## Robustness (success rate, 95 % Wilson interval)", "",
-              "| controller | " + " | ".join(summary["factors"][f]["label"] for f in factors)
-              + " | robustness score | reach |", "|---|" + "---|" * (len(factors) + 2)]
-    for name, row in summary["controllers"].items():
-        cells = []
-        for f in factors:
-            r = row["robustness"][f]
-            cells.append("-" if r["rate"] is None else f"{100 * r['rate']:.0f} % [{100 * r['low']:.0f}, {100 * r['high']:.0f}]")
-        lines.append(f"| {name} | " + " | ".join(cells) + f" | {_cell(row['robustness_score'], '.2f')} |"
-                     f" {100 * row['reach']:.0f} % |")
-    if summary["versus_vcl"]:
-        lines += ["", "## Against the paper's controller", ""]
-        for name, ratio in summary["versus_vcl"].items():
-            lines.append(f"- **{name}** balances in {_cell(ratio['t_balanced'], '.2g')} of vcl's time, with"
-                         f" {_cell(ratio['int_tau2'], '.2g')} of its integral of |tau|^2 and {_cell(ratio['work'], '.2g')}"
-                         " of its work.")
-    lines += ["", "Robustness levels: " + "; ".join(f"{v['label']}" for v in summary["factors"].values()) + ".",
-              "Every number is in `leaderboard.json`; the runs are in `studies/`.", ""]
-    return "\n".join(lines)
-
-
-def write_compare(out_dir, summary, trajectories, robot, video=False):
-    """leaderboard.md, leaderboard.json, the charts (PNG, SVG), the trajectories and optionally the video."""
-    from ..outputs.plots import figure_writers, leaderboard_figure, overlay_figure
-
-    arrays = {f"{_folder(name)}_{key}": value for name, traj in trajectories.items() for key, value in traj.items()}
-    writers = {"leaderboard.md": lambda path: path.write_text(leaderboard_markdown(summary)),
-               "leaderboard.json": json_writer(summary), "kips.npz": npz_writer(**arrays)}
-    writers.update(figure_writers(leaderboard_figure(summary), "leaderboard"))
-    writers.update(figure_writers(overlay_figure(trajectories, summary), "kips_overlaid"))
-    write_set(out_dir, writers)
-    if video:
-        from ..outputs.video import render_side_by_side
-
-        render_side_by_side(robot, trajectories, f"{out_dir}/kips_side_by_side.mp4")

@@ -33,11 +33,10 @@ import numpy as np
 
 from ..control.registry import ControllerSpec
 from ..errors import PaaError
-from ..io import json_writer, npz_writer, write_set
 from ..limits import check_memory, check_steps
 from ..model.robot import Robot
 from ..model.states import X0_HANGING
-from ..sim.batch import simulate_batch
+from ..sim.batch import kip_peak_torques
 from .runner import CHUNK, RolloutSet, run_study
 from .store import ChunkStore, study_key
 
@@ -93,9 +92,7 @@ def _pushes(rng, level, b1):
 
 def nominal_peak(robot: Robot, spec: ControllerSpec, torque_limit=None, t_final=30.0) -> float:
     """The largest torque of the controller's kip from (65) (the scale of the torque factors) [N m]."""
-    result = simulate_batch(robot, X0_HANGING[None], t_final, controller=spec.build(robot), torque_limit=torque_limit,
-                            retire=False)
-    return float(np.max(result.max_abs_tau))
+    return float(np.max(kip_peak_torques(robot, spec.build(robot), torque_limit, t_final)))
 
 
 def robustness(robot: Robot, trials=64, t_final=30.0, seed=0, controller: ControllerSpec | str = "vcl",
@@ -193,13 +190,3 @@ def robustness(robot: Robot, trials=64, t_final=30.0, seed=0, controller: Contro
     arrays = {"x0": np.array(x0), "success": success, "diverged": result.diverged, "switch_time": result.switch_time,
               "completed": completed}
     return summary, arrays
-
-
-def write_robustness(out_dir, summary, arrays):
-    """robustness.npz, summary.json and one bar chart per factor (PNG, SVG), as one set."""
-    from ..outputs.plots import figure_writers, robustness_figure
-
-    writers = {"robustness.npz": npz_writer(**arrays), "summary.json": json_writer(summary)}
-    for factor, data in summary["factors"].items():
-        writers.update(figure_writers(robustness_figure(factor, data, summary), f"robustness_{factor}"))
-    return write_set(out_dir, writers)

@@ -1,0 +1,99 @@
+"""The files of a study: its data (NPZ, JSON), its figures (PNG, SVG) and, for the leaderboard, its Markdown.
+
+Each study's files are written as one set (:func:`paa_mj.io.write_set`): all of them or none.
+"""
+from __future__ import annotations
+
+import math
+
+from ..io import json_writer, npz_writer, write_set
+
+
+def write_basin(out_dir, summary, arrays):
+    """basin.npz, summary.json and the basin figure (PNG, SVG) in ``out_dir``, as one set."""
+    from .plots import basin_figure, figure_writers
+
+    writers = {"basin.npz": npz_writer(**arrays), "summary.json": json_writer(summary)}
+    writers.update(figure_writers(basin_figure(summary, arrays), "basin"))
+    return write_set(out_dir, writers)
+
+def write_robustness(out_dir, summary, arrays):
+    """robustness.npz, summary.json and one bar chart per factor (PNG, SVG), as one set."""
+    from .plots import figure_writers, robustness_figure
+
+    writers = {"robustness.npz": npz_writer(**arrays), "summary.json": json_writer(summary)}
+    for factor, data in summary["factors"].items():
+        writers.update(figure_writers(robustness_figure(factor, data, summary), f"robustness_{factor}"))
+    return write_set(out_dir, writers)
+
+def _cell(value, fmt):
+    return "-" if value is None or (isinstance(value, float) and math.isnan(value)) else format(value, fmt)
+
+
+def leaderboard_markdown(summary) -> str:
+    """``leaderboard.md``: controllers as rows, as RealAIGym lays its leaderboards out."""
+    from ..control.registry import BUILTIN
+
+    lines = [f"# Kip leaderboard: {summary['robot']}", "",
+             f"From (65) in MuJoCo (RK4, 1 ms), {summary['t_final']:g} s, every controller under the torque limit"
+             f" [{summary['torque_limit'][0]:.1f}, {summary['torque_limit'][1]:.1f}] N m. Robustness: {summary['trials']}"
+             f" runs per factor from (65), success = under the balance controller inside region (68) at the end; reach:"
+             f" balanced from a {summary['grid']} x {summary['grid']} grid of (q1, q2).", "",
+             "## Performance", "",
+             "| controller | what | success | t_region [s] | t_balanced [s] | max \\|tau2\\|, \\|tau3\\| [N m] |"
+             " int \\|tau\\|^2 dt [N^2 m^2 s] | work [J] | smoothness [N m/s] | max speed [rad/s] |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
+    for name, row in summary["controllers"].items():
+        what = BUILTIN[name][1] if name in BUILTIN else "user's controller"
+        success = "yes" if row["success"] else f"no: {row['why']}"
+        lines.append(f"| {name} | {what} | {success} | {_cell(row['t_region'], '.3f')} |"
+                     f" {_cell(row['t_balanced'], '.3f')} | {row['max_tau'][0]:.1f}, {row['max_tau'][1]:.1f} |"
+                     f" {row['int_tau2']:.4g} | {row['work']:.4g} | {row['smoothness']:.4g} | {row['max_speed']:.2f} |")
+    factors = list(summary["factors"])
+    lines += ["", "## Robustness (success rate, 95 % Wilson interval)", "",
+              "| controller | " + " | ".join(summary["factors"][f]["label"] for f in factors)
+              + " | robustness score | reach |", "|---|" + "---|" * (len(factors) + 2)]
+    for name, row in summary["controllers"].items():
+        cells = []
+        for f in factors:
+            r = row["robustness"][f]
+            cells.append("-" if r["rate"] is None else f"{100 * r['rate']:.0f} % [{100 * r['low']:.0f}, {100 * r['high']:.0f}]")
+        lines.append(f"| {name} | " + " | ".join(cells) + f" | {_cell(row['robustness_score'], '.2f')} |"
+                     f" {100 * row['reach']:.0f} % |")
+    if summary["versus_vcl"]:
+        lines += ["", "## Against the paper's controller", ""]
+        for name, ratio in summary["versus_vcl"].items():
+            lines.append(f"- **{name}** balances in {_cell(ratio['t_balanced'], '.2g')} of vcl's time, with"
+                         f" {_cell(ratio['int_tau2'], '.2g')} of its integral of |tau|^2 and {_cell(ratio['work'], '.2g')}"
+                         " of its work.")
+    lines += ["", "Robustness levels: " + "; ".join(f"{v['label']}" for v in summary["factors"].values()) + ".",
+              "Every number is in `leaderboard.json`; the runs are in `studies/`.", ""]
+    return "\n".join(lines)
+
+
+def write_compare(out_dir, summary, trajectories, robot, video=False):
+    """leaderboard.md, leaderboard.json, the charts (PNG, SVG), the trajectories and optionally the video."""
+    from .plots import figure_writers, leaderboard_figure, overlay_figure
+
+    from ..studies.compare import folder_name
+
+    arrays = {f"{folder_name(name)}_{key}": value for name, traj in trajectories.items() for key, value in traj.items()}
+    writers = {"leaderboard.md": lambda path: path.write_text(leaderboard_markdown(summary)),
+               "leaderboard.json": json_writer(summary), "kips.npz": npz_writer(**arrays)}
+    writers.update(figure_writers(leaderboard_figure(summary), "leaderboard"))
+    writers.update(figure_writers(overlay_figure(trajectories, summary), "kips_overlaid"))
+    write_set(out_dir, writers)
+    if video:
+        from .video import render_side_by_side
+
+        render_side_by_side(robot, trajectories, f"{out_dir}/kips_side_by_side.mp4")
+
+def write_atlas(out_dir, summary, arrays):
+    """atlas.json, atlas.npz and the maps (PNG, SVG) as one set."""
+    from .plots import atlas_outcome_figure, atlas_theory_figure, figure_writers
+
+    writers = {"atlas.json": json_writer(summary), "atlas.npz": npz_writer(**arrays)}
+    writers.update(figure_writers(atlas_theory_figure(summary, arrays), "atlas_theory"))
+    if "outcome" in arrays:
+        writers.update(figure_writers(atlas_outcome_figure(summary, arrays), "atlas_outcome"))
+    return write_set(out_dir, writers)

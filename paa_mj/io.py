@@ -140,7 +140,8 @@ class OutputLock:
     """An exclusive lock on an output folder: a second run writing there refuses with one line.
 
     The lock is an ``flock`` on ``FOLDER/.paa-mj.lock``, released when the
-    process ends, however it ends.
+    process ends, however it ends; a run that ends normally also removes the
+    file, so the folder holds only what the run wrote.
     """
 
     def __init__(self, folder):
@@ -151,16 +152,26 @@ class OutputLock:
     def __enter__(self):
         import fcntl
 
-        self.handle = open(self.path, "a+")
-        try:
-            fcntl.flock(self.handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
-            self.handle.seek(0)
-            holder = self.handle.read().strip() or "another process"
-            self.handle.close()
-            self.handle = None
-            raise PaaError(f"another paa-mj run ({holder}) is writing to {self.folder}: wait for it, or choose"
-                           " another --out") from None
+        while True:
+            handle = open(self.path, "a+")
+            try:
+                fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except OSError:
+                handle.seek(0)
+                holder = handle.read().strip() or "another process"
+                handle.close()
+                raise PaaError(f"another paa-mj run ({holder}) is writing to {self.folder}: wait for it, or"
+                               " choose another --out") from None
+            # The holder before us may have removed the file between our open and our lock: then the lock we
+            # hold is on a file nobody else will find, and we take the one at the path instead.
+            try:
+                same = os.stat(self.path).st_ino == os.fstat(handle.fileno()).st_ino
+            except FileNotFoundError:
+                same = False
+            if same:
+                break
+            handle.close()
+        self.handle = handle
         self.handle.seek(0)
         self.handle.truncate()
         self.handle.write(f"pid {os.getpid()}")
@@ -169,5 +180,9 @@ class OutputLock:
 
     def __exit__(self, *exc):
         if self.handle is not None:
+            try:
+                os.unlink(self.path)
+            except OSError:
+                pass
             self.handle.close()
             self.handle = None

@@ -18,7 +18,10 @@ def cmd_reproduce(args):
             gl_backend = select_backend(args.gl or "auto")
         except PaaError as err:
             note(f"warning: no video: {err}")
-    report = reproduce(args.out, quick=args.quick, video=gl_backend is not None)
+    from ..io import OutputLock
+
+    with OutputLock(args.out):
+        report = reproduce(args.out, quick=args.quick, video=gl_backend is not None)
     print(f"report: {report}")
     return 0
 

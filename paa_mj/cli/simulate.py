@@ -53,17 +53,22 @@ def run_from_args(args, progress=True):
 
 
 def cmd_simulate(args):
-    try:
-        _, traj = run_from_args(args, progress=not args.json)
-    except SimulationDiverged as err:
-        if args.out and err.trajectory is not None and len(err.trajectory):
-            err.trajectory.save(args.out)
-            raise SimulationDiverged(f"{err} (kept {len(err.trajectory)} samples in {args.out})") from None
-        raise
-    if args.out:
-        out = traj.save(args.out)
-        if not args.json:
-            print(f"wrote {out}/trajectory.npz, trajectory.csv, summary.json")
+    from contextlib import nullcontext
+
+    from ..io import OutputLock
+
+    with OutputLock(args.out) if args.out else nullcontext():
+        try:
+            _, traj = run_from_args(args, progress=not args.json)
+        except SimulationDiverged as err:
+            if args.out and err.trajectory is not None and len(err.trajectory):
+                err.trajectory.save(args.out)
+                raise SimulationDiverged(f"{err} (kept {len(err.trajectory)} samples in {args.out})") from None
+            raise
+        if args.out:
+            out = traj.save(args.out)
+            if not args.json:
+                print(f"wrote {out}/trajectory.npz, trajectory.csv, summary.json")
     summary = traj.summary()
     if args.json:
         print_json(summary)

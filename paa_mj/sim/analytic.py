@@ -30,7 +30,7 @@ def _phases(controller):
         if not callable(getattr(controller.condition, "margin", None)):
             raise PaaError("the analytic engine needs a switching condition with a margin (an ODE event)")
         return [controller.first, controller.second], controller.condition
-    if hasattr(controller, "mode") and not isinstance(getattr(controller, "mode"), (int, np.integer)):
+    if hasattr(controller, "mode") and not isinstance(controller.mode, (int, np.integer)):
         raise PaaError(f"the analytic engine cannot integrate {type(controller).__name__}: it keeps a state that"
                        " is not a switching condition; use --engine mujoco")
     return [controller], None

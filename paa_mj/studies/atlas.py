@@ -12,7 +12,8 @@ with it. For every robot of the family:
   robot's ratio kV / kD (kV = kD when the base stores no gains);
 - with ``simulate``: the kip from (65) and from N random starts in MuJoCo through
   the batch engine, each robot its own plant and controller; its outcome is
-  balanced, stuck away from UDD (V stays above 0) or diverged.
+  balanced, switched but not balanced, stuck at DUU, never switched elsewhere
+  (stuck away from UDD: V stays above 0, ``V_final``) or diverged.
 
 "Theorem 1 applies" means E_r > 0, (54) holds and UDD is linearly controllable
 (the gains meet the rest by construction). The confusion table of that against
@@ -168,9 +169,11 @@ def atlas(robot: Robot, vary=("l1", "m1"), factor_range=DEFAULT_RANGE, grid=32, 
                "gain_rule": "kD = 1.05 kD_min, kP = 1.05 max(eta1, eta2), kV = kD x (kV/kD of the base robot)",
                "interrupted": interrupted, "simulated": bool(simulate)}
     if simulate and not interrupted:
-        outcome, reached, balanced_starts, interrupted = _simulate(robot, family, arrays, starts, t_final, seed,
-                                                                   scheduler, out_dir, fresh, progress, key)
+        outcome, reached, balanced_starts, V_final, interrupted = _simulate(robot, family, arrays, starts, t_final,
+                                                                            seed, scheduler, out_dir, fresh, progress,
+                                                                            key)
         arrays["outcome"], arrays["reached_68"], arrays["balanced_starts"] = outcome, reached, balanced_starts
+        arrays["V_final"] = V_final
         summary["interrupted"] = interrupted
         summary["starts"], summary["t_final"] = starts, t_final
     summary["robots"] = _robot_rows(family, arrays, f1, f2)
@@ -199,8 +202,9 @@ def _simulate(robot, family, arrays, starts, t_final, seed, scheduler, out_dir, 
     outcome = np.full(len(family), -1, np.int8)
     reached = np.zeros(len(family), bool)
     balanced_starts = np.full(len(family), np.nan)
+    V_final = np.full(len(family), np.nan)
     if not x0:
-        return outcome, reached, balanced_starts, False
+        return outcome, reached, balanced_starts, V_final, False
     rollouts = RolloutSet(np.array(x0), specs, plants=plants)
     store = ChunkStore(out_dir, study_key({**key, "part": "kips", "starts": starts, "t_final": t_final, "seed": seed}),
                        fresh)
@@ -214,9 +218,10 @@ def _simulate(robot, family, arrays, starts, t_final, seed, scheduler, out_dir, 
             continue
         outcome[r] = codes[kip]
         reached[r] = bool(np.isfinite(result.switch_time[kip]))
+        V_final[r] = result.V_final[kip]
         if len(rows) > 1 and done[rows[1:]].all():
             balanced_starts[r] = float(np.mean(result.success()[rows[1:]]))
-    return outcome, reached, balanced_starts, result.interrupted
+    return outcome, reached, balanced_starts, V_final, result.interrupted
 
 
 def _robot_rows(family, arrays, f1, f2):
@@ -238,6 +243,8 @@ def _robot_rows(family, arrays, f1, f2):
             code = int(arrays["outcome"][r])
             row["outcome"] = None if code < 0 else OUTCOMES[code]
             row["swing_up_reaches_68"] = None if code < 0 else bool(arrays["reached_68"][r])
+            v_final = float(arrays["V_final"][r])
+            row["V_final"] = v_final if math.isfinite(v_final) else None
             value = float(arrays["balanced_starts"][r])
             row["balanced_from_random_starts"] = value if math.isfinite(value) else None
         rows.append(row)

@@ -1,0 +1,51 @@
+"""The command line explains itself: every option has help, defaults and allowed values are shown."""
+import argparse
+
+import pytest
+
+from paa_mj.cli import build_parser, main
+
+
+def _subparsers(parser):
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            return action.choices
+    return {}
+
+
+def test_every_option_of_every_command_has_help():
+    for name, sub in _subparsers(build_parser()).items():
+        for action in sub._actions:
+            if action.option_strings and action.dest != "help":
+                assert action.help, f"{name} {action.option_strings} has no help"
+                if action.choices:
+                    shown = sub.format_help()
+                    assert all(str(c) in shown for c in action.choices), (name, action.option_strings)
+
+
+def test_help_shows_defaults(capsys):
+    assert main(["basin", "--help"]) == 0
+    out = " ".join(capsys.readouterr().out.split())
+    assert "(default: 64)" in out and "(default: q1,q2)" in out and "(default: gymnast)" in out
+
+
+def test_top_level_help_is_plain_text(capsys):
+    assert main(["--help"]) == 0
+    out = capsys.readouterr().out
+    assert "``" not in out and ":func:" not in out and ":mod:" not in out
+    for command in ("theory", "simulate", "basin", "robustness", "compare", "atlas", "reproduce"):
+        assert command in out
+
+
+def test_version(capsys):
+    from paa_mj import __version__
+
+    assert main(["--version"]) == 0
+    assert capsys.readouterr().out.strip() == f"paa-mj {__version__}"
+
+
+@pytest.mark.parametrize("command", ["view"])
+def test_view_has_no_options_it_would_ignore(command):
+    sub = _subparsers(build_parser())[command]
+    flags = {flag for action in sub._actions for flag in action.option_strings}
+    assert "--engine" not in flags and "--sample-dt" not in flags

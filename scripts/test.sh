@@ -3,4 +3,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
-exec .venv/bin/python -m pytest -q -n 2 "$@"
+# One pytest worker per core, 2 to 4: the suite's heavy tests are independent, and more workers
+# would each compile and hold their own copy of the numba kernels.
+workers=$(.venv/bin/python -c "import os; print(max(2, min(4, len(os.sched_getaffinity(0)))))")
+exec .venv/bin/python -m pytest -q -n "$workers" "$@"

@@ -41,6 +41,8 @@ CASES = [
     ("unknown robot name", ["simulate", "--robot", "acrobot"], "unknown robot 'acrobot'"),
     ("non-physical parameters", ["make-model", "--m", "1", "1", "1", "--l", "1", "1", "0", "--out", "{d}/x.xml"], "must be a positive finite number, got 0"),
     ("non-finite initial state", ["simulate", "--x0", "0", "0", "nan", "0", "0", "0"], "must be finite"),
+    ("runaway initial speed", ["simulate", "--engine", "analytic", "--x0", "0", "0", "0", "1e4", "0", "0"],
+     "initial joint speed 10000 rad/s is above 100 rad/s"),
     ("wrong-length initial state", ["simulate", "--x0", "0", "0", "0"], "expected 6 arguments"),
     ("gain below kD_min", ["simulate", "--kD", "4000"], "kD_min = 4503"),
     ("non-positive kV", ["simulate", "--kV", "0"], "--kV: must be a positive finite number, got 0"),

@@ -21,6 +21,9 @@ Q_UDD = np.array([0.0, -np.pi, 0.0])
 Q_DUU = np.array([-np.pi, -np.pi, 0.0])
 Q_AR = np.array([-np.pi, 0.0])
 STATE_NAMES = ("q1", "q2", "q3", "d1", "d2", "d3")
+#: Initial joint speeds above this [rad/s] (16 turns a second) describe no gymnast or robot of this model:
+#: kips stay below about 10 rad/s, and an integrator's cost grows with the speed.
+MAX_INITIAL_SPEED = 100.0
 
 PI = math.pi
 TWO_PI = 2.0 * math.pi

@@ -19,6 +19,7 @@ from ..control.combined import CombinedController
 from ..errors import PaaError, SimulationDiverged
 from ..model.robot import Robot
 from ..model.states import X0_HANGING
+from .engine import MAX_SPEED, RUNAWAY, STATUS_TEXT
 from .batch import check_initial_state, controllers_for, sample_interval, steps_for
 from .rollout import describe_controller, trajectory_quantities
 from .trajectory import Trajectory
@@ -121,6 +122,9 @@ def simulate_analytic(robot: Robot, controller="vcl", x0=X0_HANGING, t_final: fl
                 solver.step()
                 if solver.status == "failed":
                     failure = "the integrator failed (step size below its limit)"
+                    break
+                if np.any(np.abs(solver.y[3:]) > MAX_SPEED):
+                    failure = STATUS_TEXT[RUNAWAY]
                     break
                 dense = solver.dense_output()
                 if watch:

@@ -22,7 +22,7 @@ from ..control.registry import ControllerSpec
 from ..errors import PaaError
 from ..limits import check_memory, check_steps, positive_finite
 from ..model.robot import Robot
-from ..model.states import udd_error
+from ..model.states import MAX_INITIAL_SPEED, udd_error
 from . import engine
 from .engine import (DIVERGED, F_D1, F_INT_TAU2, F_Q1, F_SMOOTH, F_SPEED, F_TAU2, F_TAU3, F_WORK, I_MODE,
                      I_OUTSIDE, I_REGION, I_STATUS, I_STEP, I_SWITCH, N_PUSH, N_SETUP, RETIRED, FINISHED,
@@ -114,6 +114,7 @@ def check_initial_states(x0) -> np.ndarray:
         raise PaaError(f"initial states must be an (N, 6) array of q1 q2 q3 d1 d2 d3, got shape {x0.shape}")
     if not np.all(np.isfinite(x0)):
         raise PaaError("initial states must be finite")
+    _check_initial_speeds(x0)
     return x0
 
 
@@ -124,7 +125,15 @@ def check_initial_state(x0) -> np.ndarray:
         raise PaaError(f"initial state needs 6 numbers (q1 q2 q3 d1 d2 d3), got {x0.size}")
     if not np.all(np.isfinite(x0)):
         raise PaaError(f"initial state must be finite, got {x0.tolist()}")
+    _check_initial_speeds(x0[None])
     return x0[None]
+
+
+def _check_initial_speeds(x0):
+    fastest = float(np.max(np.abs(x0[:, 3:])))
+    if fastest > MAX_INITIAL_SPEED:
+        raise PaaError(f"initial joint speed {fastest:g} rad/s is above {MAX_INITIAL_SPEED:g} rad/s, faster than any"
+                       " gymnast or robot of this model turns")
 
 
 def steps_for(t_final, dt):

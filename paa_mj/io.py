@@ -7,7 +7,9 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import signal
 import tempfile
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -27,6 +29,41 @@ def ensure_dir(path) -> Path:
     return path
 
 
+@contextlib.contextmanager
+def signals_held():
+    """Ctrl-C and SIGTERM wait until the block ends, then act as usual.
+
+    Around the writing of a set of files: a finished run interrupted while it is
+    being saved is saved whole, then the interruption takes effect. Outside the main
+    thread (where handlers cannot change) the block runs as is.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    pending = []
+    previous = {}
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        handler = signal.getsignal(signum)
+        if handler is None:  # set outside Python: cannot be restored, so left alone
+            continue
+        previous[signum] = signal.signal(signum, lambda number, frame: pending.append(number))
+    try:
+        yield
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+        if pending:
+            os.kill(os.getpid(), pending[0])
+
+
+def _check_target(final: Path):
+    """An output path that exists must be a regular file: a device, a pipe or a link would be replaced."""
+    if final.is_symlink():
+        raise PaaError(f"{final} is a symbolic link: give the path of the file itself")
+    if final.exists() and not final.is_file():
+        raise PaaError(f"{final} exists and is not a regular file")
+
+
 _UMASK = os.umask(0)
 os.umask(_UMASK)
 
@@ -35,6 +72,7 @@ os.umask(_UMASK)
 def atomic_path(final, suffix=None):
     """Yield a temporary path beside ``final``; rename it onto ``final`` only on success."""
     final = Path(final)
+    _check_target(final)
     ensure_dir(final.parent if str(final.parent) else ".")
     try:
         fd, tmp = tempfile.mkstemp(prefix=f".{final.name}.", suffix=suffix or final.suffix, dir=final.parent)
@@ -54,7 +92,7 @@ def atomic_path(final, suffix=None):
 
 
 def write_text(path, text: str):
-    with atomic_path(path) as tmp:
+    with signals_held(), atomic_path(path) as tmp:
         tmp.write_text(text)
 
 
@@ -68,7 +106,7 @@ def write_npz(path, **arrays):
     ``np.savez`` stamps each member with the current time; a fixed stamp makes
     the same run give the same bytes.
     """
-    with atomic_path(path, suffix=".npz") as tmp:
+    with signals_held(), atomic_path(path, suffix=".npz") as tmp:
         _write_npz_file(tmp, arrays)
 
 
@@ -105,6 +143,13 @@ def write_set(folder, writers: dict):
     leaves the folder as it was.
     """
     folder = ensure_dir(folder)
+    for name in writers:
+        _check_target(folder / name)
+    with signals_held():
+        return _write_set(folder, writers)
+
+
+def _write_set(folder, writers):
     temporaries = []
     try:
         for name, writer in writers.items():

@@ -74,6 +74,12 @@ FEATURES = [
     ("negative time step", 'timestep="0.001"', 'timestep="-0.001"', "timestep"),
     ("absurd mass", '<inertial pos="0 0 0.31" mass="5.4"', '<inertial pos="0 0 0.31" mass="1e308"',
      "plausible range"),
+    ("actuation disabled", 'contact="disable"', 'contact="disable" actuation="disable"', "actuation disabled"),
+    ("sleeping bodies", 'contact="disable"', 'contact="disable" sleep="enable"', "sleeping bodies"),
+    ("joint reference angle", HIPS, '<joint name="hips" type="hinge" axis="0 1 0" ref="0.5"/>',
+     "joint reference angles"),
+    ("NaN stored gain", 'data="4550.0 16000.0 5000.0"', 'data="nan 16000 5000"', "paa_gains kD = nan"),
+    ("negative stored gain", 'data="4550.0 16000.0 5000.0"', 'data="4550 -16000 5000"', "paa_gains kP = -16000"),
     ("tendon", "</actuator>", '</actuator>\n  <tendon><fixed name="t"><joint joint="hips" coef="1"/></fixed></tendon>',
      "tendons"),
 ]
@@ -284,3 +290,144 @@ def test_render_interrupted_while_encoding_leaves_no_file(tmp_path, saved_trajec
     assert proc.returncode == 143, stderr
     assert "Traceback" not in stderr and len(stderr.strip().splitlines()) == 1
     assert list(out.iterdir()) == []
+
+
+def test_ctrl_c_while_a_set_is_written_saves_the_set_then_stops(tmp_path):
+    """The interruption arrives between two files of a set: the set is written whole, then Ctrl-C acts."""
+    import os
+    import signal
+
+    from paa_mj.io import write_set
+
+    def first(path):
+        path.write_text("first")
+        os.kill(os.getpid(), signal.SIGINT)
+
+    with pytest.raises(KeyboardInterrupt):
+        write_set(tmp_path / "set", {"a.txt": first, "b.txt": lambda path: path.write_text("second")})
+    assert sorted(p.name for p in (tmp_path / "set").iterdir()) == ["a.txt", "b.txt"]
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+@pytest.mark.parametrize("kind", ["fifo", "symlink", "folder"])
+def test_an_output_path_that_is_not_a_regular_file_is_refused(kind, tmp_path, run):
+    import os
+
+    target = tmp_path / "model.xml"
+    if kind == "fifo":
+        os.mkfifo(target)
+    elif kind == "symlink":
+        (tmp_path / "real.xml").write_text("")
+        target.symlink_to(tmp_path / "real.xml")
+    else:
+        target.mkdir()
+    _one_line_error(run("make-model", "--m", 1, 1, 1, "--l", 1, 1, 1, "--out", target),
+                    "symbolic link" if kind == "symlink" else "is not a regular file")
+    assert (tmp_path / "real.xml").read_text() == "" if kind == "symlink" else True
+
+
+USER_CONTROLLERS = '''
+import sys
+import numpy as np
+
+
+class _Zero:
+    def __init__(self, robot=None):
+        pass
+
+    def torque(self, q, qd, t=0.0):
+        return np.zeros(np.shape(q)[:-1] + (2,))
+
+
+class ResetFails(_Zero):
+    def reset(self):
+        raise RuntimeError("reset boom")
+
+
+class ModeNotInteger(_Zero):
+    mode = "banana"
+
+
+class ModeFails(_Zero):
+    @property
+    def mode(self):
+        raise RuntimeError("mode boom")
+
+
+class Exits(_Zero):
+    def torque(self, q, qd, t=0.0):
+        sys.exit(0)
+'''
+
+
+@pytest.mark.parametrize("name, fragment", [
+    ("ResetFails", "ResetFails.reset failed: RuntimeError: reset boom"),
+    ("ModeNotInteger", "ModeNotInteger.mode must be an integer"),
+    ("ModeFails", "ModeFails.mode failed: RuntimeError: mode boom"),
+    ("Exits", "Exits.torque failed: SystemExit"),
+])
+@pytest.mark.parametrize("engine", ["mujoco", "analytic"])
+def test_a_user_controller_that_misbehaves_is_one_line(name, fragment, engine, tmp_path, run):
+    (tmp_path / "mine.py").write_text(USER_CONTROLLERS)
+    _one_line_error(run("simulate", "--engine", engine, "--controller", f"{tmp_path}/mine.py:{name}",
+                        "--t-final", "0.1"), fragment)
+
+
+CONTRADICTIONS_AND_RANGES = [
+    (["atlas", "--grid", "2", "--t-final", "5"], "--t-final applies with --simulate only"),
+    (["atlas", "--grid", "2", "--seed", "3", "--starts", "1"], "--starts, --seed apply with --simulate only"),
+    (["check", "--seed", "-1"], "--seed: must be in [0, 2^63)"),
+    (["robustness", "--seed", "99999999999999999999"], "--seed: must be in [0, 2^63)"),
+    (["theory", "--kD", "1e300", "--kP", "1e300", "--kV", "1e300"], "kD = 1e+300 is above 1e+12"),
+    (["simulate", "--x0", "1e300", "0", "0", "0", "0", "0"], "initial angle 1e+300 rad is beyond"),
+    (["simulate", "--sample-dt", "0.0015", "--t-final", "1"], "not a whole number of time steps"),
+    (["simulate", "--t-final", "1", "--out", ""], "--out: an empty path names no folder"),
+    (["render", "--out", "clip.gif/"], "names a folder"),
+    (["make-model", "--m", "1", "1", "1", "--l", "1", "1", "1", "--name", "a\nb", "--out", "x.xml"],
+     "control characters"),
+]
+
+
+@pytest.mark.parametrize("args, fragment", CONTRADICTIONS_AND_RANGES, ids=[" ".join(c[0][:2]) + "-" + str(i)
+                                                                        for i, c in enumerate(CONTRADICTIONS_AND_RANGES)])
+def test_options_out_of_range_or_without_effect_are_refused(args, fragment, tmp_path, run):
+    _one_line_error(run(*args, cwd=tmp_path), fragment)
+    assert not list(tmp_path.iterdir())
+
+
+def test_the_analytic_engine_stops_on_a_law_that_jumps_instead_of_chasing_it(run):
+    # LQR (67) from the hanging state: the wrapped angle q1 = -pi jumps, and so does the unbounded torque
+    _one_line_error(run("simulate", "--engine", "analytic", "--controller", "lqr", "--t-final", "1"),
+                    "the integrator's step fell below", code=3)
+
+
+def test_a_full_standard_output_is_one_line(tmp_path):
+    if not os.path.exists("/dev/full"):
+        pytest.skip("no /dev/full here")
+    with open("/dev/full", "w") as full:
+        proc = subprocess.run([sys.executable, "-m", "paa_mj.cli", "theory"], stdout=full, stderr=subprocess.PIPE,
+                              text=True, timeout=120)
+    assert proc.returncode == 2 and proc.stderr.strip() == "paa-mj: error: cannot write the output: No space left" \
+        " on device", proc.stderr
+
+
+def test_mujoco_warnings_leave_no_log_file_and_no_console_lines(tmp_path, run):
+    (tmp_path / "mine.py").write_text(USER_CONTROLLERS + '''
+
+class Kick(_Zero):
+    def torque(self, q, qd, t=0.0):
+        return np.full(np.shape(q)[:-1] + (2,), 1e12)
+''')
+    proc = cli("simulate", "--controller", f"{tmp_path}/mine.py:Kick", "--t-final", "0.1", cwd=tmp_path)
+    _one_line_error(proc, "MuJoCo warned of an unstable simulation", code=3)
+    assert proc.stderr.count("\n") == 1 and "WARNING" not in proc.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["mine.py"]
+
+
+def test_a_folder_of_another_commands_results_is_refused(tmp_path, run):
+    out = tmp_path / "study"
+    assert run("basin", "--grid", "2", "--t-final", "0.05", "--scheduler", "inline", "--out", out).returncode == 0
+    before = {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()}
+    _one_line_error(run("simulate", "--t-final", "0.05", "--out", out), "holds the results of 'paa-mj basin'")
+    assert {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()} == before
+    assert run("basin", "--grid", "2", "--t-final", "0.05", "--scheduler", "inline", "--out", out).returncode == 0

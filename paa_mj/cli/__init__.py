@@ -52,11 +52,20 @@ def _choose_gl_early(argv):
         os.environ["MUJOCO_GL"] = os.environ["PYOPENGL_PLATFORM"] = value
 
 
+def _drop_stdout():
+    """Standard output to /dev/null, so that nothing more is written where writing failed."""
+    with contextlib.suppress(OSError):
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+
+
 def main(argv=None):
     _choose_gl_early(argv)
     previous = install_signal_handlers()
     try:
-        with warnings.catch_warnings():
+        from ..sim.mujoco_log import mujoco_log_off
+
+        with warnings.catch_warnings(), mujoco_log_off():
             warnings.showwarning = _show_warning
             from ..control.gains import TheoryWarning
 
@@ -65,7 +74,9 @@ def main(argv=None):
                 args = build_parser().parse_args(argv)
             except SystemExit as exit_:  # --help and --version
                 return exit_.code or 0
-            return args.func(args)
+            code = args.func(args)
+            sys.stdout.flush()  # a write that fails (a full disk) fails here, where it is reported
+            return code
     except SimulationDiverged as err:
         note(f"error: {err}")
         return EXIT_DIVERGED
@@ -80,10 +91,12 @@ def main(argv=None):
         return interrupt_code()
     except BrokenPipeError:
         # The reader went away (paa-mj theory | head -1): end quietly, as a command in a pipe does.
-        with contextlib.suppress(OSError):
-            devnull = os.open(os.devnull, os.O_WRONLY)
-            os.dup2(devnull, sys.stdout.fileno())
+        _drop_stdout()
         return 128 + signal.SIGPIPE
+    except OSError as err:  # files are written through paa_mj.io, so this is standard output
+        _drop_stdout()
+        note(f"error: cannot write the output: {err.strerror or err}")
+        return EXIT_BAD_INPUT
     except MemoryError:
         note("error: out of memory: lower the size of the request")
         return EXIT_BAD_INPUT

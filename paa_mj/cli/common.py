@@ -6,6 +6,8 @@ Every option says what it does, its default and its allowed values in
 from __future__ import annotations
 
 import argparse
+import contextlib
+import os
 import math
 import signal
 import sys
@@ -24,7 +26,8 @@ class Formatter(argparse.RawDescriptionHelpFormatter):
 
     def _get_help_string(self, action):
         text = action.help or ""
-        if "%(default)" in text or action.default in (None, False, argparse.SUPPRESS) or not action.option_strings:
+        unset = action.default is None or action.default is False or action.default == argparse.SUPPRESS
+        if "%(default)" in text or unset or not action.option_strings:
             return text
         return text + " (default: %(default)s)"
 
@@ -69,6 +72,33 @@ def positive_int(text):
     return value
 
 
+def folder(text):
+    """An argparse type: an output folder, not empty."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("an empty path names no folder")
+    return text
+
+
+def file_path(text):
+    """An argparse type: an output file, not empty and not ending in a separator (that names a folder)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("an empty path names no file")
+    if text.endswith(("/", os.sep)):
+        raise argparse.ArgumentTypeError(f"{text} names a folder; give a file name")
+    return text
+
+
+def seed(text):
+    """An argparse type: a seed, a whole number in [0, 2^63)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a whole number: {text!r}") from None
+    if not 0 <= value < 2**63:
+        raise argparse.ArgumentTypeError(f"must be in [0, 2^63), got {text}")
+    return value
+
+
 def robot_parent(default="gymnast"):
     p = argparse.ArgumentParser(add_help=False)
     p.add_argument("--robot", default=default, metavar="{gymnast,example2,PATH.xml}",
@@ -77,11 +107,11 @@ def robot_parent(default="gymnast"):
     return p
 
 
-def gains_parent():
+def gains_parent(stored="the robot's stored gains"):
     p = argparse.ArgumentParser(add_help=False)
-    p.add_argument("--kD", type=positive, help="gain kD of (40)/(12) [J kg m^2] (default: the robot's stored gains)")
-    p.add_argument("--kP", type=positive, help="gain kP of (40)/(12) [J^2/rad^2] (default: stored)")
-    p.add_argument("--kV", type=positive, help="gain kV of (40)/(12) [J^2 s/rad^2] (default: stored)")
+    p.add_argument("--kD", type=positive, help=f"gain kD of (40)/(12) [J kg m^2] (default: {stored})")
+    p.add_argument("--kP", type=positive, help="gain kP of (40)/(12) [J^2/rad^2] (default: as --kD)")
+    p.add_argument("--kV", type=positive, help="gain kV of (40)/(12) [J^2 s/rad^2] (default: as --kD)")
     return p
 
 
@@ -111,7 +141,7 @@ def physics_parent():
 
 def output_parent(what):
     p = argparse.ArgumentParser(add_help=False)
-    p.add_argument("--out", metavar="DIR", help=f"folder for {what}")
+    p.add_argument("--out", type=folder, metavar="DIR", help=f"folder for {what}")
     p.add_argument("--json", action="store_true", help="print the summary as one JSON object on stdout")
     return p
 
@@ -180,6 +210,27 @@ def interrupt_code() -> int:
 
 def interrupt_name() -> str:
     return "terminated (SIGTERM)" if _received["signal"] == signal.SIGTERM else "interrupted"
+
+
+#: The file that marks a folder as holding a command's results (``--out``).
+RESULT_FILES = {"simulate": "trajectory.npz", "basin": "basin.npz", "robustness": "robustness.npz",
+                "compare": "leaderboard.json", "atlas": "atlas.npz", "reproduce": "report.md"}
+
+
+def output_lock(out, command):
+    """The lock on ``--out`` for ``command`` (nothing without ``--out``).
+
+    A folder that holds another command's results is refused: their summary.json and
+    figures would be mixed with these. The same command again replaces, or resumes.
+    """
+    if out is None:
+        return contextlib.nullcontext()
+    from ..io import OutputLock
+
+    for other, name in RESULT_FILES.items():
+        if other != command and os.path.exists(os.path.join(out, name)):
+            raise PaaError(f"{out} holds the results of 'paa-mj {other}' ({name}): choose another --out")
+    return OutputLock(out)
 
 
 def finish(interrupted, what, out=None, kept="finished chunks are kept in {out}, run the same command to resume"):

@@ -1,7 +1,7 @@
 """``paa-mj reproduce``: the paper redone, with figures, report and video."""
 from __future__ import annotations
 
-from .common import note
+from .common import folder, note, output_lock
 
 
 def cmd_reproduce(args):
@@ -18,11 +18,12 @@ def cmd_reproduce(args):
             gl_backend = select_backend(args.gl or "auto")
         except PaaError as err:
             note(f"warning: no video: {err}")
-    from ..io import OutputLock
+    import time
 
-    with OutputLock(args.out):
+    started = time.perf_counter()
+    with output_lock(args.out, "reproduce"):
         report = reproduce(args.out, quick=args.quick, video=gl_backend is not None)
-    print(f"report: {report}")
+    print(f"report: {report} (in {time.perf_counter() - started:.0f} s)")
     return 0
 
 
@@ -30,7 +31,7 @@ def register(sub, parser_class):
     p = sub.add_parser("reproduce", help="redo the paper: simulations, figures 5-14, the open questions, report, video",
                        description="Redo every computation of the paper, write the figures, results.json and"
                                    " report.md (our numbers beside the paper's), and the video of the kip.")
-    p.add_argument("--out", default="out/reproduction", metavar="DIR", help="output folder")
+    p.add_argument("--out", type=folder, default="out/reproduction", metavar="DIR", help="output folder")
     p.add_argument("--quick", action="store_true", help="smaller studies (for tests)")
     p.add_argument("--no-video", action="store_true", help="skip the video")
     p.add_argument("--gl", choices=("auto", "egl", "osmesa"), help="GL backend for the video (default: auto)")

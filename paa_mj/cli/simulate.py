@@ -4,7 +4,7 @@ from __future__ import annotations
 import argparse
 
 from ..errors import PaaError, SimulationDiverged
-from .common import (controller_parent, finish, output_parent,
+from .common import (controller_parent, file_path, finish, output_lock, output_parent,
                      physics_parent, positive, positive_int, print_json, robot_parent, spec_from_args)
 
 
@@ -53,11 +53,7 @@ def run_from_args(args, progress=True):
 
 
 def cmd_simulate(args):
-    from contextlib import nullcontext
-
-    from ..io import OutputLock
-
-    with OutputLock(args.out) if args.out else nullcontext():
+    with output_lock(args.out, "simulate"):
         try:
             _, traj = run_from_args(args, progress=not args.json)
         except SimulationDiverged as err:
@@ -65,6 +61,8 @@ def cmd_simulate(args):
                 err.trajectory.save(args.out)
                 raise SimulationDiverged(f"{err} (kept {len(err.trajectory)} samples in {args.out})") from None
             raise
+        if not len(traj):  # stopped before the first sample: nothing to keep, nothing to summarise
+            return finish(True, "stopped before the first sample; nothing written")
         if args.out:
             out = traj.save(args.out)
             if not args.json:
@@ -150,6 +148,7 @@ def cmd_view(args):
     data = mujoco.MjData(model)
     data.qpos[:], data.qvel[:] = x0[:3], x0[3:]
     mujoco.mj_forward(model, data)
+    _check_glfw()
     try:
         viewer = mujoco.viewer.launch_passive(model, data)
     except Exception as err:  # GLFW failures come as several types
@@ -169,6 +168,20 @@ def cmd_view(args):
     return 0
 
 
+def _check_glfw():
+    """GLFW starts here, or one line: the viewer would start it on its own thread and die there noisily."""
+    import warnings
+
+    import glfw
+
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        started = glfw.init()
+    if not started:
+        why = "; ".join(" ".join(str(w.message).split()) for w in seen) or "GLFW could not start"
+        raise PaaError(f"cannot open the viewer: {why}")
+
+
 def register(sub, parser_class):
     p = sub.add_parser("simulate", parents=[run_parent(), output_parent("trajectory.npz, trajectory.csv, summary.json")],
                        help="run a controller from an initial state and record it",
@@ -180,7 +193,7 @@ def register(sub, parser_class):
                        description="Render a rollout (or a saved trajectory) to MP4 or GIF, offscreen.")
     p.add_argument("--from", dest="from_file", metavar="TRAJ.npz",
                    help="replay a trajectory saved by 'simulate --out' instead of simulating")
-    p.add_argument("--out", required=True, metavar="FILE.mp4|FILE.gif", help="the video file")
+    p.add_argument("--out", type=file_path, required=True, metavar="FILE.mp4|FILE.gif", help="the video file")
     p.add_argument("--fps", type=positive, default=30.0, help="frames per second of the video")
     p.add_argument("--width", type=positive_int, default=640, help="frame width [pixels], 16..4096")
     p.add_argument("--height", type=positive_int, default=480, help="frame height [pixels], 16..4096")

@@ -1,17 +1,9 @@
 """``paa-mj basin``, ``robustness`` and ``bench``: many rollouts, and what they cost."""
 from __future__ import annotations
 
-from contextlib import nullcontext
-
 from ..errors import PaaError
-from .common import (controller_parent, finish, note, output_parent, positive, positive_int,
-                     print_json, robot_parent, spec_from_args, study_parent)
-
-
-def _lock(out):
-    from ..io import OutputLock
-
-    return OutputLock(out) if out else nullcontext()
+from .common import (controller_parent, finish, note, output_lock, output_parent, positive, positive_int,
+                     print_json, robot_parent, seed, spec_from_args, study_parent)
 
 
 def _finish_study(summary, args, what):
@@ -23,7 +15,7 @@ def _check_fresh(args):
         raise PaaError("--fresh forgets the chunks kept in --out; without --out nothing is kept")
 
 
-def _study(args, run, write):
+def _study(args, command, run, write):
     """Load, check, run under the output lock, write, report: the common course of a study command."""
     from ..model.robot import load_robot
     from ..studies.runner import check_scheduler
@@ -32,10 +24,10 @@ def _study(args, run, write):
     robot = load_robot(args.robot)
     spec = spec_from_args(args, robot)
     scheduler = check_scheduler(args.scheduler)
-    with _lock(args.out):
+    with output_lock(args.out, command):
         summary, arrays = run(robot, spec, dict(progress=not args.json, scheduler=scheduler, out_dir=args.out,
                                                 fresh=args.fresh, chunk=args.chunk))
-        if args.out:
+        if args.out and summary["completed_fraction"] > 0:  # no figure of a study with no finished run
             write(args.out, summary, arrays)
     if args.json:
         print_json(summary)
@@ -47,11 +39,13 @@ def cmd_basin(args):
     from ..studies.basin import basin, parse_axes
 
     axes = parse_axes(args.axes)
-    summary = _study(args, lambda robot, spec, common: basin(robot, axes, args.grid, args.t_final, controller=spec,
+    summary = _study(args, "basin", lambda robot, spec, common: basin(robot, axes, args.grid, args.t_final, controller=spec,
                                                             **common), write_basin)
-    if not args.json:
+    if not args.json and summary["completed_fraction"] > 0:
+        done = summary["completed_fraction"]
         print(f"{summary['cells']} starts over ({', '.join(summary['axes'])}), {summary['controller']}:"
-              f" {100 * summary['success_fraction']:.1f} % balanced, median first switch"
+              + (f" {100 * done:.0f} % of them finished," if done < 1 else "")
+              + f" {100 * summary['success_fraction']:.1f} % balanced, median first switch"
               f" {summary['median_switch_time']} s"
               + (f"; wrote {args.out}/basin.png, basin.svg, basin.npz, summary.json" if args.out else ""))
     return _finish_study(summary, args, "basin")
@@ -62,10 +56,10 @@ def cmd_robustness(args):
     from ..studies.robustness import robustness
 
     factors = [f.strip() for f in args.factors.split(",") if f.strip()]
-    summary = _study(args, lambda robot, spec, common: robustness(
+    summary = _study(args, "robustness", lambda robot, spec, common: robustness(
         robot, trials=args.trials, t_final=args.t_final, seed=args.seed, controller=spec, factors=factors,
         start=args.start, model_error=args.model_error, **common), write_robustness)
-    if not args.json:
+    if not args.json and summary["completed_fraction"] > 0:
         print(f"robot {summary['robot']}, {summary['controller']}: success rate over {summary['trials']}"
               f" {summary['start']} starts per level [95 % interval]")
         for factor, data in summary["factors"].items():
@@ -99,7 +93,7 @@ def cmd_compare(args):
         except PaaError as err:
             note(f"warning: no video: {err}")
             video = False
-    with _lock(args.out):
+    with output_lock(args.out, "compare"):
         summary, trajectories, _ = compare(robot, names, torque_limit=args.torque_limit, trials=args.trials,
                                            quick=args.quick, t_final=args.t_final, seed=args.seed,
                                            scheduler=scheduler, out_dir=args.out, fresh=args.fresh,
@@ -123,13 +117,17 @@ def cmd_atlas(args):
     factor_range = parse_range(args.range)
     robot = load_robot(args.robot)
     scheduler = check_scheduler(args.scheduler)
-    if args.starts is not None and not args.simulate:
-        raise PaaError("--starts applies with --simulate only")
+    simulation = {name: value for name, value in (("starts", args.starts), ("t_final", args.t_final),
+                                                   ("seed", args.seed)) if value is not None}
+    if simulation and not args.simulate:
+        given = [f"--{name.replace('_', '-')}" for name in simulation]
+        raise PaaError(f"{', '.join(given)} appl{'ies' if len(given) == 1 else 'y'} with --simulate only")
+    if args.starts is not None and args.starts < 0:
+        raise PaaError(f"--starts must be >= 0, got {args.starts}")
     _check_fresh(args)
-    with _lock(args.out):
-        summary, arrays = atlas(robot, vary, factor_range, args.grid, simulate=args.simulate,
-                                starts=4 if args.starts is None else args.starts, t_final=args.t_final,
-                                seed=args.seed, scheduler=scheduler, out_dir=args.out, fresh=args.fresh,
+    with output_lock(args.out, "atlas"):
+        summary, arrays = atlas(robot, vary, factor_range, args.grid, simulate=args.simulate, **simulation,
+                                scheduler=scheduler, out_dir=args.out, fresh=args.fresh,
                                 progress=not args.json)
         if args.out:
             write_atlas(args.out, summary, arrays)
@@ -175,7 +173,7 @@ def register(sub, parser_class):
                                    " time, every level on the same starts.")
     p.add_argument("--trials", type=positive_int, default=64, help="starts per level")
     p.add_argument("--t-final", type=positive, default=30.0, help="duration of each run [s]")
-    p.add_argument("--seed", type=int, default=0, help="seed of the starts and the noise")
+    p.add_argument("--seed", type=seed, default=0, help="seed of the starts and the noise")
     p.add_argument("--factors", default=",".join(DEFAULT_FACTORS), metavar="F,...",
                    help=f"comma-separated, out of {', '.join(FACTORS)}")
     p.add_argument("--start", choices=STARTS, default="random",
@@ -206,7 +204,7 @@ def register(sub, parser_class):
     p.add_argument("--grid", type=positive_int,
                    help=f"points per axis of the reach grid over (q1, q2) (default {SIZES['full']['grid']},"
                         f" {SIZES['quick']['grid']} with --quick)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the disturbances")
+    p.add_argument("--seed", type=seed, default=0, help="seed of the disturbances")
     p.add_argument("--quick", action="store_true", help="fewer trials and a coarser reach grid (a few minutes)")
     p.add_argument("--no-video", action="store_true", help="skip the side-by-side video")
     p.add_argument("--gl", choices=("auto", "egl", "osmesa"), help="GL backend for the video (default: auto)")
@@ -227,8 +225,8 @@ def register(sub, parser_class):
     p.add_argument("--grid", type=positive_int, default=32, help=f"factors per parameter, 2..{ATLAS_GRID}")
     p.add_argument("--simulate", action="store_true", help="also run the kip of every robot in MuJoCo")
     p.add_argument("--starts", type=int, help="random starts per robot with --simulate (default 4), besides (65)")
-    p.add_argument("--t-final", type=positive, default=30.0, help="duration of each simulated kip [s]")
-    p.add_argument("--seed", type=int, default=0, help="seed of the random starts")
+    p.add_argument("--t-final", type=positive, help="duration of each simulated kip [s] with --simulate (default 30)")
+    p.add_argument("--seed", type=seed, help="seed of the random starts with --simulate (default 0)")
     p.set_defaults(func=cmd_atlas)
 
     p = sub.add_parser("bench", help="costs per step: bare mj_step, closed loop, batch, basin, analytic reference",

@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 from ..errors import PaaError
-from .common import finite, gains_parent, positive, positive_int, print_json, robot_parent
+from .common import file_path, finite, gains_parent, positive, positive_int, print_json, robot_parent, seed
 
 
 def cmd_theory(args):
@@ -54,9 +54,31 @@ def cmd_make_model(args):
         gains = {"kD": args.kD, "kP": args.kP, "kV": args.kV}
     xml = mjcf_from_params(params, name=args.name, title=args.title, gains=gains)
     params_from_model(compile_mjcf(xml, "generated model"), source="generated model")
+    chosen = ""
+    if gains is None:
+        gains = _rule_gains(params)
+        if gains is None:
+            chosen = "; no gains stored: the bounds (41), (59), (60) are not finite for this robot"
+        else:
+            xml = mjcf_from_params(params, name=args.name, title=args.title, gains=gains)
+            chosen = ("; stored gains kD = {kD:.6g}, kP = {kP:.6g}, kV = {kV:.6g}, 5 % above the bounds (41),"
+                      " (59), (60)").format(**gains)
     write_text(args.out, xml)
-    print(f"wrote {args.out}")
+    print(f"wrote {args.out}{chosen}")
     return 0
+
+
+def _rule_gains(params):
+    """Gains 5 % above Theorem 1's bounds for ``params`` (the atlas's rule), or None where a bound is not finite."""
+    import numpy as np
+
+    from ..control.gains import gain_rule
+    from ..model.dynamics import AnalyticModel
+    from ..theory.conditions import thresholds
+
+    kd, e1, e2 = thresholds(AnalyticModel.from_params(params))
+    gains = gain_rule(kd.value, e1.value, e2.value)
+    return gains if all(np.isfinite(v) and v > 0 for v in gains.values()) else None
 
 
 def register(sub, parser_class):
@@ -71,11 +93,12 @@ def register(sub, parser_class):
                        description="MuJoCo's inertia matrix, bias forces, accelerations and energy against (1)-(7)"
                                    " at random states.")
     p.add_argument("--samples", type=positive_int, default=1000, help="random states to compare")
-    p.add_argument("--seed", type=int, default=0, help="seed of the random states")
+    p.add_argument("--seed", type=seed, default=0, help="seed of the random states")
     p.add_argument("--json", action="store_true", help="one JSON object on stdout")
     p.set_defaults(func=cmd_check)
 
-    p = sub.add_parser("make-model", parents=[gains_parent()], help="write the MJCF of a gymnast with given parameters",
+    p = sub.add_parser("make-model", parents=[gains_parent(stored="5 % above the bounds (41), (59), (60) of the new"
+                                                                   " robot")], help="write the MJCF of a gymnast with given parameters",
                        description="Write the MJCF file of a 3-link gymnast (gravity 9.81 m/s^2) from its"
                                    " parameters.")
     p.add_argument("--m", type=positive, nargs=3, required=True, metavar=("M1", "M2", "M3"), help="masses [kg]")
@@ -86,5 +109,5 @@ def register(sub, parser_class):
                    help="inertia about the centre of mass [kg m^2] (default: m l^2/12)")
     p.add_argument("--name", default="custom", help="the model's name")
     p.add_argument("--title", default="", help="one line for the file's header comment")
-    p.add_argument("--out", required=True, metavar="FILE.xml", help="MJCF file to write")
+    p.add_argument("--out", type=file_path, required=True, metavar="FILE.xml", help="MJCF file to write")
     p.set_defaults(func=cmd_make_model)

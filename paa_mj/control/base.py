@@ -106,15 +106,21 @@ class Controller:
         return {"controller": self.name}
 
 
+def _user_call(controller, what, call, *args):
+    """``call(*args)``, with any failure of a user's controller turned into one line that says where."""
+    try:
+        return call(*args)
+    except (PaaError, KeyboardInterrupt):
+        raise
+    except (Exception, SystemExit) as err:  # a user's controller may fail in any way, exit included
+        detail = " ".join(str(err).split())
+        raise PaaError(f"controller {type(controller).__name__}.{what} failed: {type(err).__name__}"
+                       + (f": {detail}" if detail else "")) from None
+
+
 def torque_of(controller, q, qd, t):
     """``controller.torque(q, qd, t)`` as a float array of shape (..., 2), or a one-line error."""
-    try:
-        tau = np.asarray(controller.torque(q, qd, t), dtype=float)
-    except PaaError:
-        raise
-    except Exception as err:  # a user's controller may fail in any way: say where, in one line
-        raise PaaError(f"controller {type(controller).__name__}.torque failed: {type(err).__name__}:"
-                       f" {' '.join(str(err).split())}") from None
+    tau = _user_call(controller, "torque", lambda: np.asarray(controller.torque(q, qd, t), dtype=float))
     expected = np.shape(q)[:-1] + (2,)
     if tau.shape != expected:
         raise PaaError(f"controller {type(controller).__name__}.torque returned shape {tau.shape} for states of"
@@ -123,13 +129,16 @@ def torque_of(controller, q, qd, t):
 
 
 def mode_of(controller, shape=()):
-    """The controller's mode as an int array of ``shape`` (0 when it has none)."""
-    mode = np.asarray(getattr(controller, "mode", 0))
+    """The controller's mode as an int array of ``shape`` (0 when it has none), or a one-line error."""
+    mode = _user_call(controller, "mode", lambda: np.asarray(getattr(controller, "mode", 0)))
+    if mode.dtype.kind not in "biu" or not (mode.shape == () or mode.shape == shape):
+        raise PaaError(f"controller {type(controller).__name__}.mode must be an integer or one integer per state"
+                       f" (shape {shape}), got {mode.dtype} of shape {mode.shape}")
     return np.broadcast_to(mode, shape).astype(np.int8) if mode.shape != shape else mode.astype(np.int8)
 
 
 def reset_controller(controller):
-    """Call ``reset()`` when the controller has one (a user's may not)."""
+    """Call ``reset()`` when the controller has one (a user's may not), or a one-line error."""
     reset = getattr(controller, "reset", None)
     if callable(reset):
-        reset()
+        _user_call(controller, "reset", reset)

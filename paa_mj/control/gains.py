@@ -10,8 +10,44 @@ from ..model.dynamics import AnalyticModel
 from ..theory.conditions import constraint_54, thresholds
 
 
+#: Largest gain accepted: 1e8 times the paper's (66); no robot of this model needs more, and the products
+#: inside (40) and its Jacobians overflow long before a double's limit.
+MAX_GAIN = 1e12
+
+
+#: How far above its bound :func:`gain_rule` puts each gain.
+MARGIN = 1.05
+
+
+def gain_rule(kd, e1, e2, base_gains=None):
+    """Gains that meet Theorem 1's bounds: kD = 1.05 kD_min (41), kP = 1.05 max(eta1 (59), eta2 (60)),
+    kV = kD x (kV / kD of ``base_gains``, 1 without them).
+
+    Used by the atlas for every robot it maps, and by ``paa-mj make-model`` when no gains are given.
+    """
+    ratio = base_gains["kV"] / base_gains["kD"] if base_gains else 1.0
+    kD = MARGIN * kd
+    return {"kD": kD, "kP": MARGIN * max(e1, e2), "kV": ratio * kD}
+
+
 class TheoryWarning(UserWarning):
     """Gains or robot outside what Theorem 1 covers; the run goes on."""
+
+
+def check_gain_range(kD, kP, kV):
+    """Gains of (40) (or (12)) that the theory and the law can be evaluated with, or a one-line error.
+
+    Each finite, positive (V weighs the speeds by kD/2 and the posture error by
+    kP/2; dV/dt = -kV ``|qd_a|^2`` (36)) and at most :data:`MAX_GAIN`. The paper's
+    bounds (41), (59), (60) are :func:`check_gains`'s.
+    """
+    for name, value in (("kD", kD), ("kP", kP), ("kV", kV)):
+        if not np.isfinite(value):
+            raise PaaError(f"gain {name} = {value} is not finite")
+        if value <= 0:
+            raise PaaError(f"gain {name} = {value:g} must be > 0")
+        if value > MAX_GAIN:
+            raise PaaError(f"gain {name} = {value:g} is above {MAX_GAIN:g}, 1e8 times the paper's gains")
 
 
 def check_gains(model: AnalyticModel, kD, kP, kV, stacklevel=3):
@@ -20,7 +56,7 @@ def check_gains(model: AnalyticModel, kD, kP, kV, stacklevel=3):
     Raises
     ------
     PaaError
-        A gain that is not finite, kV <= 0, or kD <= kD_min of (41) (the
+        A gain that is not finite or above :data:`MAX_GAIN`, kV <= 0, kP <= 0, or kD <= kD_min of (41) (the
         controller can hit a singular Lambda (38)); the message names the bound
         and its value.
 
@@ -35,11 +71,7 @@ def check_gains(model: AnalyticModel, kD, kP, kV, stacklevel=3):
     list of str
         The warnings given.
     """
-    for name, value in (("kD", kD), ("kP", kP), ("kV", kV)):
-        if not np.isfinite(value):
-            raise PaaError(f"gain {name} = {value} is not finite")
-    if kV <= 0:
-        raise PaaError(f"gain kV = {kV:g} must be > 0 (dV/dt = -kV |qd_a|^2 (36))")
+    check_gain_range(kD, kP, kV)
     kd, e1, e2 = thresholds(model)
     if kD <= kd.value:
         raise PaaError(f"gain kD = {kD:g} is not above kD_min = {kd.value:.6g} of (41): controller (40) can become singular")

@@ -143,6 +143,9 @@ def mjcf_from_params(params: RobotParams, name: str = "gymnast", title: str = ""
         ``<custom><numeric name="paa_gains">`` so they travel with the model.
     """
     params.validate()
+    for what, text in (("name", str(name)), ("title", str(title))):
+        if not text.isprintable():
+            raise PaaError(f"the model's {what} {text!r} has control characters (a new line, a tab...): give one line")
     total = float(np.sum(params.l))
     radius = [0.022 * total] * 3
     # The side camera looks at the bar 20 degrees off the normal of the plane of motion (so the
@@ -284,6 +287,10 @@ def _check_options(model, source):
         raise _feature_error(source, f"gravity {gravity.tolist()} m/s^2 (the model needs {GRAVITY:g} straight down)")
     if model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_GRAVITY:
         raise _feature_error(source, "gravity disabled")
+    if model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_ACTUATION:
+        raise _feature_error(source, "actuation disabled (the motors would apply no torque)")
+    if model.opt.enableflags & mujoco.mjtEnableBit.mjENBL_SLEEP:
+        raise _feature_error(source, "sleeping bodies (a link at rest would stop being simulated)")
     if model.opt.density != 0 or model.opt.viscosity != 0:
         raise _feature_error(source, f"a medium (density {model.opt.density:g}, viscosity {model.opt.viscosity:g})")
     if np.any(model.body_gravcomp != 0):
@@ -303,6 +310,9 @@ def _check_joints(model, source):
         raise _shape_error(source, "needs one hinge on each link")
     if np.any(np.abs(model.jnt_pos) > 1e-12):
         raise _shape_error(source, "each hinge must sit at its body's origin")
+    if np.any(model.qpos0 != 0):
+        raise _feature_error(source, f"joint reference angles (ref {np.asarray(model.qpos0).tolist()} rad; q = 0 must"
+                                     " be every link straight up)")
     for body in (1, 2, 3):
         if not np.allclose(model.body_quat[body], [1, 0, 0, 0], atol=1e-12):
             raise _shape_error(source, "link bodies must not be rotated (q = 0 is every link straight up)")
@@ -433,5 +443,8 @@ def default_gains(model: mujoco.MjModel):
     adr, size = model.numeric_adr[idx], model.numeric_size[idx]
     if size != 3:
         raise PaaError("the model's paa_gains numeric needs 3 values: kD kP kV")
-    kD, kP, kV = (float(v) for v in model.numeric_data[adr:adr + size])
-    return {"kD": kD, "kP": kP, "kV": kV}
+    gains = {name: float(v) for name, v in zip(("kD", "kP", "kV"), model.numeric_data[adr:adr + size])}
+    for name, value in gains.items():
+        if not (np.isfinite(value) and value > 0):
+            raise PaaError(f"the model's paa_gains {name} = {value:g} must be a positive finite number")
+    return gains

@@ -24,6 +24,9 @@ STATE_NAMES = ("q1", "q2", "q3", "d1", "d2", "d3")
 #: Initial joint speeds above this [rad/s] (16 turns a second) describe no gymnast or robot of this model:
 #: kips stay below about 10 rad/s, and an integrator's cost grows with the speed.
 MAX_INITIAL_SPEED = 100.0
+#: Initial angles beyond this [rad] (1600 turns) are refused: the same posture is given by a wrapped angle,
+#: and far out, wrapping loses the digits that tell postures apart.
+MAX_INITIAL_ANGLE = 1e4
 
 PI = math.pi
 TWO_PI = 2.0 * math.pi

@@ -9,6 +9,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
+from ..control.gains import check_gain_range
 from ..control.closed_loop import duu_eigenvalues
 from ..model.dynamics import AnalyticModel
 from ..theory.conditions import constraint_54, frozen_acrobot_controllable, thresholds
@@ -46,6 +47,7 @@ class TheoryReport:
 
 def theory_report(am: AnalyticModel, kD, kP, kV) -> TheoryReport:
     """Compute every condition of Theorem 1, the linear analysis at UDD and the closed loop at DUU."""
+    check_gain_range(kD, kP, kV)
     kd, e1, e2 = thresholds(am)
     c54 = constraint_54(am)
     frozen_ok, db_min, db_max = frozen_acrobot_controllable(am)

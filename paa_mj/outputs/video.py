@@ -178,7 +178,13 @@ def write_video(path, frame_source, fps, width, height):
             with mediapy.VideoWriter(tmp, shape=(height, width), fps=fps, codec=codec) as writer:
                 for frame in frame_source:
                     writer.add_image(frame)
-    except (OSError, RuntimeError, BrokenPipeError) as err:
+    except (OSError, RuntimeError) as err:
+        # Ctrl-C to the process group stops ffmpeg too; its failure on closing then hides the interruption
+        cause = err.__context__
+        while cause is not None and not isinstance(cause, KeyboardInterrupt):
+            cause = cause.__context__
+        if cause is not None:
+            raise cause from None
         raise PaaError(f"cannot write video {path}: {' '.join(str(err).split())}") from None
     return path
 

@@ -14,7 +14,7 @@ import numpy as np
 from scipy.integrate import DOP853, LSODA, RK45, Radau
 from tqdm import tqdm
 
-from ..control.base import reset_controller, torque_of
+from ..control.base import mode_of, reset_controller, torque_of
 from ..control.combined import CombinedController
 from ..errors import PaaError, SimulationDiverged
 from ..model.robot import Robot
@@ -25,13 +25,18 @@ from .rollout import describe_controller, trajectory_quantities
 from .trajectory import Trajectory
 
 
+#: Smallest step of the adaptive integrator [s]; a smooth closed loop of this model takes steps of 1e-5 s or more.
+MIN_STEP = 1e-10
+
+
 def _phases(controller):
     """The laws of the run, in order, and the condition that ends the first (None: one law)."""
     if isinstance(controller, CombinedController):
         if not callable(getattr(controller.condition, "margin", None)):
             raise PaaError("the analytic engine needs a switching condition with a margin (an ODE event)")
         return [controller.first, controller.second], controller.condition
-    if hasattr(controller, "mode") and not isinstance(controller.mode, (int, np.integer)):
+    mode_of(controller, (1,))  # a mode that cannot be read, or is not an integer, is refused in one line
+    if not isinstance(getattr(controller, "mode", 0), (int, np.integer)):
         raise PaaError(f"the analytic engine cannot integrate {type(controller).__name__}: it keeps a state that"
                        " is not a switching condition; use --engine mujoco")
     return [controller], None
@@ -101,7 +106,8 @@ def simulate_analytic(robot: Robot, controller="vcl", x0=X0_HANGING, t_final: fl
         return f
 
     def margin(t, x):
-        return np.asarray(condition.margin(x[:3].T, x[3:].T, t), dtype=float)
+        # one margin per state, also for a condition of time alone (a scalar)
+        return np.broadcast_to(np.asarray(condition.margin(x[:3].T, x[3:].T, t), dtype=float), x.shape[1:])
 
     t_eval = np.arange(0.0, t_final + 0.5 * sample_dt, sample_dt)
     t_eval = t_eval[t_eval <= t_final]
@@ -122,6 +128,12 @@ def simulate_analytic(robot: Robot, controller="vcl", x0=X0_HANGING, t_final: fl
                 solver.step()
                 if solver.status == "failed":
                     failure = "the integrator failed (step size below its limit)"
+                    break
+                if solver.step_size is not None and solver.step_size < MIN_STEP and solver.t < t_final:
+                    # SciPy's own floor is relative to t, none near t = 0: a law that jumps (a wrapped angle
+                    # at +-pi, a bang-bang rule) would be chased for ever
+                    failure = (f"the integrator's step fell below {MIN_STEP:g} s (a torque law that jumps, or"
+                               " a stiff closed loop): use --engine mujoco")
                     break
                 if np.any(np.abs(solver.y[3:]) > MAX_SPEED):
                     failure = STATUS_TEXT[RUNAWAY]
@@ -157,7 +169,7 @@ def simulate_analytic(robot: Robot, controller="vcl", x0=X0_HANGING, t_final: fl
     e_err, V = trajectory_quantities(controller, robot, q, qd)
     traj = Trajectory(t, q, qd, tau, e_err, V, mode, switch_time,
                       meta={"robot": robot.name, "engine": "analytic", "integrator": f"solve_ivp {method}",
-                            "dt": None, "rtol": rtol, "x0": x0.tolist(), "t_final": float(t_final),
+                            "dt": None, "sample_dt": sample_dt, "rtol": rtol, "x0": x0.tolist(), "t_final": float(t_final),
                             **describe_controller(controller),
                             "torque_limit": None if np.all(np.isinf(limits)) else limits.tolist()})
     if failure or not np.all(np.isfinite(X)):

@@ -22,7 +22,7 @@ from ..control.registry import ControllerSpec
 from ..errors import PaaError
 from ..limits import check_memory, check_steps, positive_finite
 from ..model.robot import Robot
-from ..model.states import MAX_INITIAL_SPEED, udd_error
+from ..model.states import MAX_INITIAL_ANGLE, MAX_INITIAL_SPEED, udd_error
 from . import engine
 from .engine import (DIVERGED, F_D1, F_INT_TAU2, F_Q1, F_SMOOTH, F_SPEED, F_TAU2, F_TAU3, F_WORK, I_MODE,
                      I_OUTSIDE, I_REGION, I_STATUS, I_STEP, I_SWITCH, N_PUSH, N_SETUP, RETIRED, FINISHED,
@@ -114,7 +114,7 @@ def check_initial_states(x0) -> np.ndarray:
         raise PaaError(f"initial states must be an (N, 6) array of q1 q2 q3 d1 d2 d3, got shape {x0.shape}")
     if not np.all(np.isfinite(x0)):
         raise PaaError("initial states must be finite")
-    _check_initial_speeds(x0)
+    _check_initial_magnitudes(x0)
     return x0
 
 
@@ -125,11 +125,15 @@ def check_initial_state(x0) -> np.ndarray:
         raise PaaError(f"initial state needs 6 numbers (q1 q2 q3 d1 d2 d3), got {x0.size}")
     if not np.all(np.isfinite(x0)):
         raise PaaError(f"initial state must be finite, got {x0.tolist()}")
-    _check_initial_speeds(x0[None])
+    _check_initial_magnitudes(x0[None])
     return x0[None]
 
 
-def _check_initial_speeds(x0):
+def _check_initial_magnitudes(x0):
+    farthest = float(np.max(np.abs(x0[:, :3])))
+    if farthest > MAX_INITIAL_ANGLE:
+        raise PaaError(f"initial angle {farthest:g} rad is beyond {MAX_INITIAL_ANGLE:g} rad: give it wrapped to"
+                       " (-pi, pi]")
     fastest = float(np.max(np.abs(x0[:, 3:])))
     if fastest > MAX_INITIAL_SPEED:
         raise PaaError(f"initial joint speed {fastest:g} rad/s is above {MAX_INITIAL_SPEED:g} rad/s, faster than any"
@@ -146,12 +150,19 @@ def steps_for(t_final, dt):
 
 
 def sample_interval(sample_dt, dt, t_final):
-    """Steps between two recorded samples; the interval must not exceed the run."""
+    """Steps between two recorded samples: the interval must not exceed the run, and must be a whole number of
+    time steps (an interval shorter than one step records every step)."""
     t_final = positive_finite("final time", t_final, allow_none=False)
     sample_dt = positive_finite("sample interval", sample_dt, allow_none=False)
     if sample_dt > t_final:
         raise PaaError(f"sample interval {sample_dt:g} s is longer than the run ({t_final:g} s): lower --sample-dt")
-    return max(1, int(round(sample_dt / dt)))
+    steps = sample_dt / dt
+    if steps < 1:  # finer than the time step: every step is recorded (the trajectory's sample_dt says so)
+        return 1
+    if abs(steps - round(steps)) > 1e-9 * steps:
+        raise PaaError(f"sample interval {sample_dt:g} s is not a whole number of time steps (dt = {dt:g} s):"
+                       " give a multiple of the time step")
+    return int(round(steps))
 
 
 def controllers_for(robot: Robot, controller, n) -> list:

@@ -49,6 +49,7 @@ import numpy as np
 from numba import njit, types
 from tqdm import tqdm
 
+from .mujoco_log import mujoco_log_off
 from ..control.base import KERNEL_TYPE, CompiledForm, SwitchedForm, kernel, mode_of, reset_controller, torque_of
 from ..control.region import BALANCE_TOL, inside_region
 from ..errors import PaaError
@@ -568,12 +569,13 @@ def run(plan: Plan, controllers, nthread=None, progress=False, desc="rollouts") 
     interrupted = False
     bar = tqdm(total=n, unit="rollout", desc=desc, disable=None if progress else True, leave=False)
     try:
-        if compiled_rows:
-            interrupted = _run_compiled(plan, controllers, forms, compiled_rows, arrays, nthread, bar)
-        for rows in python_groups.values():
-            if interrupted:
-                break
-            interrupted = _run_python(plan, controllers[rows[0]], rows, arrays, bar)
+        with mujoco_log_off():
+            if compiled_rows:
+                interrupted = _run_compiled(plan, controllers, forms, compiled_rows, arrays, nthread, bar)
+            for rows in python_groups.values():
+                if interrupted:
+                    break
+                interrupted = _run_python(plan, controllers[rows[0]], rows, arrays, bar)
     finally:
         bar.close()
     running = arrays.istate[:, I_STATUS] == RUNNING

@@ -85,7 +85,7 @@ def simulate_mujoco(robot: Robot, controller="vcl", x0: ArrayLike = X0_HANGING, 
     traj = Trajectory(s["t"].copy(), s["q"].copy(), s["qd"].copy(), s["tau"].copy(), e_err, V, s["mode"].copy(),
                       None if np.isnan(switch) else float(switch),
                       meta={"robot": robot.name, "engine": "mujoco", "integrator": integrator_name(model), "dt": dt,
-                            "x0": x0[0].tolist(), "t_final": float(t_final), **describe_controller(controllers[0]),
+                            "sample_dt": every * dt, "x0": x0[0].tolist(), "t_final": float(t_final), **describe_controller(controllers[0]),
                             "torque_limit": _limit_meta(plan)})
     when = float(out["t_end"][0])
     if status in engine.DIVERGED:

@@ -59,7 +59,7 @@ class Trajectory:
             "final_state": self.final_state.tolist() if len(self) else [],
             "E_minus_Er_final": float(self.E_minus_Er[-1]) if len(self) else None,
             "V_final": float(self.V[-1]) if len(self) else None,
-            "max_abs_tau": np.max(np.abs(self.tau), axis=0).tolist() if len(self) else [0.0, 0.0],
+            "max_abs_tau": np.max(np.abs(self.tau), axis=0).tolist() if len(self) else None,
             "samples": len(self),
             **self.meta,
         }

@@ -7,7 +7,7 @@ with it. For every robot of the family:
 
 - the theory: E_r (9), constraint (54) (holds, f_min, f_max), the range of
   deltabar (30), linear controllability at UDD, kD_min (41), eta1 (59), eta2 (60);
-- gains by one rule (:func:`gain_rule`) that meets Theorem 1's bounds wherever
+- gains by one rule (:func:`~paa_mj.control.gains.gain_rule`) that meets Theorem 1's bounds wherever
   they are finite: kD = 1.05 kD_min, kP = 1.05 max(eta1, eta2), and kV in the base
   robot's ratio kV / kD (kV = kD when the base stores no gains);
 - with ``simulate``: the kip from (65) and from N random starts in MuJoCo through
@@ -34,6 +34,7 @@ from ..model.robot import Robot
 from ..model.states import X0_HANGING
 from ..theory.conditions import constraint_54, eta1, eta2, frozen_acrobot_controllable, kd_min
 from ..control.closed_loop import duu_eigenvalues
+from ..control.gains import gain_rule
 from ..theory.linear import lqr_gain, sampled_spectral_radius, udd_controllability
 from .basin import OUTCOME_NAMES, classify
 from .runner import RolloutSet, map_chunks, run_study
@@ -42,8 +43,6 @@ from .store import ChunkStore, study_key
 PARAMETERS = ("m1", "m2", "m3", "l1", "l2", "l3")
 DEFAULT_RANGE = (0.25, 4.0)
 MAX_GRID = 256
-#: Gains of the rule: this much above each bound.
-MARGIN = 1.05
 OUTCOMES = OUTCOME_NAMES
 THEORY_CHUNK = 32
 START_SPREAD = (np.pi, 1.0)  # random starts: angles uniform over a full turn, speeds within +-1 rad/s
@@ -86,13 +85,6 @@ def grid_factors(low, high, grid):
     near_one = np.isclose(factors, 1.0, rtol=1e-9)
     factors[near_one] = 1.0
     return factors
-
-
-def gain_rule(kd, e1, e2, base_gains):
-    """The atlas's gains: kD = 1.05 kD_min, kP = 1.05 max(eta1, eta2), kV = kD x (kV / kD of the base)."""
-    ratio = base_gains["kV"] / base_gains["kD"] if base_gains else 1.0
-    kD = MARGIN * kd
-    return {"kD": kD, "kP": MARGIN * max(e1, e2), "kV": ratio * kD}
 
 
 def robot_theory(params: RobotParams, base_gains=None, dt=1e-3) -> dict:

@@ -86,13 +86,17 @@ def basin(robot: Robot, axes: tuple[int, int] = (0, 1), grid: int = 64, t_final:
     success = result.success()
     switched = result.switch_time[np.isfinite(result.switch_time)]
     outcome = classify(result)
+
+    def fraction(mask):  # over the finished runs: an interrupted study says nothing of the others
+        return float(np.mean(mask[completed])) if completed.any() else None
+
     summary = {
         "robot": robot.name, "controller": spec.short_name, "axes": [COORDINATES[a] for a in axes], "grid": grid,
         "cells": int(grid * grid), "t_final": t_final, "t_reached": result.t_reached,
         "interrupted": result.interrupted, "completed_fraction": float(np.mean(completed)),
-        "success_fraction": float(np.mean(success)),
-        "switched_fraction": float(np.mean(np.isfinite(result.switch_time))),
-        "diverged_fraction": float(np.mean(result.diverged)),
+        "success_fraction": fraction(success),
+        "switched_fraction": fraction(np.isfinite(result.switch_time)),
+        "diverged_fraction": fraction(result.diverged),
         "median_switch_time": float(np.median(switched)) if switched.size else None,
         "outcomes": {name: int(np.sum(outcome[completed] == code)) for code, name in enumerate(OUTCOME_NAMES)},
     }

@@ -20,6 +20,8 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import signal
+import sys
 import warnings
 from dataclasses import dataclass, field
 
@@ -233,6 +235,31 @@ def _quiet_dask():
             logging.getLogger(name).setLevel(level)
 
 
+@contextlib.contextmanager
+def _workers_ignore_ctrl_c():
+    """Worker processes started inside the block ignore Ctrl-C (they inherit the ignored signal).
+
+    Ctrl-C in a terminal reaches the whole process group: the workers would each
+    print a traceback, while this process is the one that stops them and keeps
+    their finished chunks. Workers stopped that way leave semaphores that
+    multiprocessing's resource tracker (started here, with these warning options)
+    cleans up; its warning about them is not news either.
+    """
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    quiet_tracker = "ignore:resource_tracker:UserWarning"
+    sys.warnoptions.append(quiet_tracker)
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+        sys.warnoptions.remove(quiet_tracker)
+
+
 def _run_on_dask(task, shared, payloads, todo, scheduler, finished, store, bar):
     from distributed import Client, LocalCluster, as_completed
 
@@ -242,8 +269,10 @@ def _run_on_dask(task, shared, payloads, todo, scheduler, finished, store, bar):
         try:
             if scheduler == "local":
                 try:
-                    cluster = LocalCluster(n_workers=None, threads_per_worker=1, processes=True, host="127.0.0.1",
-                                           dashboard_address=None, silence_logs=logging.CRITICAL)
+                    with _workers_ignore_ctrl_c():
+                        cluster = LocalCluster(n_workers=None, threads_per_worker=1, processes=True,
+                                               host="127.0.0.1", dashboard_address=None,
+                                               silence_logs=logging.CRITICAL)
                 except Exception as err:  # a worker that cannot start raises several types
                     raise PaaError(f"cannot start a local Dask cluster ({type(err).__name__}:"
                                    f" {' '.join(str(err).split())}); use --scheduler inline") from None

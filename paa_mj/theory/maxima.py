@@ -25,6 +25,18 @@ class Maximum:
     grid_value: float
 
 
+def _evaluate(fun, mesh):
+    """``fun`` on a grid, its non-finite values no candidates for the maximum.
+
+    The functions of (59) and (60) are 0/0 where Phi or beta2bar vanishes (y = pi with b1 = beta2bar(z);
+    z = pi with b2 = b3), and bounded near those points; in floating point, sin(pi) = 1.2e-16 turns the 0/0
+    into +-inf or NaN.
+    """
+    with np.errstate(divide="ignore", invalid="ignore"):
+        values = np.asarray(fun(*mesh), dtype=float)
+    return np.where(np.isfinite(values), values, -np.inf)
+
+
 def grid_maximum(fun, bounds, n=(121, 121), periodic=None, n_starts=6, zoom=21, tol=1e-11):
     """Maximise ``fun`` over a box: a coarse grid, then zoomed grids around its best local maxima.
 
@@ -50,8 +62,7 @@ def grid_maximum(fun, bounds, n=(121, 121), periodic=None, n_starts=6, zoom=21, 
     dim = len(bounds)
     periodic = periodic or (False,) * dim
     axes = [np.linspace(lo, hi, k) for (lo, hi), k in zip(bounds, n)]
-    values = np.asarray(fun(*np.meshgrid(*axes, indexing="ij")), dtype=float)
-    values = np.where(np.isfinite(values), values, -np.inf)
+    values = _evaluate(fun, np.meshgrid(*axes, indexing="ij"))
     order = np.argsort(values, axis=None)[::-1]
     starts, taken = [], np.zeros(values.shape, bool)
     for flat in order:
@@ -76,8 +87,7 @@ def grid_maximum(fun, bounds, n=(121, 121), periodic=None, n_starts=6, zoom=21, 
             grids = [centre[d] + half[d] * offsets for d in range(dim)]
             grids = [g if periodic[d] else np.clip(g, lows[d], highs[d]) for d, g in enumerate(grids)]
             mesh = np.meshgrid(*grids, indexing="ij")
-            local = np.asarray(fun(*mesh), dtype=float)
-            local = np.where(np.isfinite(local), local, -np.inf)
+            local = _evaluate(fun, mesh)
             best = np.unravel_index(int(np.argmax(local)), local.shape)
             if local[best] >= value:
                 value, centre = float(local[best]), np.array([mesh[d][best] for d in range(dim)])

@@ -1,5 +1,7 @@
 """The command line explains itself: every option has help, defaults and allowed values are shown."""
 import argparse
+import sys
+from pathlib import Path
 
 import pytest
 
@@ -49,3 +51,30 @@ def test_view_has_no_options_it_would_ignore(command):
     sub = _subparsers(build_parser())[command]
     flags = {flag for action in sub._actions for flag in action.option_strings}
     assert "--engine" not in flags and "--sample-dt" not in flags
+
+
+def test_every_commands_help_renders_its_own_text():
+    for name, sub in _subparsers(build_parser()).items():
+        text = sub.format_help()
+        assert "option_strings" not in text and "%(" not in text, name  # a stray % in a help string
+
+
+CLI_DOC = Path(__file__).resolve().parents[1] / "docs" / "cli.md"
+
+
+def test_docs_list_every_option_of_every_command():
+    doc = CLI_DOC.read_text()
+    for name, sub in _subparsers(build_parser()).items():
+        section = doc.split(f"### {name}\n", 1)[1].split("\n### ", 1)[0]
+        for action in sub._actions:
+            for flag in action.option_strings:
+                assert flag in section, f"docs/cli.md does not show {name} {flag}"
+
+
+@pytest.mark.skipif(sys.version_info[:2] != (3, 11), reason="argparse lays out help differently in other Pythons;"
+                                                           " docs/cli.md is written with 3.11")
+def test_docs_cli_reference_is_what_the_parser_prints():
+    from paa_mj.cli.reference import with_reference
+
+    assert CLI_DOC.read_text() == with_reference(CLI_DOC.read_text()), \
+        "docs/cli.md is stale: run python -m paa_mj.cli.reference docs/cli.md"

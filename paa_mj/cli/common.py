@@ -109,7 +109,8 @@ def robot_parent(default="gymnast"):
 
 def gains_parent(stored="the robot's stored gains"):
     p = argparse.ArgumentParser(add_help=False)
-    p.add_argument("--kD", type=positive, help=f"gain kD of (40)/(12) [J kg m^2] (default: {stored})")
+    shown = stored.replace("%", "%%")  # argparse formats help with %
+    p.add_argument("--kD", type=positive, help=f"gain kD of (40)/(12) [J kg m^2] (default: {shown})")
     p.add_argument("--kP", type=positive, help="gain kP of (40)/(12) [J^2/rad^2] (default: as --kD)")
     p.add_argument("--kV", type=positive, help="gain kV of (40)/(12) [J^2 s/rad^2] (default: as --kD)")
     return p

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import math
 import os
 import signal
 import tempfile
@@ -97,7 +98,7 @@ def write_text(path, text: str):
 
 
 def write_json(path, obj):
-    write_text(path, json.dumps(obj, indent=2, default=_json_default) + "\n")
+    write_text(path, dumps(obj, indent=2) + "\n")
 
 
 def write_npz(path, **arrays):
@@ -131,8 +132,28 @@ def _json_default(obj):
     raise TypeError(f"not JSON serialisable: {type(obj).__name__}")
 
 
-def dumps(obj) -> str:
-    return json.dumps(obj, default=_json_default)
+def strict_json(obj):
+    """``obj`` with NumPy values as Python ones and NaN/inf as None, for strict JSON.
+
+    JSON has no NaN or Infinity; Python would write them anyway and break every strict
+    reader, so an undefined number (V without an energy law, say) is written as null.
+    """
+    if isinstance(obj, dict):
+        return {key: strict_json(value) for key, value in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [strict_json(value) for value in obj]
+    if isinstance(obj, np.ndarray):
+        return strict_json(obj.tolist())
+    if isinstance(obj, np.generic):
+        return strict_json(obj.item())
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    return obj
+
+
+def dumps(obj, **options) -> str:
+    """Strict JSON text of ``obj`` (see :func:`strict_json`)."""
+    return json.dumps(strict_json(obj), allow_nan=False, default=_json_default, **options)
 
 
 def write_set(folder, writers: dict):
@@ -178,7 +199,7 @@ def npz_writer(**arrays):
 
 
 def json_writer(obj):
-    return lambda path: path.write_text(json.dumps(obj, indent=2, default=_json_default) + "\n")
+    return lambda path: path.write_text(dumps(obj, indent=2) + "\n")
 
 
 class OutputLock:

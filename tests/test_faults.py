@@ -385,6 +385,16 @@ CONTRADICTIONS_AND_RANGES = [
     (["render", "--out", "clip.gif/"], "names a folder"),
     (["make-model", "--m", "1", "1", "1", "--l", "1", "1", "1", "--name", "a\nb", "--out", "x.xml"],
      "control characters"),
+    (["make-model", "--m", "1", "1", "1", "--l", "1", "1", "1", "--kD", "1", "--kP", "1", "--kV", "1", "--out", "x.xml"],
+     "kD = 1 is not above kD_min = 53.4"),
+    (["render", "--t-final", "1", "--fps", "200", "--out", "clip.gif"], "a GIF plays between"),
+    (["render", "--t-final", "1", "--fps", "0.001", "--out", "clip.gif"], "a GIF plays between"),
+    (["robustness", "--factors=", "--trials", "2"], "no robustness factor given"),
+    (["robustness", "--factors", "model_error", "--model-error", "99.9", "--trials", "2"], "must lie in [0, 90]"),
+    (["robustness", "--factors", "torque_limit", "--controller", "passive", "--trials", "2", "--t-final", "1",
+      "--scheduler", "inline"], "passive uses no torque there"),
+    (["simulate", "--controller", "trajopt-effort", "--kip-duration", "1e6", "--t-final", "1"],
+     "a kip duration must be in (0, 120] s"),
 ]
 
 
@@ -431,3 +441,89 @@ def test_a_folder_of_another_commands_results_is_refused(tmp_path, run):
     _one_line_error(run("simulate", "--t-final", "0.05", "--out", out), "holds the results of 'paa-mj basin'")
     assert {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()} == before
     assert run("basin", "--grid", "2", "--t-final", "0.05", "--scheduler", "inline", "--out", out).returncode == 0
+
+
+PRINTING_AND_FAILING = USER_CONTROLLERS + '''
+
+class Chatty(_Zero):
+    def __init__(self, robot=None):
+        print("hello from __init__")
+
+    def torque(self, q, qd, t=0.0):
+        print("tick", t)
+        return np.zeros(np.shape(q)[:-1] + (2,))
+
+
+class LateNaN(_Zero):
+    def torque(self, q, qd, t=0.0):
+        return np.full(np.shape(q)[:-1] + (2,), np.nan if t > 0.05 else 0.0)
+
+
+class Damped(_Zero):
+    def torque(self, q, qd, t=0.0):
+        return -10.0 * qd[..., 1:]
+'''
+
+
+def _strict(text):
+    def refuse(constant):
+        raise ValueError(f"{constant} is not JSON")
+    return json.loads(text, parse_constant=refuse)
+
+
+def test_json_is_strict_and_alone_on_stdout(tmp_path, run):
+    (tmp_path / "mine.py").write_text(PRINTING_AND_FAILING)
+    proc = run("simulate", "--controller", f"{tmp_path}/mine.py:Chatty", "--t-final", "0.05", "--json")
+    assert proc.returncode == 0, proc.stderr
+    summary = _strict(proc.stdout)  # one object: the controller's prints went to stderr
+    assert summary["V_final"] is None  # no energy law: V is undefined, written as null rather than NaN
+    assert "hello from __init__" in proc.stderr and "tick" in proc.stderr
+
+
+@pytest.mark.parametrize("engine", ["mujoco", "analytic"])
+def test_a_diverged_run_prints_what_it_computed_as_json(engine, tmp_path, run):
+    (tmp_path / "mine.py").write_text(PRINTING_AND_FAILING)
+    proc = run("simulate", "--engine", engine, "--controller", f"{tmp_path}/mine.py:LateNaN", "--t-final", "1",
+               "--json")
+    _one_line_error(proc, "the controller returned a non-finite torque", code=3)
+    summary = _strict(proc.stdout)
+    assert summary["status"].startswith("diverged at t = 0.0") and summary["final_time"] < 0.06
+
+
+def test_a_file_that_is_not_a_trajectory_is_named_so(tmp_path, run):
+    (tmp_path / "summary.json").write_text("{}")
+    _one_line_error(run("render", "--from", tmp_path / "summary.json", "--out", tmp_path / "v.gif"),
+                    "not an .npz archive")
+
+
+def test_two_controllers_that_would_share_result_files_are_refused(tmp_path, run):
+    for folder in ("a", "b"):
+        (tmp_path / folder).mkdir()
+        (tmp_path / folder / "mine.py").write_text(PRINTING_AND_FAILING)
+    _one_line_error(run("compare", "--controllers", f"{tmp_path}/a/mine.py:Damped,{tmp_path}/b/mine.py:Damped",
+                        "--quick", "--scheduler", "inline"), "would share the name mine_py_Damped")
+
+
+def test_a_diverging_kip_is_no_torque_scale(gymnast):
+    from paa_mj.errors import PaaError
+    from paa_mj.sim.batch import kip_peak_torques
+
+    class Kick:
+        def torque(self, q, qd, t=0.0):
+            return np.full(np.shape(q)[:-1] + (2,), 1e12)
+
+    with pytest.raises(PaaError, match=r"the kip of Kick from \(65\) diverged at t = "):
+        kip_peak_torques(gymnast, Kick(), t_final=1.0)
+
+
+def test_a_chunk_that_saw_the_interrupt_is_kept_and_the_study_stops():
+    from paa_mj.studies.runner import map_chunks
+
+    calls = []
+
+    def task(shared, payload):
+        calls.append(payload)
+        return {"value": payload, "interrupted": payload == 1}  # the signal came as chunk 1 ended
+
+    finished, interrupted = map_chunks(task, [0, 1, 2, 3])
+    assert interrupted and calls == [0, 1] and finished == {0: {"value": 0}, 1: {"value": 1}}

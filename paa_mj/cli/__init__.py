@@ -15,7 +15,7 @@ import warnings
 
 from ..errors import PaaError, SimulationDiverged, StudyIncomplete
 from .common import EXIT_BAD_INPUT, EXIT_DIVERGED, EXIT_INCOMPLETE, Parser, install_signal_handlers, interrupt_code, \
-    interrupt_name, note
+    interrupt_name, json_only_on_stdout, note
 
 DESCRIPTION = """\
 The three-link gymnast of Liu & Xin (2015) on a high bar, in MuJoCo: the model,
@@ -74,7 +74,8 @@ def main(argv=None):
                 args = build_parser().parse_args(argv)
             except SystemExit as exit_:  # --help and --version
                 return exit_.code or 0
-            code = args.func(args)
+            with json_only_on_stdout() if getattr(args, "json", False) else contextlib.nullcontext():
+                code = args.func(args)
             sys.stdout.flush()  # a write that fails (a full disk) fails here, where it is reported
             return code
     except SimulationDiverged as err:

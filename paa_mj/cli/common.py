@@ -193,10 +193,25 @@ def spec_from_args(args, robot, name=None):
     return ControllerSpec(name, tuple(robot.resolve_gains(**given).values()), options=tuple(options))
 
 
+_json_stdout = None
+
+
+@contextlib.contextmanager
+def json_only_on_stdout():
+    """Standard output kept for the JSON object: anything else printed meanwhile (a user's
+    controller, say) goes to stderr, so that ``--json`` output stays one parseable object."""
+    global _json_stdout
+    _json_stdout, sys.stdout = sys.stdout, sys.stderr
+    try:
+        yield
+    finally:
+        sys.stdout, _json_stdout = _json_stdout, None
+
+
 def print_json(obj):
     from ..io import dumps
 
-    print(dumps(obj))
+    print(dumps(obj), file=_json_stdout or sys.stdout)
 
 
 def note(message):

@@ -57,6 +57,8 @@ def cmd_simulate(args):
         try:
             _, traj = run_from_args(args, progress=not args.json)
         except SimulationDiverged as err:
+            if args.json and err.trajectory is not None and len(err.trajectory):
+                print_json(err.trajectory.summary())  # what was computed, with its status, as for an interrupt
             if args.out and err.trajectory is not None and len(err.trajectory):
                 err.trajectory.save(args.out)
                 raise SimulationDiverged(f"{err} (kept {len(err.trajectory)} samples in {args.out})") from None
@@ -100,18 +102,21 @@ def cmd_render(args):
                            " contradict it")
     backend = select_backend(args.gl)  # before anything imports mujoco's GL
     from ..model.robot import load_robot
-    from ..outputs.video import check_video_request, render_trajectory
+    from ..outputs.video import check_fps_for, check_video_request, render_trajectory
     from ..sim.trajectory import Trajectory
+
+    check_fps_for(out, args.fps)  # before the simulation it would waste
 
     if args.from_file:
         traj = Trajectory.load(args.from_file)
         saved = traj.meta.get("robot")
         robot = load_robot(args.robot or (saved if saved in ("gymnast", "example2") else "gymnast"))
         if saved is not None and saved != robot.name:
-            raise PaaError(f"{args.from_file} is a trajectory of robot {saved!r}, not of --robot {args.robot}")
+            raise PaaError(f"{args.from_file} is a trajectory of robot {saved!r}, not of --robot {robot.name}"
+                           + ("" if args.robot else ": give --robot PATH.xml, the model it was simulated with"))
     else:
         robot, traj = run_from_args(args, progress=True)
-    check_video_request(traj, args.fps, args.width, args.height)
+    check_video_request(traj, args.fps, args.width, args.height, out)
     render_trajectory(robot, traj, out, fps=args.fps, width=args.width, height=args.height, camera=args.camera,
                       progress=True)
     print(f"wrote {out} ({backend}, {args.fps:g} fps, {args.width}x{args.height})")

@@ -40,6 +40,8 @@ from ..model.states import Q_UDD, X0_HANGING
 OBJECTIVES = ("min-time", "min-effort")
 #: Collocation intervals by default.
 INTERVALS = 100
+#: The longest kip planned [s].
+MAX_DURATION = 120.0
 #: Bounds on the time of a min-time kip [s].
 TIME_RANGE = (0.2, 20.0)
 CACHE_VERSION = 1
@@ -173,6 +175,10 @@ def solve_kip(am: AnalyticModel, bound, objective="min-time", duration=None, int
         raise PaaError(f"torque bounds of the kip must be finite and > 0, got {bound.tolist()}")
     if objective == "min-effort" and not (duration is not None and np.isfinite(duration) and duration > 0):
         raise PaaError("a min-effort kip needs a duration > 0 [s]")
+    if duration is not None and not (np.isfinite(duration) and 0 < duration <= MAX_DURATION):
+        raise PaaError(f"a kip duration must be in (0, {MAX_DURATION:g}] s (the paper's kip takes about 20 s, an"
+                       f" optimised one 2 to 3 s), got {duration:g}; longer plans would need their TVLQR's Riccati"
+                       " solution stored over the whole duration")
     if not (isinstance(intervals, (int, np.integer)) and 4 <= intervals <= 2000):
         raise PaaError(f"collocation intervals must be an integer in [4, 2000], got {intervals}")
     x0 = np.asarray(x0, float)
@@ -230,6 +236,8 @@ def _solve(am, bound, objective, duration, intervals, x0, xN, max_iter) -> Kip:
         sol = opti.solve()
     except RuntimeError:
         status = opti.debug.stats().get("return_status", "failed")
+        if status == "NonIpopt_Exception_Thrown":  # this NLP has no Python callbacks: only Ctrl-C/SIGTERM throws
+            raise KeyboardInterrupt from None
         raise PaaError(f"the {objective} kip did not converge (IPOPT: {status}) with torque bounds"
                        f" {bound.round(3).tolist()} N m" + (f" and duration {duration:g} s" if objective == "min-effort"
                                                              else "") + "; try higher bounds, a longer duration or"

@@ -59,7 +59,7 @@ def leaderboard_markdown(summary) -> str:
             r = row["robustness"][f]
             cells.append("-" if r["rate"] is None else f"{100 * r['rate']:.0f} % [{100 * r['low']:.0f}, {100 * r['high']:.0f}]")
         lines.append(f"| {name} | " + " | ".join(cells) + f" | {_cell(row['robustness_score'], '.2f')} |"
-                     f" {100 * row['reach']:.0f} % |")
+                     f" {'-' if row['reach'] is None else format(100 * row['reach'], '.0f') + ' %'} |")
     if summary["versus_vcl"]:
         lines += ["", "## Against the paper's controller", ""]
         for name, ratio in summary["versus_vcl"].items():

@@ -115,22 +115,35 @@ class GymnastRenderer:
         return self.renderer.render()
 
 
-#: The most frames one video may have (about 1.9 h at 30 fps); beyond, rendering would take hours.
+#: The most frames of 640 x 480 one video may have (about 1.9 h at 30 fps); beyond, rendering would take hours.
 MAX_FRAMES = 200_000
-#: Rendering cost per frame assumed when a request is refused [s].
+#: Rendering cost per frame of 640 x 480 assumed when a request is refused [s]; larger frames cost in proportion.
 FRAME_SECONDS = 0.01
+#: GIF frame delays are whole hundredths of a second, at most 65535 (and players slow delays below 2 down).
+GIF_FPS_RANGE = (100.0 / 65535, 50.0)
 
 
-def check_video_request(traj: Trajectory, fps, width, height):
+def check_video_request(traj: Trajectory, fps, width, height, path=None):
     """Refuse a video that would take too long, before anything is rendered (frames are streamed to disk)."""
     if not (np.isfinite(fps) and fps > 0):
         raise PaaError(f"--fps must be a positive finite number, got {fps}")
+    if path is not None:
+        check_fps_for(path, fps)
     frames = int(np.floor(float(traj.t[-1]) * fps)) + 1
-    if frames > MAX_FRAMES:
-        hours = frames * FRAME_SECONDS / 3600
-        raise PaaError(f"would need {frames} frames (about {hours:.3g} h to render, the limit is {MAX_FRAMES});"
-                       " lower --fps or --t-final")
+    cost = frames * max(1.0, width * height / (640 * 480))  # in frames of 640 x 480
+    if cost > MAX_FRAMES:
+        hours = cost * FRAME_SECONDS / 3600
+        raise PaaError(f"would need {frames} frames of {width} x {height} (about {hours:.3g} h to render, the limit"
+                       f" is {MAX_FRAMES * FRAME_SECONDS / 3600:.3g} h); lower --fps, --t-final or the size")
     return frames
+
+
+def check_fps_for(path, fps):
+    """A GIF cannot play faster than 50 frames per second or slower than one frame in 655 s."""
+    low, high = GIF_FPS_RANGE
+    if Path(path).suffix.lower() == ".gif" and not (low <= fps <= high):
+        raise PaaError(f"a GIF plays between {low:.3g} and {high:g} frames per second, got --fps {fps:g}:"
+                       " choose a rate in that range or write an .mp4")
 
 
 def frames(robot: Robot, traj: Trajectory, fps=30, width=640, height=480, camera="side", progress=False):
@@ -171,6 +184,7 @@ def write_video(path, frame_source, fps, width, height):
     path = Path(path)
     if path.suffix.lower() not in VIDEO_SUFFIXES:
         raise PaaError(f"video file must end in .mp4 or .gif, got {path.name}")
+    check_fps_for(path, fps)
     mediapy = _ffmpeg()
     codec = "gif" if path.suffix.lower() == ".gif" else "h264"
     try:

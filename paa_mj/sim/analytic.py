@@ -19,7 +19,7 @@ from ..control.combined import CombinedController
 from ..errors import PaaError, SimulationDiverged
 from ..model.robot import Robot
 from ..model.states import X0_HANGING
-from .engine import MAX_SPEED, RUNAWAY, STATUS_TEXT
+from .engine import MAX_SPEED, NONFINITE_TORQUE, RUNAWAY, STATUS_TEXT
 from .batch import check_initial_state, controllers_for, sample_interval, steps_for
 from .rollout import describe_controller, trajectory_quantities
 from .trajectory import Trajectory
@@ -27,6 +27,10 @@ from .trajectory import Trajectory
 
 #: Smallest step of the adaptive integrator [s]; a smooth closed loop of this model takes steps of 1e-5 s or more.
 MIN_STEP = 1e-10
+
+
+class _NonFiniteTorque(Exception):
+    """The controller returned NaN or inf where the integration starts."""
 
 
 def _phases(controller):
@@ -99,11 +103,21 @@ def simulate_analytic(robot: Robot, controller="vcl", x0=X0_HANGING, t_final: fl
     def law_torque(law, q, qd, t):
         return np.clip(torque_of(law, q[None], qd[None], t)[0], -limits, limits)
 
-    def field(law):
+    nonfinite_at = []  # times where the controller returned NaN or inf (the integrator then shrinks its step)
+
+    def field(law, start):
         def f(t, x):
             q, qd = x[:3], x[3:]
-            return np.concatenate([qd, am.acceleration(q, qd, law_torque(law, q, qd, t))])
+            tau = law_torque(law, q, qd, t)
+            if not np.all(np.isfinite(tau)):
+                if t == start:  # at the start itself no step helps, and SciPy's step floor is 0 at t = 0
+                    raise _NonFiniteTorque
+                nonfinite_at.append(t)
+            return np.concatenate([qd, am.acceleration(q, qd, tau)])
         return f
+
+    def stuck_on_nonfinite_torque(t):
+        return bool(nonfinite_at) and nonfinite_at[-1] - t < 1e-6
 
     def margin(t, x):
         # one margin per state, also for a condition of time alone (a scalar)
@@ -120,16 +134,21 @@ def simulate_analytic(robot: Robot, controller="vcl", x0=X0_HANGING, t_final: fl
     failure, interrupted, recorded = None, False, -np.inf
     try:
         while True:
-            solver = integrators[method](field(laws[phase]), t0, x, t_final, rtol=rtol, atol=atol)
+            solver = integrators[method](field(laws[phase], t0), t0, x, t_final, rtol=rtol, atol=atol)
             watch = phase == 0 and condition is not None
             segment_t, segment_x, entered = [], [], None
             while solver.status == "running":
                 t_old = solver.t
                 solver.step()
+                stuck = solver.status == "failed" or (solver.step_size is not None and solver.step_size < MIN_STEP
+                                                      and solver.t < t_final)
+                if stuck and stuck_on_nonfinite_torque(solver.t):
+                    failure = STATUS_TEXT[NONFINITE_TORQUE]
+                    break
                 if solver.status == "failed":
                     failure = "the integrator failed (step size below its limit)"
                     break
-                if solver.step_size is not None and solver.step_size < MIN_STEP and solver.t < t_final:
+                if stuck:
                     # SciPy's own floor is relative to t, none near t = 0: a law that jumps (a wrapped angle
                     # at +-pi, a bang-bang rule) would be chased for ever
                     failure = (f"the integrator's step fell below {MIN_STEP:g} s (a torque law that jumps, or"
@@ -158,6 +177,8 @@ def simulate_analytic(robot: Robot, controller="vcl", x0=X0_HANGING, t_final: fl
                 switch_time, phase = t0, 1
                 continue
             break
+    except _NonFiniteTorque:
+        failure = STATUS_TEXT[NONFINITE_TORQUE]
     except KeyboardInterrupt:
         interrupted = True
     bar.close()

@@ -358,5 +358,13 @@ def kip_peak_torques(robot: Robot, controller="vcl", torque_limit=None, t_final:
     """Peak torques :math:`|\\tau_2|, |\\tau_3|` [N m] of a controller's kip from (65), over every step (the scale of torque limits)."""
     from ..model.states import X0_HANGING
 
-    return simulate_batch(robot, X0_HANGING[None], t_final, controller=controller, torque_limit=torque_limit,
-                          retire=False).max_abs_tau[0]
+    result = simulate_batch(robot, X0_HANGING[None], t_final, controller=controller, torque_limit=torque_limit,
+                            retire=False)
+    if result.interrupted:
+        raise KeyboardInterrupt
+    if result.diverged[0]:
+        name = controller if isinstance(controller, str) else type(controller).__name__
+        raise PaaError(f"the kip of {name} from (65) diverged at t = {result.t_end[0]:.3f} s"
+                       f" ({STATUS_TEXT[int(result.status[0])]}), so its peak torques are no scale for a"
+                       " torque limit (give one)")
+    return result.max_abs_tau[0]

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -87,6 +88,9 @@ class Trajectory:
         path = Path(path)
         if not path.is_file():
             raise PaaError(f"trajectory file not found: {path}")
+        if not zipfile.is_zipfile(path):
+            raise PaaError(f"corrupted or foreign trajectory file {path}: not an .npz archive (simulate --out writes"
+                           " trajectory.npz)")
         try:
             with open(path, "rb") as fh, np.load(fh, allow_pickle=False) as z:
                 arrays = {name: np.array(z[name]) for name in FIELDS}

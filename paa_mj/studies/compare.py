@@ -68,6 +68,8 @@ def performance(robot: Robot, controller, limit, t_final=30.0):
     """The metrics of one kip from (65), and its trajectory (t, q, qd, tau, mode)."""
     result = simulate_batch(robot, X0_HANGING[None], t_final, controller=controller, torque_limit=limit,
                             retire=False, record=True, sample_dt=0.01)
+    if result.interrupted:  # a truncated kip would give wrong metrics: stop the study here
+        raise KeyboardInterrupt
     n = int(result.trajectories["count"][0])
     trajectory = {k: result.trajectories[k][0, :n] for k in ("t", "q", "qd", "tau", "mode")}
     success = bool(result.success()[0])
@@ -100,6 +102,12 @@ def compare(robot: Robot, controllers=DEFAULT_CONTROLLERS, torque_limit=None, tr
     names = list(dict.fromkeys(controllers))
     if not names:
         raise PaaError("--controllers needs at least one controller")
+    by_folder = {}
+    for name in names:
+        other = by_folder.setdefault(folder_name(name), name)
+        if other != name:
+            raise PaaError(f"controllers {other} and {name} would share the name {folder_name(name)} in the results:"
+                           " rename one file or class")
     specs = {name: None for name in names}
     limit = np.full(2, float(torque_limit)) if torque_limit is not None else \
         np.minimum(kip_peak_torques(robot, "vcl"), robot.torque_limits)

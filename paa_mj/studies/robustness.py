@@ -49,6 +49,8 @@ FACTORS = {
     "pushes": {"label": "push peak on the hands, fraction of b1", "levels": [0.0, 0.05, 0.1, 0.2]},
     "initial_state": {"label": "start perturbed by +- [rad, rad/s]", "levels": [0.0, 0.01, 0.1, 0.3]},
 }
+#: The largest controller model error tested [%].
+MAX_MODEL_ERROR = 90.0
 DEFAULT_FACTORS = ("noise", "torque_limit", "model_error", "delay")
 STARTS = ("random", "hanging")
 PUSHES_PER_RUN, PUSH_WIDTH, PUSH_WINDOW = 3, 0.1, (1.0, 10.0)
@@ -92,7 +94,11 @@ def _pushes(rng, level, b1):
 
 def nominal_peak(robot: Robot, spec: ControllerSpec, torque_limit=None, t_final=30.0) -> float:
     """The largest torque of the controller's kip from (65) (the scale of the torque factors) [N m]."""
-    return float(np.max(kip_peak_torques(robot, spec.build(robot), torque_limit, t_final)))
+    peak = float(np.max(kip_peak_torques(robot, spec.build(robot), torque_limit, t_final)))
+    if not peak > 0:
+        raise PaaError(f"the torque_limit and torque_noise factors are fractions of the peak torque of the kip from"
+                       f" (65), and {spec.short_name} uses no torque there")
+    return peak
 
 
 def robustness(robot: Robot, trials=64, t_final=30.0, seed=0, controller: ControllerSpec | str = "vcl",
@@ -114,8 +120,11 @@ def robustness(robot: Robot, trials=64, t_final=30.0, seed=0, controller: Contro
         raise PaaError(f"--trials must be an integer in [1, {MAX_TRIALS}], got {trials}")
     if start not in STARTS:
         raise PaaError(f"--start must be one of {', '.join(STARTS)}, got {start!r}")
+    factors = [f for f in factors if f]
+    if not factors:
+        raise PaaError(f"no robustness factor given: use some of {', '.join(FACTORS)}")
     unknown = [f for f in factors if f not in FACTORS]
-    if unknown or not factors:
+    if unknown:
         raise PaaError(f"unknown robustness factor(s) {unknown}: use {', '.join(FACTORS)}")
     chosen = {name: dict(FACTORS[name]) for name in factors}
     levels = dict(levels or {})
@@ -127,8 +136,8 @@ def robustness(robot: Robot, trials=64, t_final=30.0, seed=0, controller: Contro
         values = [float(v) for v in values]
         if not values or any(not (math.isfinite(v) and v >= 0) for v in values):
             raise PaaError(f"levels of {name} must be finite numbers >= 0, got {values}")
-        if name == "model_error" and any(v >= 100 for v in values):
-            raise PaaError(f"--model-error percentages must lie in [0, 100), got {values}")
+        if name == "model_error" and any(v > MAX_MODEL_ERROR for v in values):
+            raise PaaError(f"--model-error percentages must lie in [0, {MAX_MODEL_ERROR:g}], got {values}")
         chosen[name]["levels"] = values
     total = trials * sum(len(f["levels"]) for f in chosen.values())
     check_memory(total * 1000.0, "robustness rollouts", "--trials or the levels")

@@ -131,6 +131,7 @@ def _run_chunk(xml, name, kwargs, t_final, seed, nthread, retire):
     result = simulate_batch(robot, t_final=t_final, seed=seed, nthread=nthread, retire=retire, **kwargs)
     out = {key: getattr(result, key) for key in OUTCOMES}
     out["completed"] = result.meta["completed"]
+    out["interrupted"] = result.interrupted  # read and dropped by map_chunks, never stored
     return out
 
 
@@ -167,19 +168,27 @@ def map_chunks(task, payloads, *, scheduler="inline", store=None, progress=False
         if scheduler == "inline":
             for index in todo:
                 result = task(shared, payloads[index])
+                stopped = _was_interrupted(result)
                 if not is_complete(result):  # stopped inside the chunk: nothing of it is kept
                     interrupted = True
                     break
                 finished[index] = result
                 store.save(index, result)
                 bar.update(1)
+                if stopped:  # the signal came as the chunk's last rollout ended: keep it, then stop
+                    interrupted = True
+                    break
         elif todo:
-            _run_on_dask(task, shared, payloads, todo, scheduler, finished, store, bar)
+            _run_on_dask(task, shared, payloads, todo, scheduler, finished, store, bar, is_complete)
     except KeyboardInterrupt:
         interrupted = True
     finally:
         bar.close()
     return finished, interrupted
+
+
+def _was_interrupted(result) -> bool:
+    return bool(result.pop("interrupted", False)) if isinstance(result, dict) else False
 
 
 def _rollout_task(shared, payload):
@@ -260,7 +269,7 @@ def _workers_ignore_ctrl_c():
         sys.warnoptions.remove(quiet_tracker)
 
 
-def _run_on_dask(task, shared, payloads, todo, scheduler, finished, store, bar):
+def _run_on_dask(task, shared, payloads, todo, scheduler, finished, store, bar, is_complete):
     from distributed import Client, LocalCluster, as_completed
 
     total = len(finished) + len(todo)
@@ -297,6 +306,11 @@ def _run_on_dask(task, shared, payloads, todo, scheduler, finished, store, bar):
                                 " chunks are done"
                                 + (f" and kept in {store.path.parent.parent}; run the same command again to resume"
                                    if store.path is not None else "; give --out to keep finished chunks")) from None
+                        _was_interrupted(result)  # workers ignore Ctrl-C: only a controller raises it there
+                        if not is_complete(result):
+                            raise StudyIncomplete(
+                                f"a chunk came back unfinished from a Dask worker (a controller that raised"
+                                f" KeyboardInterrupt?): {len(finished)} of {total} chunks are done")
                         finished[futures[future]] = result
                         store.save(futures[future], result)
                         bar.update(1)

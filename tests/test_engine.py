@@ -243,7 +243,7 @@ def test_robustness_model_error_levels(capsys):
     s = json.loads(capsys.readouterr().out)
     assert [lv["level"] for lv in s["factors"]["model_error"]["levels"]] == [0.0, 12.5]
     assert main(["robustness", "--model-error", "150"]) == 2
-    assert "[0, 100)" in capsys.readouterr().err
+    assert "[0, 90]" in capsys.readouterr().err
 
 
 def test_wilson_interval():

@@ -98,7 +98,7 @@ def write_text(path, text: str):
 
 
 def write_json(path, obj):
-    write_text(path, dumps(obj, indent=2) + "\n")
+    write_text(path, _json_file_text(obj))
 
 
 def write_npz(path, **arrays):
@@ -156,6 +156,10 @@ def dumps(obj, **options) -> str:
     return json.dumps(strict_json(obj), allow_nan=False, default=_json_default, **options)
 
 
+def _json_file_text(obj) -> str:
+    return dumps(obj, indent=2) + "\n"
+
+
 def write_set(folder, writers: dict):
     """Write several files as a set, all or none: ``writers`` maps a file name to ``fn(path)``.
 
@@ -199,7 +203,7 @@ def npz_writer(**arrays):
 
 
 def json_writer(obj):
-    return lambda path: path.write_text(dumps(obj, indent=2) + "\n")
+    return lambda path: path.write_text(_json_file_text(obj))
 
 
 class OutputLock:

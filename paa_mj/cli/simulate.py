@@ -116,7 +116,7 @@ def cmd_render(args):
                            + ("" if args.robot else ": give --robot PATH.xml, the model it was simulated with"))
     else:
         robot, traj = run_from_args(args, progress=True)
-    check_video_request(traj, args.fps, args.width, args.height, out)
+    check_video_request(traj, args.fps, args.width, args.height)
     render_trajectory(robot, traj, out, fps=args.fps, width=args.width, height=args.height, camera=args.camera,
                       progress=True)
     print(f"wrote {out} ({backend}, {args.fps:g} fps, {args.width}x{args.height})")

@@ -123,12 +123,10 @@ FRAME_SECONDS = 0.01
 GIF_FPS_RANGE = (100.0 / 65535, 50.0)
 
 
-def check_video_request(traj: Trajectory, fps, width, height, path=None):
+def check_video_request(traj: Trajectory, fps, width, height):
     """Refuse a video that would take too long, before anything is rendered (frames are streamed to disk)."""
     if not (np.isfinite(fps) and fps > 0):
         raise PaaError(f"--fps must be a positive finite number, got {fps}")
-    if path is not None:
-        check_fps_for(path, fps)
     frames = int(np.floor(float(traj.t[-1]) * fps)) + 1
     cost = frames * max(1.0, width * height / (640 * 480))  # in frames of 640 x 480
     if cost > MAX_FRAMES:

@@ -22,7 +22,7 @@ from ..control.registry import ControllerSpec
 from ..errors import PaaError
 from ..limits import check_memory, check_steps, positive_finite
 from ..model.robot import Robot
-from ..model.states import MAX_INITIAL_ANGLE, MAX_INITIAL_SPEED, udd_error
+from ..model.states import MAX_INITIAL_ANGLE, MAX_INITIAL_SPEED, X0_HANGING, udd_error
 from . import engine
 from .engine import (DIVERGED, F_D1, F_INT_TAU2, F_Q1, F_SMOOTH, F_SPEED, F_TAU2, F_TAU3, F_WORK, I_MODE,
                      I_OUTSIDE, I_REGION, I_STATUS, I_STEP, I_SWITCH, N_PUSH, N_SETUP, RETIRED, FINISHED,
@@ -356,8 +356,6 @@ def simulate_batch(robot: Robot, x0: ArrayLike, t_final: float = 30.0, controlle
 
 def kip_peak_torques(robot: Robot, controller="vcl", torque_limit=None, t_final: float = 30.0) -> np.ndarray:
     """Peak torques :math:`|\\tau_2|, |\\tau_3|` [N m] of a controller's kip from (65), over every step (the scale of torque limits)."""
-    from ..model.states import X0_HANGING
-
     result = simulate_batch(robot, X0_HANGING[None], t_final, controller=controller, torque_limit=torque_limit,
                             retire=False)
     if result.interrupted:

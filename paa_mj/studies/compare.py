@@ -24,7 +24,6 @@ with ``vcl``'s.
 """
 from __future__ import annotations
 
-
 import numpy as np
 
 from ..control.registry import OPTIONS, ControllerSpec

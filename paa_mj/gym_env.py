@@ -3,9 +3,10 @@
 Observation space
     ``Box(9,)`` float32: cos q_i, sin q_i for i = 1, 2, 3, then qd [rad/s] (unbounded).
 Action space
-    ``Box(2,)`` float32: the shoulder and hip torques [N m] within +-``torque_limit``
-    (default 2 b1 / 1 rad, above the paper's peak torques), or, with
-    ``normalize_actions=True``, in [-1, 1] and scaled by ``torque_limit``.
+    ``Box(2,)`` float32: the shoulder and hip torques [N m] within the torque limits, the
+    smaller of ``torque_limit`` (default 2 b1 / 1 rad, above the paper's peak torques) and the
+    model's actuator ranges (:attr:`Robot.torque_limits <paa_mj.model.robot.Robot.torque_limits>`),
+    or, with ``normalize_actions=True``, in [-1, 1] and scaled by those limits.
 Dynamics
     One environment step is ``frame_skip`` physics steps with the torque held
     (default one RK4 step of 1 ms, as the paper's controller runs).
@@ -24,6 +25,9 @@ imports it by itself.
 """
 from __future__ import annotations
 
+import math
+import operator
+
 import gymnasium as gym
 import mujoco
 import numpy as np
@@ -36,25 +40,97 @@ from .sim.rollout import divergence_reason
 ENV_ID = "paa_mj/GymnastKip-v0"
 
 
+def _number(name, value, accept, rule):
+    """``value`` as a float for which ``accept`` holds, else a ValueError naming ``name`` and ``rule``."""
+    try:
+        if isinstance(value, (bool, np.bool_, str, bytes)):  # float() would read True as 1 and "2" as 2
+            raise TypeError
+        number = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a number, got {value!r}") from None
+    if not (math.isfinite(number) and accept(number)):
+        raise ValueError(f"{name} {rule}, got {value!r}")
+    return number
+
+
+def _whole(name, value, low, high):
+    """``value`` as an int in [low, high] (a float only when whole), else a ValueError."""
+    if isinstance(value, (bool, np.bool_)):
+        raise ValueError(f"{name} must be a whole number, got {value!r}")
+    try:
+        number = operator.index(value)
+    except TypeError:
+        number = _number(name, value, lambda v: v == int(v), "must be a whole number")
+        number = int(number)
+    if not low <= number <= high:
+        raise ValueError(f"{name} must be in [{low}, {high}], got {value!r}")
+    return number
+
+
 class GymnastKipEnv(gym.Env):
     metadata = {"render_modes": ["rgb_array"], "render_fps": 30}
+
+    """The kip as a Gymnasium environment (module docstring).
+
+    Parameters
+    ----------
+    robot : str or path
+        A named robot or an MJCF file, as :func:`~paa_mj.model.load_robot` takes.
+    render_mode : None or "rgb_array"
+    max_episode_seconds : float
+        Simulated time before truncation [s], positive and at least one environment step.
+    frame_skip : int
+        Physics steps per environment step, in [1, 1000000].
+    torque_limit : float, optional
+        Saturation of both torques [N m], positive and finite; the model's actuator ranges
+        also apply (the smaller wins). Default 2 b1 / 1 rad.
+    init_noise : float
+        Largest perturbation of the initial angles at reset [rad], finite and >= 0.
+    width, height : int
+        Size of the rendered frames [pixels], in [16, 4096].
+    normalize_actions : bool
+
+    Raises
+    ------
+    ValueError
+        An argument of the wrong type or out of range (NaN, inf, negative), one line naming it.
+    paa_mj.errors.PaaError
+        A robot that cannot be loaded.
+    """
 
     def __init__(self, robot="gymnast", render_mode=None, max_episode_seconds=30.0, frame_skip=1,
                  torque_limit=None, init_noise=0.05, width=480, height=360, normalize_actions=False):
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
+        if not isinstance(normalize_actions, (bool, np.bool_)):
+            raise ValueError(f"normalize_actions must be True or False, got {normalize_actions!r}")
+        # checked before the robot is loaded: a wrong argument is named before any slower failure
+        frame_skip = _whole("frame_skip", frame_skip, 1, 1_000_000)
+        seconds = _number("max_episode_seconds", max_episode_seconds, lambda v: v > 0, "must be a positive finite"
+                          " number [s]")
+        if torque_limit is not None:
+            # a negative limit would turn np.clip(a, -T, T) into T for every action: every torque inverted
+            torque_limit = _number("torque_limit", torque_limit, lambda v: v > 0, "must be a positive finite"
+                                   " number [N m]")
+        init_noise = _number("init_noise", init_noise, lambda v: v >= 0, "must be a finite number >= 0 [rad]")
+        width, height = _whole("width", width, 16, 4096), _whole("height", height, 16, 4096)
         self.robot = load_robot(robot)
         self.model = self.robot.model.__copy__()
         self.data = mujoco.MjData(self.model)
-        self.frame_skip = int(frame_skip)
+        self.frame_skip = frame_skip
         self.dt = self.model.opt.timestep * self.frame_skip
-        self.max_steps = int(round(max_episode_seconds / self.dt))
+        self.max_steps = int(round(seconds / self.dt))
+        if self.max_steps < 1:
+            raise ValueError(f"max_episode_seconds {max_episode_seconds!r} is shorter than one environment step"
+                             f" ({self.dt:g} s)")
         self.torque_limit = float(torque_limit if torque_limit is not None else 2 * self.robot.analytic.b1)
-        self.init_noise = float(init_noise)
+        #: The torque limits applied [N m], (2,): ``torque_limit`` capped by the model's actuator ranges.
+        self.torque_limits = np.minimum(self.torque_limit, self.robot.torque_limits)
+        self.init_noise = init_noise
         self.render_mode, self.width, self.height = render_mode, width, height
         self.normalize_actions = bool(normalize_actions)
-        bound = 1.0 if self.normalize_actions else self.torque_limit
-        self.action_space = spaces.Box(-bound, bound, (2,), np.float32)
+        bound = np.ones(2) if self.normalize_actions else self.torque_limits
+        self.action_space = spaces.Box(-bound.astype(np.float32), bound.astype(np.float32), (2,), np.float32)
         high = np.array([1, 1, 1, 1, 1, 1, np.inf, np.inf, np.inf], np.float32)
         self.observation_space = spaces.Box(-high, high, dtype=np.float32)
         self._renderer = None
@@ -82,16 +158,16 @@ class GymnastKipEnv(gym.Env):
         return self._obs(), self._info()
 
     def action_to_torque(self, action):
-        """The torques [N m] an action asks for (scaled when actions are normalised), within the limit."""
+        """The torques [N m] an action asks for (scaled when actions are normalised), within the limits."""
         action = np.asarray(action, dtype=float)
         if self.normalize_actions:
-            action = action * self.torque_limit
-        return np.clip(action, -self.torque_limit, self.torque_limit)
+            action = action * self.torque_limits
+        return np.clip(action, -self.torque_limits, self.torque_limits)
 
     def torque_to_action(self, tau):
         """The action that asks for the torques ``tau`` [N m], as float32."""
-        tau = np.clip(np.asarray(tau, dtype=float), -self.torque_limit, self.torque_limit)
-        return (tau / self.torque_limit if self.normalize_actions else tau).astype(np.float32)
+        tau = np.clip(np.asarray(tau, dtype=float), -self.torque_limits, self.torque_limits)
+        return (tau / self.torque_limits if self.normalize_actions else tau).astype(np.float32)
 
     def step(self, action):
         """Hold the action's torques over ``frame_skip`` physics steps; (obs, reward, terminated, truncated, info)."""

@@ -223,7 +223,10 @@ class OutputLock:
         import fcntl
 
         while True:
-            handle = open(self.path, "a+")
+            try:
+                handle = open(self.path, "a+")
+            except OSError as err:  # a full disk (no inode left), a read-only file system...
+                raise PaaError(f"cannot lock output folder {self.folder}: {err.strerror or err}") from None
             try:
                 fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
             except OSError:
@@ -242,10 +245,15 @@ class OutputLock:
                 break
             handle.close()
         self.handle = handle
-        self.handle.seek(0)
-        self.handle.truncate()
-        self.handle.write(f"pid {os.getpid()}")
-        self.handle.flush()
+        try:
+            self.handle.seek(0)
+            self.handle.truncate()
+            self.handle.write(f"pid {os.getpid()}")
+            self.handle.flush()
+        except OSError as err:
+            # a full disk takes the file but not its text: the lock is let go, and its file removed
+            self.__exit__(None, None, None)
+            raise PaaError(f"cannot lock output folder {self.folder}: {err.strerror or err}") from None
         return self
 
     def __exit__(self, *exc):
@@ -254,5 +262,6 @@ class OutputLock:
                 os.unlink(self.path)
             except OSError:
                 pass
-            self.handle.close()
+            with contextlib.suppress(OSError):  # a close that flushes onto a full disk: the file is gone already
+                self.handle.close()
             self.handle = None

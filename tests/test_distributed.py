@@ -45,7 +45,7 @@ def test_chunked_noisy_rollouts_identical(gymnast, scheduler_address):
     a = run_study(gymnast, _noisy_set(), 1.0, seed=7, chunk=5, scheduler=scheduler_address)
     b = run_study(gymnast, _noisy_set(), 1.0, seed=7, chunk=5, scheduler="inline")
     c = run_study(gymnast, _noisy_set(), 1.0, seed=7, chunk=128, scheduler="inline")
-    for key in ("final_state", "max_abs_tau", "switch_time", "held"):
+    for key in ("final_state", "max_abs_tau", "switch_time", "success"):
         np.testing.assert_array_equal(getattr(a, key), getattr(b, key), err_msg=key)
         np.testing.assert_array_equal(getattr(a, key), getattr(c, key), err_msg=key)
     assert a.meta["completed"].all()

@@ -58,7 +58,7 @@ def test_retirement_changes_no_outcome(gymnast):
     x0, _, _ = basin_grid((0, 1), 6)
     full = simulate_batch(gymnast, x0, 22.0, retire=False)
     early = simulate_batch(gymnast, x0, 22.0, retire=True)
-    for key in ("switch_time", "balanced", "diverged", "max_abs_tau", "held", "t_region", "t_balanced"):
+    for key in ("switch_time", "balanced", "diverged", "max_abs_tau", "success", "t_region", "t_balanced"):
         np.testing.assert_array_equal(getattr(early, key), getattr(full, key), err_msg=key)
     retired = early.t_end < 22.0
     assert retired.sum() > 10  # the test is not vacuous

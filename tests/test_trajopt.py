@@ -40,6 +40,34 @@ def test_min_time_is_faster_and_min_effort_is_cheaper(gymnast):
     np.testing.assert_array_equal(again.u, fast.u)  # from the cache
 
 
+def test_the_minimum_time_grows_as_the_torque_bounds_shrink_and_is_not_a_bound(gymnast):
+    """The min-time kip is limited by the torques, not by the time range of the solve."""
+    from paa_mj.control.trajopt import TIME_RANGE
+
+    times = [solve_kip(gymnast.analytic, np.array([470.0, 217.0]) * scale, "min-time", duration=2.0,
+                       intervals=30).duration for scale in (1.0, 0.6, 0.4)]
+    assert times[0] < times[1] < times[2]
+    low, high = TIME_RANGE
+    assert all(low * 1.01 < t < high * 0.99 for t in times)
+    assert times[0] < 0.97  # about 0.9 s with 470 and 217 N m: the old bound held every kip at 1 s
+
+
+def test_a_min_time_kip_at_the_time_bound_is_refused(gymnast, monkeypatch):
+    import paa_mj.control.trajopt as trajopt
+
+    monkeypatch.setattr(trajopt, "TIME_RANGE", (1.5, 20.0))  # above the true minimum of about 0.9 s
+    with pytest.raises(PaaError, match="shortest time allowed"):
+        solve_kip(gymnast.analytic, [470.0, 217.0], "min-time", duration=2.0, intervals=20, use_cache=False)
+
+
+def test_simulate_json_reports_the_plan(capsys):
+    assert main(["simulate", "--controller", "trajopt", "--torque-limit", "400", "--t-final", "3", "--json"]) == 0
+    plan = json.loads(capsys.readouterr().out)["plan"]
+    assert set(plan) == {"objective", "duration", "torque_bounds", "intervals", "cost"}
+    assert plan["objective"] == "min-time" and plan["cost"] == pytest.approx(plan["duration"], rel=1e-3)
+    assert plan["torque_bounds"] == pytest.approx([360.0, 360.0])  # 90 % of the limit: the rest is the tracking's
+
+
 def test_tvlqr_tracks_a_solved_kip_in_mujoco_from_perturbed_starts(gymnast):
     kip = solve_kip(gymnast.analytic, [300.0, 150.0], "min-effort", duration=3.0, intervals=40)
     controller = kip_controller(gymnast.analytic, kip)
@@ -71,9 +99,18 @@ def test_compare_quick_json_has_every_key(capsys):
                     "robustness"):
             assert key in row, (name, key)
         assert set(row["robustness"]) == {"model_error", "noise", "torque_noise", "delay", "pushes", "initial_state"}
-        for rate in row["robustness"].values():
-            assert set(rate) == {"rate", "low", "high", "trials"}
+        for factor, rate in row["robustness"].items():
+            assert {"rate", "low", "high", "trials", "random"} <= set(rate)
+            if rate["random"]:  # an interval over independent draws, its bounds around the rate
+                assert rate["low"] <= rate["rate"] <= rate["high"]
+            else:  # a sweep: one run per level, no interval
+                assert factor in ("model_error", "delay") and rate["low"] is None and rate["high"] is None
+                assert rate["trials"] == len(summary["factors"][factor]["levels"]) > 1
+        # every run, reach and robustness included, under the one torque limit
+        assert all(t <= lim + 1e-9 for t, lim in zip(row["max_abs_tau"], summary["torque_limit"]))
+    assert "region (68)" in summary["success"]
     vcl, kip = summary["controllers"]["vcl"], summary["controllers"]["trajopt-effort"]
     assert vcl["success"] and kip["success"]
+    assert vcl["plan"] is None and kip["plan"]["objective"] == "min-effort"
     assert max(kip["max_tau"]) <= max(summary["torque_limit"]) + 1e-9  # under the limit vcl itself uses
     assert kip["t_balanced"] < vcl["t_balanced"] and kip["int_tau2"] < vcl["int_tau2"]

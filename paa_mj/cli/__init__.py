@@ -52,6 +52,36 @@ def _choose_gl_early(argv):
         os.environ["MUJOCO_GL"] = os.environ["PYOPENGL_PLATFORM"] = value
 
 
+def _check_environment():
+    """Refuse, in one line, the environment variables that would make importing MuJoCo or numba fail.
+
+    Both libraries read them once, on import, and fail there with a traceback (``MUJOCO_GL=invalid``,
+    ``NUMBA_NUM_THREADS=0``) or print one inside a warning (``NUMBA_NUM_THREADS=abc``).
+    """
+    from ..outputs.gl import check_mujoco_gl
+
+    check_mujoco_gl()
+    threads = os.environ.get("NUMBA_NUM_THREADS")
+    if threads is not None:
+        try:
+            count = int(threads)  # as numba reads it
+        except ValueError:
+            count = None
+        if count is None or count < 1:
+            raise PaaError(f"the environment variable NUMBA_NUM_THREADS={threads!r} must be a whole number >= 1"
+                           " (the threads of compiled code), or unset")
+
+
+def _load_libraries():
+    """Import MuJoCo and numba (through the package), any failure of theirs as one line."""
+    try:
+        from ..sim import mujoco_log  # noqa: F401 (imports mujoco and numba)
+    except PaaError:
+        raise
+    except Exception as err:  # a broken installation fails in many ways; each says why in its message
+        raise PaaError(f"cannot load MuJoCo or numba: {type(err).__name__}: {' '.join(str(err).split())}") from None
+
+
 def _drop_stdout():
     """Standard output to /dev/null, so that nothing more is written where writing failed."""
     with contextlib.suppress(OSError):
@@ -63,6 +93,8 @@ def main(argv=None):
     _choose_gl_early(argv)
     previous = install_signal_handlers()
     try:
+        _check_environment()
+        _load_libraries()
         from ..sim.mujoco_log import mujoco_log_off
 
         with warnings.catch_warnings(), mujoco_log_off():

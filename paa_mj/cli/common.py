@@ -43,9 +43,36 @@ class Parser(argparse.ArgumentParser):
         raise PaaError(f"{message} (see '{self.prog} --help')")
 
 
+def _ascii_number(text):
+    """A one-line refusal of a number written otherwise than with ASCII characters, or None.
+
+    Python's ``float`` and ``int`` read any Unicode digits (Arabic-Indic, full-width...) and
+    underscores between digits: a command line that reads as something else than it runs.
+    """
+    if not text.isascii():
+        return argparse.ArgumentTypeError(f"not a number: {text!r} (write numbers with the ASCII digits 0-9)")
+    if "_" in text:
+        return argparse.ArgumentTypeError(f"not a number: {text!r} (write numbers without underscores)")
+    return None
+
+
+def _whole_number(text):
+    """An int written in ASCII decimal digits (optionally signed), else an ArgumentTypeError."""
+    refused = _ascii_number(text)
+    if refused is not None:
+        raise refused
+    try:
+        return int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a whole number: {text!r}") from None
+
+
 def _number_type(accept, rule):
     """An argparse type: a float for which ``accept(value)`` holds, else '``rule``, got TEXT'."""
     def parse(text):
+        refused = _ascii_number(text)
+        if refused is not None:
+            raise refused
         try:
             value = float(text)
         except ValueError:
@@ -62,11 +89,14 @@ non_negative = _number_type(lambda v: v >= 0, "must be a finite number >= 0")
 finite = _number_type(lambda v: True, "must be finite")
 
 
+def whole_number(text):
+    """An argparse type: a whole number (any sign), in ASCII digits."""
+    return _whole_number(text)
+
+
 def positive_int(text):
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a whole number: {text!r}") from None
+    """An argparse type: a whole number >= 1, in ASCII digits."""
+    value = _whole_number(text)
     if value < 1:
         raise argparse.ArgumentTypeError(f"must be >= 1, got {text}")
     return value
@@ -90,10 +120,7 @@ def file_path(text):
 
 def seed(text):
     """An argparse type: a seed, a whole number in [0, 2^63)."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a whole number: {text!r}") from None
+    value = _whole_number(text)
     if not 0 <= value < 2**63:
         raise argparse.ArgumentTypeError(f"must be in [0, 2^63), got {text}")
     return value

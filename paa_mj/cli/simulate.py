@@ -4,7 +4,7 @@ from __future__ import annotations
 import argparse
 
 from ..errors import PaaError, SimulationDiverged
-from .common import (controller_parent, file_path, finish, output_lock, output_parent,
+from .common import (controller_parent, file_path, finish, finite, output_lock, output_parent,
                      physics_parent, positive, positive_int, print_json, robot_parent, spec_from_args)
 
 
@@ -14,7 +14,7 @@ def run_parent(robot_default="gymnast"):
                                                          physics_parent()])
     p.add_argument("--engine", choices=("mujoco", "analytic"), default="mujoco",
                    help="MuJoCo, or the analytic model (1) by solve_ivp with continuous-time control")
-    p.add_argument("--x0", type=float, nargs=6, metavar="X",
+    p.add_argument("--x0", type=finite, nargs=6, metavar="X",
                    help="initial q1 q2 q3 d1 d2 d3 [rad, rad/s] (default (65): -pi 0 0 0 0 0)")
     p.add_argument("--no-switch", action="store_true", help="the same as --controller vcl-only")
     p.add_argument("--sample-dt", type=positive, default=0.01, help="recording interval [s], at most --t-final")
@@ -31,6 +31,23 @@ def _check_engine_options(args):
         raise PaaError(f"--sample-dt {args.sample_dt:g} s is longer than --t-final {args.t_final:g} s")
 
 
+def check_duration(t_final, dt):
+    """Refuse a run too long to count: ``t_final / dt`` steps overflow a float (the engines count them as one).
+
+    A long run whose steps can be counted is refused by the engine's own time budget, which says
+    how long it would take.
+    """
+    import math
+
+    from ..limits import MAX_SECONDS
+
+    if not math.isfinite(t_final / dt):
+        exponent = math.log10(t_final) - math.log10(dt)
+        raise PaaError(f"--t-final {t_final:g} s is too long: it would need about 1e+{math.floor(exponent)} physics"
+                       f" steps of {dt:g} s, far beyond the limit of {MAX_SECONDS / 86400:g} day of computing;"
+                       " lower --t-final")
+
+
 def run_from_args(args, progress=True):
     """Build the robot and controller from the options and run the rollout (returns robot, trajectory)."""
     import numpy as np
@@ -42,18 +59,61 @@ def run_from_args(args, progress=True):
 
     _check_engine_options(args)
     robot = load_robot(args.robot or "gymnast")
+    # the analytic engine has no time step; its cost is counted at 1 ms as in its own check
+    check_duration(args.t_final, args.dt or (1e-3 if args.engine == "analytic" else float(robot.model.opt.timestep)))
     spec = spec_from_args(args, robot)
     controller = spec.build(robot)
     x0 = X0_HANGING if args.x0 is None else np.asarray(args.x0, float)
-    if args.engine == "analytic":
-        return robot, simulate_analytic(robot, controller, x0, args.t_final, sample_dt=args.sample_dt,
-                                        torque_limit=args.torque_limit, progress=progress)
-    return robot, simulate_mujoco(robot, controller, x0, args.t_final, dt=args.dt, integrator=args.integrator,
-                                  sample_dt=args.sample_dt, torque_limit=args.torque_limit, progress=progress)
+    try:
+        if args.engine == "analytic":
+            traj = simulate_analytic(robot, controller, x0, args.t_final, sample_dt=args.sample_dt,
+                                     torque_limit=args.torque_limit, progress=progress)
+        else:
+            traj = simulate_mujoco(robot, controller, x0, args.t_final, dt=args.dt, integrator=args.integrator,
+                                   sample_dt=args.sample_dt, torque_limit=args.torque_limit, progress=progress)
+    except SimulationDiverged as err:
+        if err.trajectory is not None:
+            err.trajectory.robot_xml = robot.xml  # what is kept of it names its robot too
+        raise
+    # the saved file then identifies the robot by its model, not by a name a modified file shares
+    traj.robot_xml = robot.xml
+    return robot, traj
+
+
+#: The files ``simulate --out`` writes, the first the one that says the folder holds its results.
+SIMULATE_FILES = ("trajectory.npz", "trajectory.csv", "summary.json")
+
+
+def _is_own_trajectory(path):
+    """True when ``path`` is an NPZ as :meth:`Trajectory.save <paa_mj.sim.trajectory.Trajectory.save>` writes it."""
+    import zipfile
+
+    try:
+        with zipfile.ZipFile(path) as archive:
+            return {"t.npy", "q.npy", "qd.npy", "tau.npy", "meta.npy"} <= set(archive.namelist())
+    except (OSError, zipfile.BadZipFile):
+        return False
+
+
+def check_simulate_folder(out):
+    """Refuse an ``--out`` folder where simulate would replace files that are not its own results.
+
+    Running simulate again into its own folder replaces its files, and files of other names are
+    left alone; but a ``summary.json`` or ``trajectory.csv`` of the user's, without a
+    trajectory.npz of paa-mj beside it, would be overwritten in silence.
+    """
+    import os
+
+    found = [name for name in SIMULATE_FILES if os.path.lexists(os.path.join(out, name))]
+    if found and not _is_own_trajectory(os.path.join(out, SIMULATE_FILES[0])):
+        raise PaaError(f"{out} holds {', '.join(found)}, not the results of a 'paa-mj simulate' it would replace:"
+                       " choose another --out, or move those files")
 
 
 def cmd_simulate(args):
     with output_lock(args.out, "simulate"):
+        if args.out:
+            check_simulate_folder(args.out)
         try:
             _, traj = run_from_args(args, progress=not args.json)
         except SimulationDiverged as err:
@@ -100,27 +160,55 @@ def cmd_render(args):
         if changed:
             raise PaaError(f"--from replays a saved trajectory; the simulation options {', '.join(changed)}"
                            " contradict it")
+    robot = traj = None
+    if args.from_file:  # a wrong file or robot is named before the GL backends are probed
+        from ..sim.trajectory import Trajectory
+
+        traj = Trajectory.load(args.from_file)
+        robot = _robot_of(traj, args.from_file, args.robot)
     backend = select_backend(args.gl)  # before anything imports mujoco's GL
-    from ..model.robot import load_robot
     from ..outputs.video import check_fps_for, check_video_request, render_trajectory
-    from ..sim.trajectory import Trajectory
 
     check_fps_for(out, args.fps)  # before the simulation it would waste
 
-    if args.from_file:
-        traj = Trajectory.load(args.from_file)
-        saved = traj.meta.get("robot")
-        robot = load_robot(args.robot or (saved if saved in ("gymnast", "example2") else "gymnast"))
-        if saved is not None and saved != robot.name:
-            raise PaaError(f"{args.from_file} is a trajectory of robot {saved!r}, not of --robot {robot.name}"
-                           + ("" if args.robot else ": give --robot PATH.xml, the model it was simulated with"))
-    else:
+    if traj is None:
         robot, traj = run_from_args(args, progress=True)
     check_video_request(traj, args.fps, args.width, args.height)
     render_trajectory(robot, traj, out, fps=args.fps, width=args.width, height=args.height, camera=args.camera,
                       progress=True)
     print(f"wrote {out} ({backend}, {args.fps:g} fps, {args.width}x{args.height})")
     return 0
+
+
+def _robot_of(traj, path, given):
+    """The robot to draw ``traj`` (loaded from ``path``) with: ``--robot`` if given and the same model.
+
+    A file written by ``simulate --out`` holds its robot's MJCF text and sha256: without ``--robot``
+    that robot is drawn, and a ``--robot`` of another model is refused (a modified gymnast.xml keeps
+    the name gymnast). An older file names its robot only: it is drawn as before, with a warning.
+    """
+    from ..model.robot import load_robot, robot_from_xml
+    from ..sim.trajectory import mjcf_sha256
+    from .common import note
+
+    saved = traj.meta.get("robot")
+    if traj.robot_xml is None:
+        chosen = given or (saved if saved in ("gymnast", "example2") else "gymnast")
+        note(f"warning: {path} does not record its robot's model (written by an older paa-mj): drawn as"
+             f" --robot {chosen} without checking that this is the robot simulated")
+        robot = load_robot(chosen)
+    elif given is None:
+        return robot_from_xml(traj.robot_xml, name=saved, source=f"the robot saved in {path}")
+    else:
+        robot = load_robot(given)
+    if saved is not None and saved != robot.name:
+        raise PaaError(f"{path} is a trajectory of robot {saved!r}, not of --robot {robot.name}"
+                       + ("" if given else ": give --robot PATH.xml, the model it was simulated with"))
+    if traj.robot_xml is not None and mjcf_sha256(robot.xml) != traj.robot_sha256:
+        raise PaaError(f"{path} is a trajectory of robot {saved!r} as another model than --robot {given} (MJCF"
+                       f" sha256 {traj.robot_sha256[:12]}..., not {mjcf_sha256(robot.xml)[:12]}...): give the"
+                       " model it was simulated with, or no --robot to draw the one saved in the file")
+    return robot
 
 
 def cmd_view(args):
@@ -210,5 +298,5 @@ def register(sub, parser_class):
     p = sub.add_parser("view", parents=[robot_parent(), controller_parent(), physics_parent()],
                        help="MuJoCo's interactive viewer with the controller running (needs a display)",
                        description="Watch a controller in MuJoCo's viewer, in real time.")
-    p.add_argument("--x0", type=float, nargs=6, metavar="X", help="initial q1 q2 q3 d1 d2 d3 (default (65))")
+    p.add_argument("--x0", type=finite, nargs=6, metavar="X", help="initial q1 q2 q3 d1 d2 d3 (default (65))")
     p.set_defaults(func=cmd_view)

@@ -2,8 +2,8 @@
 from __future__ import annotations
 
 from ..errors import PaaError
-from .common import (controller_parent, finish, note, output_lock, output_parent, positive, positive_int,
-                     print_json, robot_parent, seed, spec_from_args, study_parent)
+from .common import (controller_parent, finish, non_negative, note, output_lock, output_parent, positive,
+                     positive_int, print_json, robot_parent, seed, spec_from_args, study_parent, whole_number)
 
 
 def _finish_study(summary, args, what):
@@ -26,7 +26,7 @@ def _study(args, command, run, write):
     scheduler = check_scheduler(args.scheduler)
     with output_lock(args.out, command):
         summary, arrays = run(robot, spec, dict(progress=not args.json, scheduler=scheduler, out_dir=args.out,
-                                                fresh=args.fresh, chunk=args.chunk))
+                                                fresh=args.fresh, chunk=args.chunk, torque_limit=args.torque_limit))
         if args.out and summary["completed_fraction"] > 0:  # no figure of a study with no finished run
             write(args.out, summary, arrays)
     if args.json:
@@ -60,12 +60,14 @@ def cmd_robustness(args):
         robot, trials=args.trials, t_final=args.t_final, seed=args.seed, controller=spec, factors=factors,
         start=args.start, model_error=args.model_error, **common), write_robustness)
     if not args.json and summary["completed_fraction"] > 0:
-        print(f"robot {summary['robot']}, {summary['controller']}: success rate over {summary['trials']}"
-              f" {summary['start']} starts per level [95 % interval]")
+        print(f"robot {summary['robot']}, {summary['controller']}: success rate over up to {summary['trials']}"
+              f" {summary['start']} starts per level [95 % interval over random draws; (1 run) where nothing is"
+              " drawn]")
         for factor, data in summary["factors"].items():
             cells = ", ".join(f"{'none' if lv['level'] is None else format(lv['level'], 'g')}: "
                               + ("-" if lv["success_rate"] is None else
-                                 f"{100 * lv['success_rate']:.0f} % [{100 * lv['low']:.0f}-{100 * lv['high']:.0f}]")
+                                 f"{100 * lv['success_rate']:.0f} % [{100 * lv['low']:.0f}-{100 * lv['high']:.0f}]"
+                                 if lv["random"] else f"{100 * lv['success_rate']:.0f} % (1 run)")
                               for lv in data["levels"])
             print(f"  {factor:<13} ({data['label']}): {cells}")
     return _finish_study(summary, args, "robustness study")
@@ -97,7 +99,7 @@ def cmd_compare(args):
         summary, trajectories, _ = compare(robot, names, torque_limit=args.torque_limit, trials=args.trials,
                                            quick=args.quick, t_final=args.t_final, seed=args.seed,
                                            scheduler=scheduler, out_dir=args.out, fresh=args.fresh,
-                                           progress=not args.json, grid=args.grid)
+                                           progress=not args.json, grid=args.grid, chunk=args.chunk)
         if args.out:
             write_compare(args.out, summary, trajectories, robot, video=video and not summary["interrupted"])
     if args.json:
@@ -118,7 +120,8 @@ def cmd_atlas(args):
     robot = load_robot(args.robot)
     scheduler = check_scheduler(args.scheduler)
     simulation = {name: value for name, value in (("starts", args.starts), ("t_final", args.t_final),
-                                                   ("seed", args.seed)) if value is not None}
+                                                   ("seed", args.seed), ("torque_limit", args.torque_limit))
+                  if value is not None}
     if simulation and not args.simulate:
         given = [f"--{name.replace('_', '-')}" for name in simulation]
         raise PaaError(f"{', '.join(given)} appl{'ies' if len(given) == 1 else 'y'} with --simulate only")
@@ -128,7 +131,7 @@ def cmd_atlas(args):
     with output_lock(args.out, "atlas"):
         summary, arrays = atlas(robot, vary, factor_range, args.grid, simulate=args.simulate, **simulation,
                                 scheduler=scheduler, out_dir=args.out, fresh=args.fresh,
-                                progress=not args.json)
+                                progress=not args.json, chunk=args.chunk)
         if args.out:
             write_atlas(args.out, summary, arrays)
     if args.json:
@@ -163,6 +166,8 @@ def register(sub, parser_class):
                    help=f"two of {', '.join(COORDINATES)} (angles over [-pi, pi], speeds over [-5, 5] rad/s)")
     p.add_argument("--grid", type=positive_int, default=64, help=f"points per axis, 2..{MAX_GRID} (starts = grid^2)")
     p.add_argument("--t-final", type=positive, default=30.0, help="duration of each run [s]")
+    p.add_argument("--torque-limit", type=positive, metavar="T",
+                   help="saturate each torque of every run at T [N m] (the model's actuator ranges also apply)")
     p.set_defaults(func=cmd_basin)
 
     p = sub.add_parser("robustness", parents=[robot_parent(), controller_parent(), study_parent(),
@@ -178,8 +183,10 @@ def register(sub, parser_class):
                    help=f"comma-separated, out of {', '.join(FACTORS)}")
     p.add_argument("--start", choices=STARTS, default="random",
                    help="random: angles over a full turn, speeds +-1 rad/s; hanging: the kip from (65)")
-    p.add_argument("--model-error", type=float, nargs="+", metavar="PCT",
+    p.add_argument("--model-error", type=non_negative, nargs="+", metavar="PCT",
                    help="controller model errors to test [%%] (default: 0 2 5 10)")
+    p.add_argument("--torque-limit", type=positive, metavar="T",
+                   help="saturate each torque of every run at T [N m] (the torque_limit factor goes below it)")
     p.set_defaults(func=cmd_robustness)
 
     from ..studies.compare import DEFAULT_CONTROLLERS, FACTORS, SIZES
@@ -224,8 +231,10 @@ def register(sub, parser_class):
                    help="the scale factors' range (log-spaced)")
     p.add_argument("--grid", type=positive_int, default=32, help=f"factors per parameter, 2..{ATLAS_GRID}")
     p.add_argument("--simulate", action="store_true", help="also run the kip of every robot in MuJoCo")
-    p.add_argument("--starts", type=int, help="random starts per robot with --simulate (default 4), besides (65)")
+    p.add_argument("--starts", type=whole_number, help="random starts per robot with --simulate (default 4), besides (65)")
     p.add_argument("--t-final", type=positive, help="duration of each simulated kip [s] with --simulate (default 30)")
+    p.add_argument("--torque-limit", type=positive, metavar="T",
+                   help="saturate each torque of every simulated kip at T [N m] with --simulate (default: none)")
     p.add_argument("--seed", type=seed, help="seed of the random starts with --simulate (default 0)")
     p.set_defaults(func=cmd_atlas)
 

@@ -119,12 +119,32 @@ def _user_call(controller, what, call, *args):
 
 
 def torque_of(controller, q, qd, t):
-    """``controller.torque(q, qd, t)`` as a float array of shape (..., 2), or a one-line error."""
-    tau = _user_call(controller, "torque", lambda: np.asarray(controller.torque(q, qd, t), dtype=float))
-    expected = np.shape(q)[:-1] + (2,)
+    """``controller.torque(q, qd, t)`` as a float array of shape (..., 2), or a one-line error.
+
+    The controller gets copies of ``q`` and ``qd``: the engines pass views of their own state (the
+    integrator's, the measured state), which a controller that writes into its inputs would
+    otherwise move. The result is a copy too, so that a controller reusing its output buffer cannot
+    change a torque already applied.
+
+    Raises
+    ------
+    PaaError
+        The controller failed, or returned the wrong shape or numbers that are not real
+        (complex, boolean, text, objects).
+    """
+    q, qd = np.array(q, dtype=float), np.array(qd, dtype=float)
+    shape = q.shape
+    raw = _user_call(controller, "torque", lambda: np.asarray(controller.torque(q, qd, t)))
+    name = type(controller).__name__
+    if raw.dtype.kind not in "fiu":
+        # np.asarray(.., float) would drop an imaginary part (a warning at most) and read booleans as 0 and 1
+        raise PaaError(f"controller {name}.torque returned {raw.dtype} torques; it must return real numbers"
+                       " (float) [N m]")
+    tau = np.array(raw, dtype=float)
+    expected = shape[:-1] + (2,)
     if tau.shape != expected:
-        raise PaaError(f"controller {type(controller).__name__}.torque returned shape {tau.shape} for states of"
-                       f" shape {np.shape(q)}; it must return {expected} ([tau2, tau3] per state)")
+        raise PaaError(f"controller {name}.torque returned shape {tau.shape} for states of"
+                       f" shape {shape}; it must return {expected} ([tau2, tau3] per state)")
     return tau
 
 
@@ -134,6 +154,9 @@ def mode_of(controller, shape=()):
     if mode.dtype.kind not in "biu" or not (mode.shape == () or mode.shape == shape):
         raise PaaError(f"controller {type(controller).__name__}.mode must be an integer or one integer per state"
                        f" (shape {shape}), got {mode.dtype} of shape {mode.shape}")
+    if np.any((mode != 0) & (mode != 1)):
+        bad = mode[(mode != 0) & (mode != 1)].reshape(-1)[0]
+        raise PaaError(f"controller {type(controller).__name__}.mode must be 0 (swing-up) or 1 (balance), got {bad}")
     return np.broadcast_to(mode, shape).astype(np.int8) if mode.shape != shape else mode.astype(np.int8)
 
 

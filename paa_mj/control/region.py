@@ -4,7 +4,9 @@ Region (68): with x = [q1, q2 + pi, q3, d1, d2, d3] the error from UDD (angles
 wrapped to (-pi, pi]), every :math:`|x_i| < \\pi/6` and every :math:`|x_{i+3}| < 0.5` rad/s. The
 paper switches from swing-up (40) to the LQR (67) the first time the state is
 inside. A run is *balanced* when its final state is within :data:`BALANCE_TOL`
-of UDD in every coordinate.
+of UDD in every coordinate; it is a *success* (:data:`SUCCESS_DEFINITION`, the
+same in every study) when its true state stays inside region (68) over the last
+:data:`SUCCESS_WINDOW` seconds without divergence.
 """
 from __future__ import annotations
 
@@ -21,6 +23,31 @@ SWITCH_ANGLE = math.pi / 6
 SWITCH_SPEED = 0.5
 #: A final state within this distance of UDD (each coordinate, rad and rad/s) counts as balanced.
 BALANCE_TOL = 1e-3
+#: The last seconds of a run over which a success must stay inside region (68) [s].
+SUCCESS_WINDOW = 1.0
+#: What success means, in every study and every column (:func:`succeeded`).
+SUCCESS_DEFINITION = (
+    "balanced at the goal at the end: no divergence, and the true state (whatever the controller reports or"
+    f" measures) inside region (68) of UDD, every angle error < pi/6 rad and every speed < {SWITCH_SPEED:g} rad/s,"
+    f" throughout the last {SUCCESS_WINDOW:g} s of the run (or stopped early as balanced for good)")
+
+
+def succeeded(finished, retired, last_exit_step, end_step, dt):
+    """The one success test of the package (:data:`SUCCESS_DEFINITION`), over arrays of rollouts.
+
+    Parameters
+    ----------
+    finished, retired : ndarray of bool
+        Ran to the final time; stopped early by the retirement rule (balanced for good).
+    last_exit_step : ndarray of int
+        The last step at which the true state was outside region (68) (-1: never).
+    end_step : ndarray of int
+        The step at which the run ended.
+    dt : float
+        Time step [s].
+    """
+    window = np.minimum(int(round(SUCCESS_WINDOW / dt)), end_step)
+    return np.asarray(retired | (finished & (last_exit_step < end_step - window)), dtype=bool)
 
 
 @register_jitable

@@ -139,7 +139,12 @@ def load_user_class(spec: str):
     path = Path(path_text).expanduser().resolve()
     if not path.is_file():
         raise PaaError(f"controller file not found: {path_text}")
-    module_name = "paa_mj_user_" + hashlib.sha1(str(path).encode()).hexdigest()[:12]
+    try:
+        source = path.read_bytes()
+    except OSError as err:
+        raise PaaError(f"cannot read controller file {path_text}: {err.strerror or err}") from None
+    # Keyed by the content too: an edited file is loaded again, never served from an older import.
+    module_name = "paa_mj_user_" + hashlib.sha1(str(path).encode() + b"\0" + source).hexdigest()[:16]
     module = sys.modules.get(module_name)
     if module is None:
         try:
@@ -201,6 +206,17 @@ class ControllerSpec:
     def short_name(self) -> str:
         return Path(self.name.rsplit(":", 1)[0]).name + ":" + self.name.rsplit(":", 1)[1] \
             if is_user_controller(self.name) else self.name
+
+    def source_digest(self) -> str | None:
+        """A digest of a user controller's file (None for a built-in one): studies are keyed by it, so that
+        chunks computed by an older version of the file are never reused."""
+        if not is_user_controller(self.name):
+            return None
+        path = Path(self.name.rsplit(":", 1)[0])
+        try:
+            return hashlib.sha256(path.read_bytes()).hexdigest()
+        except OSError as err:
+            raise PaaError(f"cannot read controller file {path}: {err.strerror or err}") from None
 
     def build(self, robot) -> Controller:
         """The controller for ``robot`` (the plant); it believes in ``believed`` when given."""

@@ -44,7 +44,7 @@ INTERVALS = 100
 MAX_DURATION = 120.0
 #: Bounds on the time of a min-time kip [s].
 TIME_RANGE = (0.2, 20.0)
-CACHE_VERSION = 1
+CACHE_VERSION = 2  # 2: the time range bounds T itself (version 1 held T >= 1 s)
 
 
 def dynamics_function(am: AnalyticModel):
@@ -128,6 +128,11 @@ class Kip:
         d_step = self.x[1:] - (self.x[:-1] + h / 6 * (fk + 4 * fm + fk1))
         return float(max(np.max(np.abs(d_mid)), np.max(np.abs(d_step))))
 
+    def plan(self) -> dict:
+        """What was planned, as JSON: objective, duration T [s], torque bounds [N m], intervals N and cost."""
+        return {"objective": self.objective, "duration": float(self.duration), "torque_bounds": self.bound.tolist(),
+                "intervals": self.intervals, "cost": float(self.cost)}
+
     def arrays(self) -> dict:
         return {"duration": self.duration, "x": self.x, "u": self.u, "x_mid": self.x_mid, "u_mid": self.u_mid,
                 "objective": self.objective, "cost": self.cost, "bound": self.bound}
@@ -201,6 +206,17 @@ def solve_kip(am: AnalyticModel, bound, objective="min-time", duration=None, int
     return kip
 
 
+def _check_interior(duration, bound):
+    """A minimum time at a bound of :data:`TIME_RANGE` is that bound's, not the robot's: refuse it."""
+    low, high = TIME_RANGE
+    if duration <= low * (1 + 1e-6):
+        raise PaaError(f"the min-time kip reached the shortest time allowed ({low:g} s) with torque bounds"
+                       f" {bound.round(3).tolist()} N m: the plan is limited by that bound, not by the robot")
+    if duration >= high * (1 - 1e-6):
+        raise PaaError(f"no kip within {high:g} s under torque bounds {bound.round(3).tolist()} N m: give higher"
+                       " bounds")
+
+
 def _solve(am, bound, objective, duration, intervals, x0, xN, max_iter) -> Kip:
     ca = eq.casadi_module()
     f = dynamics_function(am)
@@ -222,8 +238,10 @@ def _solve(am, bound, objective, duration, intervals, x0, xN, max_iter) -> Kip:
         opti.subject_to(opti.bounded(-bound[j], U[j, :], bound[j]))
         opti.subject_to(opti.bounded(-bound[j], Um[j, :], bound[j]))
     if objective == "min-time":
-        opti.subject_to(opti.bounded(*TIME_RANGE, T))
-        opti.set_initial(T, duration or 3.0)
+        # Opti.bounded(lower, expr, upper): the expression in the middle (a bound written
+        # bounded(*TIME_RANGE, T) constrains T >= (0.2 <= 20.0) = 1 instead).
+        opti.subject_to(opti.bounded(TIME_RANGE[0], T, TIME_RANGE[1]))
+        opti.set_initial(T, float(np.clip(duration or 3.0, *TIME_RANGE)))
         opti.minimize(T + 1e-7 * effort)
     else:
         opti.minimize(effort)
@@ -243,6 +261,8 @@ def _solve(am, bound, objective, duration, intervals, x0, xN, max_iter) -> Kip:
                                                              else "") + "; try higher bounds, a longer duration or"
                        " more intervals") from None
     duration_found = float(sol.value(T)) if objective == "min-time" else float(duration)
+    if objective == "min-time":
+        _check_interior(duration_found, bound)
     return Kip(duration_found, np.array(sol.value(X)).T, np.array(sol.value(U)).T, np.array(sol.value(Xm)).T,
                np.array(sol.value(Um)).T, objective, float(sol.value(T if objective == "min-time" else effort)),
                bound)

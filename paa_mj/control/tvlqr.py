@@ -142,8 +142,7 @@ class TVLQRController(Controller):
         return CompiledForm(tvlqr_kernel, self.params)
 
     def describe(self) -> dict:
-        return {"controller": self.name, "objective": self.kip.objective, "duration": self.kip.duration,
-                "bound": self.kip.bound.tolist()}
+        return {"controller": self.name, "plan": self.kip.plan()}
 
 
 def _cached_table(model, kip, times, table_dt):

@@ -252,9 +252,17 @@ def flatten_mjcf(text: str, folder: Path, source: str) -> str:
 
 
 def compile_mjcf(xml: str, source: str = "<string>") -> mujoco.MjModel:
-    """Compile MJCF text (one-line error when MuJoCo refuses it)."""
+    """Compile MJCF text (one-line error when MuJoCo refuses it).
+
+    MuJoCo's log is off meanwhile: its compiler warns of a NaN in the text (among others) on the
+    console and in ``MUJOCO_LOG.TXT`` in the current folder, which loading a robot must not leave
+    behind; what the compiler refuses comes back as the error.
+    """
+    from ..sim.mujoco_log import mujoco_log_off  # here: paa_mj.sim imports this module
+
     try:
-        return mujoco.MjModel.from_xml_string(xml)
+        with mujoco_log_off():
+            return mujoco.MjModel.from_xml_string(xml)
     except ValueError as err:
         raise PaaError(f"malformed MJCF in {source}: {one_line(err)}") from None
 
@@ -342,8 +350,15 @@ def _check_actuators(model, source):
     for act in range(model.nu):
         if model.actuator_trntype[act] != mujoco.mjtTrn.mjTRN_JOINT:
             raise _shape_error(source, f"actuator {act} must act on a joint")
-        if abs(model.actuator_gear[act, 0] - 1) > 1e-12 or np.any(model.actuator_gear[act, 1:] != 0):
-            raise _feature_error(source, f"actuator {act} gear {model.actuator_gear[act, 0]:g} (the model needs gear 1)")
+        gear = np.asarray(model.actuator_gear[act], float)
+        others = [f"{i + 1} = {value:g}" for i, value in enumerate(gear) if i > 0 and value != 0]
+        if others:
+            # on a hinge MuJoCo uses the first component alone: the others would be dropped in silence
+            raise _feature_error(source, f"actuator {act} gear \"{' '.join(f'{v:g}' for v in gear)}\": gear component"
+                                         f"{'s' if len(others) > 1 else ''} {', '.join(others)} must be 0 (a motor on a"
+                                         " hinge uses the first component only, and the model needs it to be 1)")
+        if abs(gear[0] - 1) > 1e-12:
+            raise _feature_error(source, f"actuator {act} gear {gear[0]:g} (the model needs gear 1)")
         is_motor = (model.actuator_gaintype[act] == mujoco.mjtGain.mjGAIN_FIXED
                     and model.actuator_biastype[act] == mujoco.mjtBias.mjBIAS_NONE
                     and model.actuator_dyntype[act] == mujoco.mjtDyn.mjDYN_NONE

@@ -28,6 +28,31 @@ with mujoco.Renderer(m, 8, 8) as r:
 """
 
 
+def _valid_mujoco_gl():
+    """The values of ``MUJOCO_GL`` that MuJoCo's import accepts here (lower case, stripped), as in its gl_context."""
+    import platform
+
+    valid = ("disable", "disabled", "off", "false", "0", "enable", "enabled", "on", "true", "1", "glfw", "")
+    return valid + {"Linux": ("glx", "egl", "osmesa"), "Windows": ("wgl",), "Darwin": ("cgl",)}.get(platform.system(), ())
+
+
+def check_mujoco_gl():
+    """Refuse a ``MUJOCO_GL`` that MuJoCo would refuse, before anything imports it.
+
+    MuJoCo reads the variable when it is first imported, by any command (not only the ones
+    that render), and answers an unknown value with a RuntimeError from deep in that import.
+
+    Raises
+    ------
+    PaaError
+        One line naming the value and the ones to use instead.
+    """
+    value = os.environ.get("MUJOCO_GL")
+    if value is not None and value.lower().strip() not in _valid_mujoco_gl():
+        raise PaaError(f"the environment variable MUJOCO_GL={value!r} is not a GL backend MuJoCo knows: set it to egl"
+                       " or osmesa (offscreen), glfw, or unset it")
+
+
 def probe(backend: str, timeout=60) -> str | None:
     """None if ``backend`` renders in a fresh process, else the last line of its error."""
     env = dict(os.environ, MUJOCO_GL=backend)

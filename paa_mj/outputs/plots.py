@@ -195,13 +195,19 @@ def basin_figure(summary, arrays):
     return fig
 
 
+def _bound(value, rate):
+    """An interval bound in percent; a rate without an interval (a deterministic run) is its own bound."""
+    chosen = rate if value is None else value
+    return np.nan if chosen is None else 100 * chosen
+
+
 def robustness_figure(factor, data, summary):
     """Success rate against the levels of one factor, with 95 % Wilson intervals."""
     levels = data["levels"]
     labels = ["none" if lv["level"] is None else f"{lv['level']:g}" for lv in levels]
     rates = np.array([np.nan if lv["success_rate"] is None else 100 * lv["success_rate"] for lv in levels])
-    low = np.array([100 * lv.get("low", lv["success_rate"] or 0) for lv in levels])
-    high = np.array([100 * lv.get("high", lv["success_rate"] or 0) for lv in levels])
+    low = np.array([_bound(lv.get("low"), lv["success_rate"]) for lv in levels])
+    high = np.array([_bound(lv.get("high"), lv["success_rate"]) for lv in levels])
     fig, ax = new_figure(figsize=(5.5, 3.6))
     x = np.arange(len(labels))
     ax.bar(x, rates, color="C0", yerr=[np.clip(np.nan_to_num(rates - low), 0, None),
@@ -213,9 +219,10 @@ def robustness_figure(factor, data, summary):
     ax.set_xticks(x, labels)
     ax.set_ylim(0, 112)
     ax.set_xlabel(data["label"])
-    ax.set_ylabel("success [%] (95 % interval)")
+    ax.set_ylabel("success [%] (95 % interval over random draws)")
+    runs = sorted({lv["trials"] for lv in levels})
     ax.set_title(f"{summary['robot']}, {summary.get('controller', 'vcl')}: {factor},"
-                 f" {summary['trials']} starts per level")
+                 f" {'/'.join(map(str, runs))} run(s) per level")
     ax.grid(True, axis="y", alpha=0.3)
     ax.grid(False, axis="x")
     return fig
@@ -254,16 +261,17 @@ def leaderboard_figure(summary):
     for i, name in enumerate(names):
         rob = summary["controllers"][name]["robustness"]
         rates = np.array([np.nan if rob[f]["rate"] is None else 100 * rob[f]["rate"] for f in factors])
-        low = np.array([100 * rob[f]["low"] for f in factors])
-        high = np.array([100 * rob[f]["high"] for f in factors])
+        low = np.array([_bound(rob[f]["low"], rob[f]["rate"]) for f in factors])
+        high = np.array([_bound(rob[f]["high"], rob[f]["rate"]) for f in factors])
         top.bar(x + (i - (len(names) - 1) / 2) * width, rates, width, label=name, color=f"C{i}",
                 yerr=[np.clip(np.nan_to_num(rates - low), 0, None), np.clip(np.nan_to_num(high - rates), 0, None)],
                 capsize=2,
                 error_kw={"elinewidth": 0.8, "ecolor": "0.3"}, hatch=["", "//", "..", "xx", "\\\\", "++"][i % 6])
     top.set_xticks(x, [summary["factors"][f]["label"] for f in factors], fontsize=8)
     top.set_ylim(0, 110)
-    top.set_ylabel("success [%] (95 % interval)")
-    top.set_title(f"{summary['robot']}: robustness, {summary['trials']} runs per factor from (65)")
+    top.set_ylabel("success [%] (95 % interval over random draws)")
+    top.set_title(f"{summary['robot']}: robustness from (65), {summary['trials']} draws per random factor,"
+                  " share of levels per sweep")
     top.legend(ncol=len(names), fontsize=8, loc="lower right", bbox_to_anchor=(1.0, 1.06), frameon=False)
     metrics = [("t_balanced", "time to balance"), ("int_tau2", "int |tau|^2 dt"), ("work", "work"),
                ("smoothness", "torque change"), ("max_speed", "peak speed")]

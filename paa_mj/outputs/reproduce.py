@@ -261,6 +261,9 @@ def _report_text(results, runs, video_path):
         "|---|---|---|---|",
     ]
     lines += ["| " + " | ".join(cell(x) for x in row) + " |" for row in rows]
+    missed = [row[0] for row in rows if row[3].startswith("**not")]
+    lines += ["", f"{len(rows) - len(missed)} of {len(rows)} claims reproduced"
+              + (f"; not reproduced: {'; '.join(missed)} (the sections below say why)." if missed else ".")]
 
     lines += ["", "## 2. The characteristic polynomial at DUU", "",
               "The paper gives the characteristic polynomial of the Jacobian of the closed loop (1) + (40) at the"

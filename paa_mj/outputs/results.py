@@ -36,9 +36,11 @@ def leaderboard_markdown(summary) -> str:
 
     lines = [f"# Kip leaderboard: {summary['robot']}", "",
              f"From (65) in MuJoCo (RK4, 1 ms), {summary['t_final']:g} s, every controller under the torque limit"
-             f" [{summary['torque_limit'][0]:.1f}, {summary['torque_limit'][1]:.1f}] N m. Robustness: {summary['trials']}"
-             f" runs per factor from (65), success = under the balance controller inside region (68) at the end; reach:"
-             f" balanced from a {summary['grid']} x {summary['grid']} grid of (q1, q2).", "",
+             f" [{summary['torque_limit'][0]:.1f}, {summary['torque_limit'][1]:.1f}] N m, in every run (reach included)."
+             f" Success, in every column: {summary['success']}. Robustness from (65): {summary['trials']} independent"
+             " draws per random factor, with a 95 % Wilson interval; one run per level of a swept deterministic factor,"
+             " whose rate is the share of levels that succeed (no interval: nothing is drawn). Reach: the share of a"
+             f" {summary['grid']} x {summary['grid']} grid of starts over (q1, q2) that succeed.", "",
              "## Performance", "",
              "| controller | what | success | t_region [s] | t_balanced [s] | max \\|tau2\\|, \\|tau3\\| [N m] |"
              " int \\|tau\\|^2 dt [N^2 m^2 s] | work [J] | smoothness [N m/s] | max speed [rad/s] |",
@@ -50,14 +52,15 @@ def leaderboard_markdown(summary) -> str:
                      f" {_cell(row['t_balanced'], '.3f')} | {row['max_tau'][0]:.1f}, {row['max_tau'][1]:.1f} |"
                      f" {row['int_tau2']:.4g} | {row['work']:.4g} | {row['smoothness']:.4g} | {row['max_speed']:.2f} |")
     factors = list(summary["factors"])
-    lines += ["", "## Robustness (success rate, 95 % Wilson interval)", "",
+    lines += ["", "## Robustness (success rate [95 % Wilson interval] over random draws; share of levels over sweeps)",
+              "",
               "| controller | " + " | ".join(summary["factors"][f]["label"] for f in factors)
               + " | robustness score | reach |", "|---|" + "---|" * (len(factors) + 2)]
     for name, row in summary["controllers"].items():
         cells = []
         for f in factors:
             r = row["robustness"][f]
-            cells.append("-" if r["rate"] is None else f"{100 * r['rate']:.0f} % [{100 * r['low']:.0f}, {100 * r['high']:.0f}]")
+            cells.append(_rate_cell(r))
         lines.append(f"| {name} | " + " | ".join(cells) + f" | {_cell(row['robustness_score'], '.2f')} |"
                      f" {'-' if row['reach'] is None else format(100 * row['reach'], '.0f') + ' %'} |")
     if summary["versus_vcl"]:
@@ -67,8 +70,19 @@ def leaderboard_markdown(summary) -> str:
                          f" {_cell(ratio['int_tau2'], '.2g')} of its integral of |tau|^2 and {_cell(ratio['work'], '.2g')}"
                          " of its work.")
     lines += ["", "Robustness levels: " + "; ".join(f"{v['label']}" for v in summary["factors"].values()) + ".",
+              "Peak torques applied over every run: " + "; ".join(
+                  f"{name} {row['max_abs_tau'][0]:.1f}, {row['max_abs_tau'][1]:.1f} N m"
+                  for name, row in summary["controllers"].items()) + ".",
               "Every number is in `leaderboard.json`; the runs are in `studies/`.", ""]
     return "\n".join(lines)
+
+
+def _rate_cell(rate):
+    if rate["rate"] is None:
+        return "-"
+    if not rate["random"]:
+        return f"{100 * rate['rate']:.0f} % of {rate['trials']} levels"
+    return f"{100 * rate['rate']:.0f} % [{100 * rate['low']:.0f}, {100 * rate['high']:.0f}] of {rate['trials']}"
 
 
 def write_compare(out_dir, summary, trajectories, robot, video=False):

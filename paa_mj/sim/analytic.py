@@ -17,6 +17,7 @@ from tqdm import tqdm
 from ..control.base import mode_of, reset_controller, torque_of
 from ..control.combined import CombinedController
 from ..errors import PaaError, SimulationDiverged
+from ..limits import check_memory, check_steps, positive_finite
 from ..model.robot import Robot
 from ..model.states import X0_HANGING
 from .engine import MAX_SPEED, NONFINITE_TORQUE, RUNAWAY, STATUS_TEXT
@@ -89,8 +90,17 @@ def simulate_analytic(robot: Robot, controller="vcl", x0=X0_HANGING, t_final: fl
     if method not in integrators:
         raise PaaError(f"unknown method {method!r}: use one of {', '.join(integrators)}")
     x0 = check_initial_state(x0)[0]
+    t_final = positive_finite("final time", t_final, allow_none=False)
+    sample_dt = positive_finite("sample interval", sample_dt, allow_none=False)
+    if not np.isfinite(t_final / 1e-3):  # steps_for would fail to count the steps
+        raise PaaError(f"final time {t_final:g} s is too long: it would need about 1e+"
+                       f"{int(np.floor(np.log10(t_final) + 3))} solver steps of 1 ms; lower it")
     steps_for(t_final, 1e-3)
     sample_interval(sample_dt, sample_dt, t_final)
+    # every sample is 15 floats here and again in the trajectory: refused before np.arange asks for them
+    check_memory(t_final / sample_dt * 240.0, "recorded samples", "--t-final or raise --sample-dt")
+    check_steps(t_final / 1e-3, f"the exact closed loop over {t_final:g} s (counted in 1 ms steps)", "--t-final",
+                cores=1)
     controller = controllers_for(robot, controller, 1)[0]
     limits = np.minimum(np.broadcast_to(np.inf if torque_limit is None else np.asarray(torque_limit, float), (2,)),
                         robot.torque_limits)
@@ -192,7 +202,8 @@ def simulate_analytic(robot: Robot, controller="vcl", x0=X0_HANGING, t_final: fl
                       meta={"robot": robot.name, "engine": "analytic", "integrator": f"solve_ivp {method}",
                             "dt": None, "sample_dt": sample_dt, "rtol": rtol, "x0": x0.tolist(), "t_final": float(t_final),
                             **describe_controller(controller),
-                            "torque_limit": None if np.all(np.isinf(limits)) else limits.tolist()})
+                            "torque_limit": None if np.all(np.isinf(limits)) else limits.tolist()},
+                      robot_xml=robot.xml)
     if failure or not np.all(np.isfinite(X)):
         when = float(t[-1]) if len(t) else 0.0
         traj.meta["status"] = f"diverged at t = {when:.4f} s: {failure or 'non-finite state'}"

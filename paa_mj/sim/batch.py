@@ -17,21 +17,21 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..control.region import BALANCE_TOL, in_switch_region
+from ..control.region import BALANCE_TOL, succeeded
 from ..control.registry import ControllerSpec
 from ..errors import PaaError
 from ..limits import check_memory, check_steps, positive_finite
 from ..model.robot import Robot
 from ..model.states import MAX_INITIAL_ANGLE, MAX_INITIAL_SPEED, X0_HANGING, udd_error
 from . import engine
-from .engine import (DIVERGED, F_D1, F_INT_TAU2, F_Q1, F_SMOOTH, F_SPEED, F_TAU2, F_TAU3, F_WORK, I_MODE,
+from .engine import (DIVERGED, F_D1, F_INT_TAU2, F_Q1, F_SMOOTH, F_SPEED, F_TAU2, F_TAU3, F_WORK, I_LEFT_GOAL,
                      I_OUTSIDE, I_REGION, I_STATUS, I_STEP, I_SWITCH, N_PUSH, N_SETUP, RETIRED, FINISHED,
                      S_DELAY, S_LEVEL, S_LIMIT2, S_NOISE_Q, S_PUSH_END, S_TAU_NOISE, STATUS_TEXT)
 from .integrators import mujoco_model_for
 
 #: Per-rollout outcome arrays of a :class:`BatchResult`, in the order they are saved.
 OUTCOMES = ("x0", "switch_time", "balanced", "final_state", "E_minus_Er_final", "V_final", "max_abs_tau", "diverged",
-            "held", "t_end", "status", "t_region", "t_balanced", "int_tau2", "work", "smoothness", "max_speed")
+            "success", "t_end", "status", "t_region", "t_balanced", "int_tau2", "work", "smoothness", "max_speed")
 
 
 @dataclass
@@ -46,7 +46,8 @@ class BatchResult:
     E_minus_Er_final, V_final : E - E_r [J] and V of (34) [J^2] there (V: NaN without an energy controller).
     max_abs_tau : peak :math:`|\\tau_2|, |\\tau_3|` [N m].
     diverged : stopped for a non-finite or runaway state, a non-finite torque or a MuJoCo warning.
-    held : under the balance controller and inside region (68) at the end (success under noise).
+    success : :data:`~paa_mj.control.region.SUCCESS_DEFINITION`: no divergence and the true state inside region (68)
+        over the last second (the one success test of every study; the controller's mode plays no part).
     t_end : when the rollout stopped [s] (t_final, retirement, or the last good state).
     status : engine status code (:data:`~paa_mj.sim.engine.STATUS_TEXT`).
     t_region : first entry of the true state into region (68) [s], NaN if never.
@@ -63,7 +64,7 @@ class BatchResult:
     V_final: np.ndarray
     max_abs_tau: np.ndarray
     diverged: np.ndarray
-    held: np.ndarray
+    success: np.ndarray
     t_end: np.ndarray
     status: np.ndarray
     t_region: np.ndarray
@@ -79,10 +80,6 @@ class BatchResult:
 
     def __len__(self):
         return len(self.x0)
-
-    def success(self):
-        """Balanced at UDD at the end, without divergence."""
-        return self.balanced & ~self.diverged
 
     def arrays(self):
         return {n: getattr(self, n) for n in OUTCOMES}
@@ -143,6 +140,9 @@ def _check_initial_magnitudes(x0):
 def steps_for(t_final, dt):
     """The number of steps of a run of ``t_final`` seconds at ``dt``, checked against the time budget."""
     t_final = positive_finite("final time", t_final, allow_none=False)
+    if not t_final / dt < 1e15:  # past this no run could finish: say so before counting the steps
+        raise PaaError(f"final time {t_final:g} s is too long: it would need about {t_final / dt:.3g} physics steps"
+                       f" of {dt:g} s; lower --t-final")
     n_steps = int(round(t_final / dt))
     if n_steps < 1:
         raise PaaError(f"final time {t_final:g} s is shorter than one time step ({dt:g} s)")
@@ -272,7 +272,7 @@ def outcome_arrays(plan: engine.Plan, outcome: engine.Outcome, controllers, plan
     return {
         "x0": plan.x0.copy(), "switch_time": switch, "balanced": balanced, "final_state": final,
         "E_minus_Er_final": e_err, "V_final": V, "max_abs_tau": fst[:, [F_TAU2, F_TAU3]].copy(), "diverged": diverged,
-        "held": (ist[:, I_MODE] == 1) & in_switch_region(final[:, :3], final[:, 3:]) & ended,
+        "success": succeeded(status == FINISHED, status == RETIRED, ist[:, I_LEFT_GOAL], steps, dt) & ~diverged,
         "t_end": steps * dt, "status": status, "t_region": region, "t_balanced": t_balanced,
         "int_tau2": fst[:, F_INT_TAU2].copy(), "work": fst[:, F_WORK].copy(),
         "smoothness": np.sqrt(fst[:, F_SMOOTH] / np.maximum(steps, 1)), "max_speed": fst[:, F_SPEED].copy(),

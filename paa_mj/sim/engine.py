@@ -47,12 +47,12 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 from numba import njit, types
-from tqdm import tqdm
 
 from .mujoco_log import mujoco_log_off
 from ..control.base import KERNEL_TYPE, CompiledForm, SwitchedForm, kernel, mode_of, reset_controller, torque_of
 from ..control.region import BALANCE_TOL, inside_region
 from ..errors import PaaError
+from ..progress import progress as progress_bar
 from ..model.states import udd_error_components
 
 #: Speeds beyond this [rad/s] mean the simulation has blown up.
@@ -71,8 +71,8 @@ STATUS_TEXT = {
 DIVERGED = (NONFINITE_TORQUE, NONFINITE_STATE, RUNAWAY, MUJOCO_WARNING)
 
 # Integer state of a rollout (one row of ``istate``).
-I_STEP, I_STATUS, I_SWITCH, I_REGION, I_OUTSIDE, I_SAMPLES, I_MODE = range(7)
-N_ISTATE = 7
+I_STEP, I_STATUS, I_SWITCH, I_REGION, I_OUTSIDE, I_SAMPLES, I_MODE, I_LEFT_GOAL = range(8)
+N_ISTATE = 8
 # Float state and outcomes (one row of ``fstate``).
 (F_TAU2, F_TAU3, F_INT_TAU2, F_WORK, F_SMOOTH, F_SPEED, F_PREV2, F_PREV3,
  F_Q1, F_Q2, F_Q3, F_D1, F_D2, F_D3) = range(14)
@@ -189,8 +189,11 @@ def actuate(r, step, dt, mode, tau_cmd, ctrl, qpos, qvel, setup, cert, delay_lin
     if mode == 1 and st[I_SWITCH] < 0:
         st[I_SWITCH] = step
     q1, q2, q3, d1, d2, d3 = qpos[0], qpos[1], qpos[2], qvel[0], qvel[1], qvel[2]
-    if st[I_REGION] < 0 and inside_region(q1, q2, q3, d1, d2, d3):
+    inside = inside_region(q1, q2, q3, d1, d2, d3)
+    if st[I_REGION] < 0 and inside:
         st[I_REGION] = step
+    if not inside:  # the success window (:func:`~paa_mj.control.region.succeeded`) starts after the last exit
+        st[I_LEFT_GOAL] = step
     x1, x2, x3 = udd_error_components(q1, q2, q3)
     if max(abs(x1), abs(x2), abs(x3), abs(d1), abs(d2), abs(d3)) >= BALANCE_TOL:
         st[I_OUTSIDE] = step
@@ -318,6 +321,7 @@ def start_rollout(r, model_ptr, data_ptr, qpos, qvel, x0, istate, fstate, memory
     istate[r, I_SWITCH] = -1
     istate[r, I_REGION] = -1
     istate[r, I_OUTSIDE] = -1
+    istate[r, I_LEFT_GOAL] = -1
     fstate[r, :] = 0.0
     for i in range(3):
         fstate[r, F_Q1 + i] = x0[r, i]
@@ -567,7 +571,7 @@ def run(plan: Plan, controllers, nthread=None, progress=False, desc="rollouts") 
     memory_size = max([f.memory.size for f in forms.values() if f is not None] + [1])
     arrays = _Arrays(plan, memory_size)
     interrupted = False
-    bar = tqdm(total=n, unit="rollout", desc=desc, disable=None if progress else True, leave=False)
+    bar = progress_bar(total=n, unit="rollout", desc=desc, enabled=progress)
     try:
         with mujoco_log_off():
             if compiled_rows:

@@ -15,6 +15,7 @@ from ..errors import SimulationDiverged
 from ..model.robot import Robot
 from ..model.states import X0_HANGING
 from . import engine
+from ..control.region import SUCCESS_DEFINITION
 from .batch import _lyapunov, build_plan, check_initial_state, controllers_for, outcome_arrays, sample_interval
 from .integrators import integrator_name, mujoco_model_for
 from .trajectory import Trajectory
@@ -86,8 +87,10 @@ def simulate_mujoco(robot: Robot, controller="vcl", x0: ArrayLike = X0_HANGING, 
                       None if np.isnan(switch) else float(switch),
                       meta={"robot": robot.name, "engine": "mujoco", "integrator": integrator_name(model), "dt": dt,
                             "sample_dt": every * dt, "x0": x0[0].tolist(), "t_final": float(t_final), **describe_controller(controllers[0]),
-                            "torque_limit": _limit_meta(plan)})
+                            "torque_limit": _limit_meta(plan)}, robot_xml=robot.xml)
     when = float(out["t_end"][0])
+    traj.meta["success"] = bool(out["success"][0])
+    traj.meta["success_definition"] = SUCCESS_DEFINITION
     if status in engine.DIVERGED:
         traj.meta["status"] = f"diverged at t = {when:.4f} s: {engine.STATUS_TEXT[status]}"
         if stop_on_divergence:

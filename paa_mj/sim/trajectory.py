@@ -1,6 +1,7 @@
 """The trajectory record of a rollout and its summary; saved as NPZ, CSV and JSON."""
 from __future__ import annotations
 
+import hashlib
 import json
 import zipfile
 from dataclasses import dataclass, field
@@ -13,6 +14,11 @@ from ..errors import PaaError
 from ..io import json_writer, npz_writer, write_set
 from ..model.states import udd_error
 FIELDS = ("t", "q", "qd", "tau", "E_minus_Er", "V", "mode")
+
+
+def mjcf_sha256(xml: str) -> str:
+    """The fingerprint of a robot: the sha256 of its (flattened) MJCF text, hexadecimal."""
+    return hashlib.sha256(xml.encode("utf-8")).hexdigest()
 
 
 @dataclass
@@ -29,6 +35,7 @@ class Trajectory:
     mode : ndarray (n,) int8    0 swing-up (40), 1 balance (67)
     switch_time : float or None first time the state entered region (68) [s]
     meta : dict                 robot, engine, integrator, time step, gains, x0, status
+    robot_xml : str or None     MJCF text of the robot simulated (None: unknown, a file of an older version)
     """
 
     t: np.ndarray
@@ -40,9 +47,15 @@ class Trajectory:
     mode: np.ndarray
     switch_time: float | None = None
     meta: dict = field(default_factory=dict)
+    robot_xml: str | None = None
 
     def __len__(self):
         return len(self.t)
+
+    @property
+    def robot_sha256(self) -> str | None:
+        """The fingerprint of the robot (:func:`mjcf_sha256`), or None when the robot is unknown."""
+        return None if self.robot_xml is None else mjcf_sha256(self.robot_xml)
 
     @property
     def final_state(self):
@@ -67,8 +80,16 @@ class Trajectory:
 
     # --- files --------------------------------------------------------------------
     def save(self, out_dir, stem="trajectory"):
-        """Write ``stem.npz``, ``stem.csv`` and ``summary.json`` into ``out_dir``, as one set (all or none)."""
+        """Write ``stem.npz``, ``stem.csv`` and ``summary.json`` into ``out_dir``, as one set (all or none).
+
+        The NPZ also holds the robot's MJCF text and its sha256 when :attr:`robot_xml` is known, so
+        that a replay draws the robot that was simulated, not another of the same name.
+        """
         arrays = {name: getattr(self, name) for name in FIELDS}
+        if self.robot_xml is not None:
+            # bytes, not a NumPy string: UTF-32 would take four times the room
+            arrays["robot_mjcf"] = np.frombuffer(self.robot_xml.encode("utf-8"), np.uint8)
+            arrays["robot_sha256"] = np.asarray(self.robot_sha256)
         header = "t,q1,q2,q3,d1,d2,d3,tau2,tau3,E_minus_Er,V,mode"
         table = np.column_stack([self.t, self.q, self.qd, self.tau, self.E_minus_Er, self.V, self.mode])
 
@@ -96,6 +117,10 @@ class Trajectory:
                 arrays = {name: np.array(z[name]) for name in FIELDS}
                 switch = float(z["switch_time"])
                 meta = json.loads(str(z["meta"]))
+                robot_xml, sha = None, None
+                if "robot_sha256" in z.files or "robot_mjcf" in z.files:
+                    robot_xml = np.asarray(z["robot_mjcf"], np.uint8).tobytes().decode("utf-8")
+                    sha = str(z["robot_sha256"])
         except Exception as err:  # zipfile, KeyError, ValueError...: all mean "not our file"
             raise PaaError(f"corrupted or foreign trajectory file {path}: {type(err).__name__}: {' '.join(str(err).split())}") from None
         n = len(arrays["t"])
@@ -107,4 +132,6 @@ class Trajectory:
             raise PaaError(f"corrupted trajectory file {path}: empty or non-finite samples")
         if arrays["t"][0] < 0 or np.any(np.diff(arrays["t"]) <= 0):
             raise PaaError(f"corrupted trajectory file {path}: the times are not increasing from t >= 0")
-        return cls(**arrays, switch_time=None if np.isnan(switch) else switch, meta=meta)
+        if robot_xml is not None and mjcf_sha256(robot_xml) != sha:
+            raise PaaError(f"corrupted trajectory file {path}: its robot's MJCF text does not match its sha256")
+        return cls(**arrays, switch_time=None if np.isnan(switch) else switch, meta=meta, robot_xml=robot_xml)

@@ -37,8 +37,9 @@ from ..control.closed_loop import duu_eigenvalues
 from ..control.gains import gain_rule
 from ..theory.linear import lqr_gain, sampled_spectral_radius, udd_controllability
 from .basin import OUTCOME_NAMES, classify
-from .runner import RolloutSet, map_chunks, run_study
-from .store import ChunkStore, study_key
+from ..control.region import SUCCESS_DEFINITION
+from .runner import CHUNK, RolloutSet, map_chunks, peak_torques, run_study
+from .store import ChunkStore, check_arrays, study_key
 
 PARAMETERS = ("m1", "m2", "m3", "l1", "l2", "l3")
 DEFAULT_RANGE = (0.25, 4.0)
@@ -127,10 +128,14 @@ def _theory_task(shared, payload):
 
 
 def atlas(robot: Robot, vary=("l1", "m1"), factor_range=DEFAULT_RANGE, grid=32, simulate=False, starts=4,
-          t_final=30.0, seed=0, scheduler="inline", out_dir=None, fresh=False, progress=False):
+          t_final=30.0, seed=0, scheduler="inline", out_dir=None, fresh=False, progress=False, chunk=None,
+          torque_limit=None):
     """The atlas of a family of robots; returns (summary, arrays).
 
     The family is ordered with the first parameter's factor as the slow index.
+    ``chunk``: robots per chunk of the theory and kips per chunk of the simulation
+    (default :data:`THEORY_CHUNK` and :data:`~paa_mj.studies.runner.CHUNK`);
+    ``torque_limit`` [N m] saturates every simulated kip.
     """
     if not (isinstance(grid, (int, np.integer)) and 2 <= grid <= MAX_GRID):
         raise PaaError(f"--grid must be an integer in [2, {MAX_GRID}], got {grid}")
@@ -144,10 +149,12 @@ def atlas(robot: Robot, vary=("l1", "m1"), factor_range=DEFAULT_RANGE, grid=32, 
     f1, f2 = grid_factors(*factor_range, grid), grid_factors(*factor_range, grid)
     family = [scale(scale(robot.params, vary[0], a), vary[1], b) for a in f1 for b in f2]
     key = {"study": "atlas", "robot": robot.xml, "vary": list(vary), "range": list(factor_range), "grid": grid}
-    payloads = [[(p.m, p.l, p.lc, p.J) for p in family[i:i + THEORY_CHUNK]] for i in range(0, n, THEORY_CHUNK)]
-    store = ChunkStore(out_dir, study_key({**key, "part": "theory"}), fresh)
+    theory_chunk = chunk or THEORY_CHUNK
+    payloads = [[(p.m, p.l, p.lc, p.J) for p in family[i:i + theory_chunk]] for i in range(0, n, theory_chunk)]
+    store = ChunkStore(out_dir, study_key({**key, "part": "theory", "chunk": theory_chunk}), fresh,
+                       study="atlas-theory")
     finished, interrupted = map_chunks(_theory_task, payloads, scheduler=scheduler, store=store, progress=progress,
-                                       desc=f"theory of {n} robots",
+                                       desc=f"theory of {n} robots", fits=_theory_fits,
                                        shared=(robot.gains, float(robot.model.opt.timestep)))
     arrays = {"factors_1": f1, "factors_2": f2}
     for name in _NUMBERS + _FLAGS + ("gains",):
@@ -161,20 +168,30 @@ def atlas(robot: Robot, vary=("l1", "m1"), factor_range=DEFAULT_RANGE, grid=32, 
                "gain_rule": "kD = 1.05 kD_min, kP = 1.05 max(eta1, eta2), kV = kD x (kV/kD of the base robot)",
                "interrupted": interrupted, "simulated": bool(simulate)}
     if simulate and not interrupted:
-        outcome, reached, balanced_starts, V_final, interrupted = _simulate(robot, family, arrays, starts, t_final,
-                                                                            seed, scheduler, out_dir, fresh, progress,
-                                                                            key)
+        outcome, reached, balanced_starts, V_final, interrupted, peak = _simulate(
+            robot, family, arrays, starts, t_final, seed, scheduler, out_dir, fresh, progress, key, chunk or CHUNK,
+            torque_limit)
         arrays["outcome"], arrays["reached_68"], arrays["balanced_starts"] = outcome, reached, balanced_starts
         arrays["V_final"] = V_final
         summary["interrupted"] = interrupted
         summary["starts"], summary["t_final"] = starts, t_final
+        summary["torque_limit"] = None if torque_limit is None else np.broadcast_to(torque_limit, (2,)).tolist()
+        summary["max_abs_tau"] = peak
+        summary["success"] = SUCCESS_DEFINITION
     summary["robots"] = _robot_rows(family, arrays, f1, f2)
     summary["counts"] = _counts(arrays, simulate and "outcome" in arrays)
     summary["findings"] = _findings(summary, arrays)
     return summary, arrays
 
 
-def _simulate(robot, family, arrays, starts, t_final, seed, scheduler, out_dir, fresh, progress, key):
+def _theory_fits(payload, result):
+    rows = len(payload)
+    shapes = {**{name: (rows,) for name in _NUMBERS + _FLAGS}, "gains": (rows, 3)}
+    return check_arrays(result, shapes)
+
+
+def _simulate(robot, family, arrays, starts, t_final, seed, scheduler, out_dir, fresh, progress, key, chunk,
+              torque_limit):
     rng = np.random.default_rng(seed)
     x0, specs, plants, owner = [], [], [], []
     for r, params in enumerate(family):
@@ -196,11 +213,12 @@ def _simulate(robot, family, arrays, starts, t_final, seed, scheduler, out_dir, 
     balanced_starts = np.full(len(family), np.nan)
     V_final = np.full(len(family), np.nan)
     if not x0:
-        return outcome, reached, balanced_starts, V_final, False
-    rollouts = RolloutSet(np.array(x0), specs, plants=plants)
-    store = ChunkStore(out_dir, study_key({**key, "part": "kips", "starts": starts, "t_final": t_final, "seed": seed}),
-                       fresh)
-    result = run_study(robot, rollouts, t_final, seed=seed, scheduler=scheduler, store=store, progress=progress)
+        return outcome, reached, balanced_starts, V_final, False, None
+    rollouts = RolloutSet(np.array(x0), specs, plants=plants, torque_limit=torque_limit)
+    store = ChunkStore(out_dir, study_key({**key, "part": "kips", "starts": starts, "t_final": t_final, "seed": seed,
+                                           "chunk": chunk, **rollouts.definition()}), fresh, study="atlas-kips")
+    result = run_study(robot, rollouts, t_final, seed=seed, scheduler=scheduler, store=store, progress=progress,
+                       desc="atlas kips", chunk=chunk)
     done = result.meta["completed"]
     codes = classify(result)
     for r in np.unique(owner):
@@ -212,8 +230,8 @@ def _simulate(robot, family, arrays, starts, t_final, seed, scheduler, out_dir, 
         reached[r] = bool(np.isfinite(result.switch_time[kip]))
         V_final[r] = result.V_final[kip]
         if len(rows) > 1 and done[rows[1:]].all():
-            balanced_starts[r] = float(np.mean(result.success()[rows[1:]]))
-    return outcome, reached, balanced_starts, V_final, result.interrupted
+            balanced_starts[r] = float(np.mean(result.success[rows[1:]]))
+    return outcome, reached, balanced_starts, V_final, result.interrupted, peak_torques(result.max_abs_tau, done)
 
 
 def _robot_rows(family, arrays, f1, f2):
@@ -266,7 +284,10 @@ def _counts(arrays, simulated):
 def _findings(summary, arrays):
     """What the map shows, in sentences."""
     counts = summary["counts"]
-    lines = [f"{counts['Theorem 1 applies']} of {counts['robots']} robots meet Theorem 1's conditions on the robot"
+    lines = [] if not summary["interrupted"] else [
+        f"INCOMPLETE (interrupted): what follows covers only the {counts['robots']} robots finished so far"
+        + (" and only their finished kips" if summary["simulated"] else "") + "; run the same command to finish."]
+    lines += [f"{counts['Theorem 1 applies']} of {counts['robots']} robots meet Theorem 1's conditions on the robot"
              f" (E_r > 0 on {counts['E_r > 0']}, (54) on {counts['(54) holds']}, UDD controllable on"
              f" {counts['UDD controllable']})."]
     if "confusion" in counts:

@@ -14,7 +14,8 @@ from ..errors import PaaError
 from ..limits import check_memory, check_steps
 from ..model.robot import Robot
 from ..model.states import Q_DUU, STATE_NAMES, wrap_angle
-from .runner import CHUNK, RolloutSet, run_study
+from ..control.region import SUCCESS_DEFINITION
+from .runner import CHUNK, RolloutSet, peak_torques, run_study
 from .store import ChunkStore, study_key
 
 COORDINATES = STATE_NAMES
@@ -55,14 +56,17 @@ def classify(result) -> np.ndarray:
     near_duu = np.max(np.abs(np.concatenate([wrap_angle(final[:, :3] - Q_DUU), final[:, 3:]], axis=1)), axis=1) < DUU_TOL
     switched = np.isfinite(result.switch_time)
     code = np.where(switched, LOST, np.where(near_duu, STUCK_DUU, NEVER))
-    code = np.where(result.success(), BALANCED, code)
+    code = np.where(result.success, BALANCED, code)
     return np.where(result.diverged, DIVERGED, code).astype(np.int8)
 
 
 def basin(robot: Robot, axes: tuple[int, int] = (0, 1), grid: int = 64, t_final: float = 30.0,
           controller: ControllerSpec | str = "vcl", progress: bool = False, scheduler: str = "inline",
-          out_dir=None, fresh: bool = False, chunk: int = CHUNK) -> tuple[dict, dict]:
+          out_dir=None, fresh: bool = False, chunk: int = CHUNK, torque_limit=None) -> tuple[dict, dict]:
     """Run the basin study; returns (summary dict, arrays dict).
+
+    ``torque_limit`` [N m] (one value or one per motor) saturates every run, on top of
+    the model's actuator ranges; the summary reports the peak torques applied.
 
     ``scheduler``: "inline", "local" (a local Dask cluster) or a Dask scheduler
     address; the results are identical whichever (:mod:`paa_mj.studies.runner`).
@@ -77,13 +81,13 @@ def basin(robot: Robot, axes: tuple[int, int] = (0, 1), grid: int = 64, t_final:
                     "--grid or --t-final")
     x0, xs, ys = basin_grid(axes, grid)
     spec.build(robot)  # checks the gains (one line) before any work
-    rollouts = RolloutSet(x0, spec)
+    rollouts = RolloutSet(x0, spec, torque_limit=torque_limit)
     key = study_key({"study": "basin", "robot": robot.xml, "axes": list(axes), "grid": grid, "t_final": t_final,
                      "chunk": chunk, **rollouts.definition()})
-    result = run_study(robot, rollouts, t_final, scheduler=scheduler, store=ChunkStore(out_dir, key, fresh),
-                       progress=progress, chunk=chunk)
+    result = run_study(robot, rollouts, t_final, scheduler=scheduler, store=ChunkStore(out_dir, key, fresh, "basin"),
+                       progress=progress, desc="basin", chunk=chunk)
     completed = result.meta["completed"]
-    success = result.success()
+    success = result.success
     switched = result.switch_time[np.isfinite(result.switch_time)]
     outcome = classify(result)
 
@@ -94,7 +98,9 @@ def basin(robot: Robot, axes: tuple[int, int] = (0, 1), grid: int = 64, t_final:
         "robot": robot.name, "controller": spec.short_name, "axes": [COORDINATES[a] for a in axes], "grid": grid,
         "cells": int(grid * grid), "t_final": t_final, "t_reached": result.t_reached,
         "interrupted": result.interrupted, "completed_fraction": float(np.mean(completed)),
-        "success_fraction": fraction(success),
+        "success": SUCCESS_DEFINITION, "success_fraction": fraction(success),
+        "torque_limit": None if torque_limit is None else np.broadcast_to(torque_limit, (2,)).tolist(),
+        "max_abs_tau": peak_torques(result.max_abs_tau, completed),
         "switched_fraction": fraction(np.isfinite(result.switch_time)),
         "diverged_fraction": fraction(result.diverged),
         "median_switch_time": float(np.median(switched)) if switched.size else None,

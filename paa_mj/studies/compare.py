@@ -9,13 +9,21 @@ there), and is scored on
   integral of :math:`|\\tau|^2` dt, the work integral of :math:`|\\tau \\cdot \\dot q_a|` dt, the RMS of the
   torque change per second (smoothness) and the peak joint speed; success means
   balanced at the end, and a failure says why;
-- robustness (:data:`FACTORS`): the success rate, with its 95 % Wilson interval,
-  under one level of each disturbance: controller model error, measurement
-  noise, torque noise, control delay, pushes during the swing and a perturbed
-  start (:mod:`paa_mj.studies.robustness`); the robustness score is their mean,
-  as RealAIGym's;
+- robustness: the success rate under each disturbance
+  (:mod:`paa_mj.studies.robustness`). Random disturbances (:data:`FACTORS`:
+  measurement noise, torque noise, pushes during the swing, a perturbed start)
+  are drawn ``trials`` times and their rate has a 95 % Wilson interval; the
+  deterministic ones (:data:`SWEEPS`: controller model error, control delay)
+  give one run per level, so they are swept over levels, as RealAIGym sweeps
+  model parameters and delay, and their rate is the share of levels that
+  succeed (no interval: nothing is drawn). The robustness score is the mean of
+  the rates, as RealAIGym's;
 - reach: the share of a (q1, q2) grid of starts from which it balances
   (:mod:`paa_mj.studies.basin`), which answers "from where?".
+
+Every run of every part, reach included, is saturated at the same torque limit,
+and success has one meaning throughout
+(:data:`~paa_mj.control.region.SUCCESS_DEFINITION`).
 
 RealAIGym also folds the performance metrics into one score with normalisers
 fixed for the double pendulum; none exist for the gymnast, so the leaderboard
@@ -28,18 +36,24 @@ import numpy as np
 
 from ..control.registry import OPTIONS, ControllerSpec
 from ..errors import PaaError
+from ..progress import stage
 from ..model.robot import Robot
 from ..model.states import X0_HANGING
 from ..sim.batch import kip_peak_torques, simulate_batch
+from ..control.region import SUCCESS_DEFINITION
 from .basin import basin
 from .robustness import robustness
+from .runner import CHUNK
 
 DEFAULT_CONTROLLERS = ("vcl", "vc", "trajopt", "trajopt-effort")
-#: One level per robustness factor (name in :data:`paa_mj.studies.robustness.FACTORS`: level).
-FACTORS = {"model_error": 5.0, "noise": 0.01, "torque_noise": 0.03, "delay": 5.0, "pushes": 0.1,
-           "initial_state": 0.1}
-FACTOR_LABELS = {"model_error": "model error 5 %", "noise": "noise 0.01", "torque_noise": "torque noise 3 %",
-                 "delay": "delay 5 ms", "pushes": "pushes 0.1 b1", "initial_state": "start +-0.1"}
+#: One level per random robustness factor (name in :data:`paa_mj.studies.robustness.FACTORS`: level).
+FACTORS = {"noise": 0.01, "torque_noise": 0.03, "pushes": 0.1, "initial_state": 0.1}
+#: The levels of each deterministic factor, swept (full size; --quick takes every second one).
+SWEEPS = {"model_error": tuple(float(v) for v in range(1, 11)), "delay": tuple(float(v) for v in range(1, 11))}
+FACTOR_LABELS = {"model_error": "model error 1-10 %", "noise": "noise 0.01", "torque_noise": "torque noise 3 %",
+                 "delay": "delay 1-10 ms", "pushes": "pushes 0.1 b1", "initial_state": "start +-0.1"}
+#: The order of the robustness columns.
+FACTOR_ORDER = ("model_error", "noise", "torque_noise", "delay", "pushes", "initial_state")
 METRICS = ("t_region", "t_balanced", "max_tau", "int_tau2", "work", "smoothness", "max_speed", "success")
 SIZES = {"quick": {"trials": 6, "grid": 6, "t_final": 30.0}, "full": {"trials": 48, "grid": 16, "t_final": 30.0}}
 
@@ -56,11 +70,17 @@ def _why(result, i, t_final):
         return f"never entered region (68) in {t_final:g} s"
     if not np.isfinite(result.switch_time[i]):
         return "entered region (68) but never switched to the balance controller"
-    return "switched but was not balanced at the end"
+    return "not inside region (68) throughout the last second of the run"
 
 
 def _none(value):
     return None if value is None or not np.isfinite(value) else float(value)
+
+
+def sweep_levels(factor, quick=False):
+    """The levels of a swept factor at the leaderboard's size."""
+    levels = SWEEPS[factor]
+    return levels[1::2] if quick else levels
 
 
 def performance(robot: Robot, controller, limit, t_final=30.0):
@@ -71,17 +91,18 @@ def performance(robot: Robot, controller, limit, t_final=30.0):
         raise KeyboardInterrupt
     n = int(result.trajectories["count"][0])
     trajectory = {k: result.trajectories[k][0, :n] for k in ("t", "q", "qd", "tau", "mode")}
-    success = bool(result.success()[0])
+    success = bool(result.success[0])
     metrics = {"t_region": _none(result.t_region[0]), "t_balanced": _none(result.t_balanced[0]),
                "max_tau": result.max_abs_tau[0].tolist(), "int_tau2": float(result.int_tau2[0]),
                "work": float(result.work[0]), "smoothness": float(result.smoothness[0]),
-               "max_speed": float(result.max_speed[0]), "success": success,
+               "max_speed": float(result.max_speed[0]), "success": success, "balanced": bool(result.balanced[0]),
                "why": None if success else _why(result, 0, t_final)}
     return metrics, trajectory
 
 
 def compare(robot: Robot, controllers=DEFAULT_CONTROLLERS, torque_limit=None, trials=None, quick=False,
-            t_final=None, seed=0, scheduler="inline", out_dir=None, fresh=False, progress=False, grid=None):
+            t_final=None, seed=0, scheduler="inline", out_dir=None, fresh=False, progress=False, grid=None,
+            chunk=CHUNK):
     """The leaderboard; returns (summary, trajectories by controller, basins by controller).
 
     Parameters
@@ -112,39 +133,64 @@ def compare(robot: Robot, controllers=DEFAULT_CONTROLLERS, torque_limit=None, tr
         np.minimum(kip_peak_torques(robot, "vcl"), robot.torque_limits)
     for name in names:
         specs[name] = _spec(name, limit)
+        if name in OPTIONS:
+            stage(f"compare: planning the {name} kip (collocation, IPOPT; cached after the first solve)", progress)
         specs[name].build(robot)  # gains, files and solves checked (one line) before any study runs
+    sweeps = {factor: sweep_levels(factor, quick) for factor in SWEEPS}
     summary = {"robot": robot.name, "torque_limit": limit.tolist(), "t_final": sizes["t_final"],
-               "trials": sizes["trials"], "grid": sizes["grid"], "seed": seed,
-               "factors": {k: {"level": v, "label": FACTOR_LABELS[k]} for k, v in FACTORS.items()},
+               "trials": sizes["trials"], "grid": sizes["grid"], "seed": seed, "success": SUCCESS_DEFINITION,
+               "intervals": "95 % Wilson intervals over the independent draws of a random factor (random: true);"
+                            " a swept deterministic factor's rate is the share of its levels that succeed, one run"
+                            " each (random: false), without an interval",
+               "factors": {k: {"label": FACTOR_LABELS[k], "random": k in FACTORS,
+                               **({"level": FACTORS[k]} if k in FACTORS else {"levels": list(sweeps[k])})}
+                           for k in FACTOR_ORDER},
                "interrupted": False, "controllers": {}}
     trajectories, basins = {}, {}
-    for name in names:
+    for number, name in enumerate(names, start=1):
         spec = specs[name]
         controller = spec.build(robot)
+        stage(f"compare [{number}/{len(names)}] {name}: the kip from (65), then robustness and reach", progress)
         metrics, trajectories[name] = performance(robot, controller, limit, sizes["t_final"])
         folder = None if out_dir is None else f"{out_dir}/studies/{folder_name(name)}"
+        levels = {k: [v] for k, v in FACTORS.items()} | {k: list(v) for k, v in sweeps.items()}
         rob, _ = robustness(robot, trials=sizes["trials"], t_final=sizes["t_final"], seed=seed, controller=spec,
-                            factors=list(FACTORS), levels={k: [v] for k, v in FACTORS.items()}, start="hanging",
-                            progress=progress, scheduler=scheduler, out_dir=folder, fresh=fresh, torque_limit=limit)
-        rates = {}
-        for factor, data in rob["factors"].items():
-            level = data["levels"][0]
-            rates[factor] = {"rate": level["success_rate"], "low": level["low"], "high": level["high"],
-                             "trials": level["trials"]}
+                            factors=list(FACTOR_ORDER), levels=levels, start="hanging", progress=progress,
+                            scheduler=scheduler, out_dir=folder, fresh=fresh, torque_limit=limit, chunk=chunk)
+        rates = {factor: _factor_rate(rob["factors"][factor]["levels"]) for factor in FACTOR_ORDER}
         complete = [r["rate"] for r in rates.values() if r["rate"] is not None]
         basin_summary, basins[name] = basin(robot, (0, 1), sizes["grid"], sizes["t_final"], controller=spec,
-                                            progress=progress, scheduler=scheduler, out_dir=folder, fresh=fresh)
+                                            progress=progress, scheduler=scheduler, out_dir=folder, fresh=fresh,
+                                            chunk=chunk, torque_limit=limit)
+        peaks = [p for p in (metrics["max_tau"], rob["max_abs_tau"], basin_summary["max_abs_tau"]) if p is not None]
+        description = controller.describe() if hasattr(controller, "describe") else {}
         summary["controllers"][name] = {
             **metrics, "robustness": rates,
             "robustness_score": float(np.mean(complete)) if len(complete) == len(rates) else None,
-            "reach": basin_summary["success_fraction"],
-            "describe": controller.describe() if hasattr(controller, "describe") else {},
+            "reach": basin_summary["success_fraction"], "reach_runs": basin_summary["cells"],
+            "max_abs_tau": np.max(peaks, axis=0).tolist(),
+            "plan": description.get("plan"), "describe": description,
         }
         summary["interrupted"] |= bool(rob["interrupted"] or basin_summary["interrupted"])
         if summary["interrupted"]:
             break
     summary["versus_vcl"] = _versus(summary["controllers"])
     return summary, trajectories, basins
+
+
+def _factor_rate(levels):
+    """One factor's column: a random factor's rate over its draws, or a sweep's share of levels that succeed."""
+    if len(levels) == 1:
+        level = levels[0]
+        return {"rate": level["success_rate"], "low": level["low"], "high": level["high"], "trials": level["trials"],
+                "random": level["random"]}
+    done = [level for level in levels if level["success_rate"] is not None]
+    if any(level["random"] for level in done):  # not a leaderboard setting: no share of levels to report
+        raise PaaError("a swept factor must be deterministic")
+    passed = sum(level["success_rate"] for level in done)
+    return {"rate": passed / len(done) if len(done) == len(levels) else None, "low": None, "high": None,
+            "trials": len(done), "random": False,
+            "levels": {format(level["level"], "g"): bool(level["success_rate"]) for level in done}}
 
 
 def folder_name(name):

@@ -37,7 +37,8 @@ from ..limits import check_memory, check_steps
 from ..model.robot import Robot
 from ..model.states import X0_HANGING
 from ..sim.batch import kip_peak_torques
-from .runner import CHUNK, RolloutSet, run_study
+from .runner import CHUNK, RolloutSet, peak_torques, run_study
+from ..control.region import SUCCESS_DEFINITION
 from .store import ChunkStore, study_key
 
 FACTORS = {
@@ -52,20 +53,46 @@ FACTORS = {
 #: The largest controller model error tested [%].
 MAX_MODEL_ERROR = 90.0
 DEFAULT_FACTORS = ("noise", "torque_limit", "model_error", "delay")
+#: Factors that draw random numbers at levels above 0 (the others are deterministic from a fixed start).
+RANDOM_FACTORS = ("noise", "torque_noise", "pushes", "initial_state")
 STARTS = ("random", "hanging")
 PUSHES_PER_RUN, PUSH_WIDTH, PUSH_WINDOW = 3, 0.1, (1.0, 10.0)
 MAX_TRIALS = 100_000
+#: A stable number per factor: with the trial, it keys the factor's random draws.
+FACTOR_CODES = {name: code for code, name in enumerate(FACTORS, start=1)}
 
 
 def wilson_interval(successes, trials, z=1.959963984540054):
-    """The 95 % Wilson score interval (low, high) of a success rate."""
+    """The 95 % Wilson score interval (low, high) of a success rate k / n, with low <= k / n <= high exactly.
+
+    For n = 0 the interval is (0, 1). Rounding never puts a bound on the wrong side
+    of the rate: at k = 0 the low bound is 0 and at k = n the high bound is 1.
+    """
     if trials == 0:
         return 0.0, 1.0
     p = successes / trials
     denom = 1 + z * z / trials
     centre = (p + z * z / (2 * trials)) / denom
     half = z * math.sqrt(p * (1 - p) / trials + z * z / (4 * trials * trials)) / denom
-    return max(0.0, centre - half), min(1.0, centre + half)
+    low = 0.0 if successes == 0 else min(p, max(0.0, centre - half))
+    high = 1.0 if successes == trials else max(p, min(1.0, centre + half))
+    return low, high
+
+
+def is_random(factor, level, start) -> bool:
+    """Whether the runs of a (factor, level) differ from one another: random starts, or draws of the factor's own.
+
+    A deterministic setting (the kip from (65) under model error, delay or a torque
+    limit, or any factor at level 0) is one run, whatever the number of trials.
+    """
+    return start == "random" or (factor in RANDOM_FACTORS and level > 0)
+
+
+def rate_entry(successes, runs, random) -> dict:
+    """A success rate as reported in every JSON: a Wilson interval over independent draws only."""
+    low, high = wilson_interval(successes, runs) if random and runs else (None, None)
+    return {"success_rate": successes / runs if runs else None, "low": low, "high": high, "trials": int(runs),
+            "random": bool(random)}
 
 
 def initial_states(trials, seed=0, start="random"):
@@ -139,7 +166,9 @@ def robustness(robot: Robot, trials=64, t_final=30.0, seed=0, controller: Contro
         if name == "model_error" and any(v > MAX_MODEL_ERROR for v in values):
             raise PaaError(f"--model-error percentages must lie in [0, {MAX_MODEL_ERROR:g}], got {values}")
         chosen[name]["levels"] = values
-    total = trials * sum(len(f["levels"]) for f in chosen.values())
+    runs = {(factor, level_i): trials if is_random(factor, level, start) else 1
+            for factor, fspec in chosen.items() for level_i, level in enumerate(fspec["levels"])}
+    total = sum(runs.values())
     check_memory(total * 1000.0, "robustness rollouts", "--trials or the levels")
     if scheduler in ("inline", "local"):
         check_steps(total * t_final / float(robot.model.opt.timestep), f"{total} rollouts of {t_final:g} s",
@@ -150,11 +179,14 @@ def robustness(robot: Robot, trials=64, t_final=30.0, seed=0, controller: Contro
     peak = nominal_peak(robot, spec, base_limit) if {"torque_limit", "torque_noise"} & set(chosen) else None
     base = initial_states(trials, seed, start)
     dt = robot.model.opt.timestep
-    rng = np.random.default_rng([seed, 1])
-    x0, specs, limit, noise, tau_noise, delay, pushes, index = [], [], [], [], [], [], [], []
+    x0, specs, limit, noise, tau_noise, delay, pushes, index, noise_ids = [], [], [], [], [], [], [], [], []
     for factor, fspec in chosen.items():
+        code = FACTOR_CODES[factor]
         for level_i, level in enumerate(fspec["levels"]):
-            for trial in range(trials):
+            for trial in range(runs[factor, level_i]):
+                # The draws of a trial depend on (seed, factor, trial) alone: the same whatever other factors
+                # run beside it, and shared by the levels of the factor (common random numbers).
+                rng = np.random.default_rng([seed, code, trial])
                 start_state = base[trial].copy()
                 if factor == "initial_state" and level > 0:
                     start_state += rng.uniform(-level, level, 6)
@@ -170,32 +202,35 @@ def robustness(robot: Robot, trials=64, t_final=30.0, seed=0, controller: Contro
                 pushes.append(_pushes(rng, level, robot.analytic.b1) if factor == "pushes" and level > 0
                               else np.zeros((PUSHES_PER_RUN, 5)))
                 index.append((factor, level_i))
+                noise_ids.append(code << 32 | trial)
     rollouts = RolloutSet(np.array(x0), specs, torque_limit=np.array(limit),
                           noise_std=np.array(noise), torque_noise=np.array(tau_noise), delay_steps=np.array(delay),
-                          pushes=np.array(pushes) if "pushes" in chosen else None)
+                          pushes=np.array(pushes) if "pushes" in chosen else None, noise_ids=np.array(noise_ids))
     key = study_key({"study": "robustness", "robot": robot.xml, "t_final": t_final, "seed": seed, "chunk": chunk,
-                     "options": [list(o) for o in spec.options],
                      **rollouts.definition()})
     result = run_study(robot, rollouts, t_final, seed=seed, scheduler=scheduler, chunk=chunk,
-                       store=ChunkStore(out_dir, key, fresh), progress=progress)
+                       store=ChunkStore(out_dir, key, fresh, study="robustness"), progress=progress,
+                       desc="robustness")
     completed = result.meta["completed"]
-    success = result.held
+    success = result.success
     summary = {"robot": robot.name, "controller": spec.short_name, "trials": trials, "t_final": t_final, "seed": seed,
                "torque_limit": None if np.all(np.isinf(base_limit)) else base_limit.tolist(),
-               "start": start, "completed_fraction": float(np.mean(completed)),
-               "success": "under the balance controller and inside region (68) at t_final, without divergence",
+               "start": start, "runs": total, "completed_fraction": float(np.mean(completed)),
+               "success": SUCCESS_DEFINITION,
+               "intervals": "95 % Wilson intervals over independent draws only (random: true); a deterministic"
+                            " setting is one run (random: false) and has none",
+               "max_abs_tau": peak_torques(result.max_abs_tau, completed),
                "nominal_peak_torque": peak, "interrupted": result.interrupted, "factors": {}}
     index = np.array([f"{factor}:{level_i}" for factor, level_i in index])
     for factor, fspec in chosen.items():
         rates = []
         for level_i, level in enumerate(fspec["levels"]):
             rows = np.flatnonzero((index == f"{factor}:{level_i}") & completed)
-            k, n = int(np.sum(success[rows])), len(rows)
-            low, high = wilson_interval(k, n)
-            rates.append({"level": None if not math.isfinite(level) else float(level),
-                          "success_rate": k / n if n else None, "low": low, "high": high, "trials": n,
-                          "diverged_rate": float(np.mean(result.diverged[rows])) if n else None})
+            entry = rate_entry(int(np.sum(success[rows])), len(rows), is_random(factor, level, start))
+            rates.append({"level": None if not math.isfinite(level) else float(level), **entry,
+                          "diverged_rate": float(np.mean(result.diverged[rows])) if len(rows) else None})
         summary["factors"][factor] = {"label": fspec["label"], "levels": rates}
     arrays = {"x0": np.array(x0), "success": success, "diverged": result.diverged, "switch_time": result.switch_time,
               "completed": completed}
     return summary, arrays
+

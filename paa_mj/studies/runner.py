@@ -26,14 +26,14 @@ import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
-from tqdm import tqdm
 
 from ..control.registry import ControllerSpec
 from ..errors import PaaError, StudyIncomplete
+from ..progress import progress as progress_bar
 from ..limits import check_memory, check_steps
 from ..model.robot import Robot, robot_from_xml
 from ..sim.batch import OUTCOMES, BatchResult, simulate_batch
-from .store import ChunkStore
+from .store import ChunkStore, check_arrays
 
 CHUNK = 128
 SCHEDULERS = ("inline", "local")
@@ -53,9 +53,72 @@ def check_scheduler(value) -> str:
         return "local" if dask_available() else "inline"
     if value not in SCHEDULERS and "://" not in value:
         raise PaaError(f"--scheduler must be inline, local or an address like tcp://host:8786, got {value!r}")
+    if "://" in value:
+        scheme = value.split("://", 1)[0]
+        if scheme != "tcp":
+            raise PaaError(f"--scheduler {value}: only tcp:// scheduler addresses are supported ({scheme}:// would"
+                           " need that transport's own security or network set-up)")
+        _host_port(value)
     if value != "inline" and not dask_available():
         raise PaaError("Dask is not installed: pip install 'paa_mj[dask]' (or use --scheduler inline)")
     return value
+
+
+def _host_port(address):
+    host, _, port = address.split("://", 1)[1].rpartition(":")
+    host = host.strip("[]")
+    if not host or not port.isascii() or not port.isdigit() or not 0 < int(port) < 65536:
+        raise PaaError(f"--scheduler {address}: give tcp://HOST:PORT with a port in 1..65535")
+    return host, int(port)
+
+
+#: Seconds to wait for a scheduler's first bytes.
+PROBE_TIMEOUT = 5.0
+
+
+def probe_scheduler(address, timeout=PROBE_TIMEOUT):
+    """Check that a Dask scheduler answers at ``address`` before handing it to Dask (one-line errors).
+
+    A Dask scheduler greets every new connection with its handshake, a message framed
+    as (total length, number of frames, frame lengths...) in little-endian uint64s. A
+    server of another kind (a web server says nothing until asked) or a peer sending
+    anything else is refused within ``timeout`` seconds, instead of a hang or a
+    misleading error from deep inside Dask.
+    """
+    import socket
+    import struct
+
+    host, port = _host_port(address)
+    try:
+        with socket.create_connection((host, port), timeout=timeout) as sock:
+            sock.settimeout(timeout)
+            data = b""
+            while len(data) < 16:
+                piece = sock.recv(16 - len(data))
+                if not piece:
+                    break
+                data += piece
+    except socket.timeout:
+        raise PaaError(f"no Dask scheduler at {address}: something listens there but sent no Dask handshake within"
+                       f" {timeout:g} s (a web server?)") from None
+    except OSError as err:
+        raise PaaError(f"cannot reach the Dask scheduler {address}: {err.strerror or err}") from None
+    if len(data) < 16:
+        raise PaaError(f"no Dask scheduler at {address}: the connection closed before a Dask handshake")
+    total, frames = struct.unpack("<QQ", data)
+    if not (1 <= frames <= 64 and 8 * (frames + 1) <= total <= 2**20):
+        raise PaaError(f"no Dask scheduler at {address}: it answered with something that is not a Dask handshake")
+
+
+class _StdoutToStderr:
+    """A chunk task whose prints (a user controller's, on a Dask worker) go to stderr, never to our stdout."""
+
+    def __init__(self, task):
+        self.task = task
+
+    def __call__(self, shared, payload):
+        with contextlib.redirect_stdout(sys.stderr):
+            return self.task(shared, payload)
 
 
 @dataclass
@@ -72,6 +135,9 @@ class RolloutSet:
     torque_noise : ndarray (N,) [N m]
     delay_steps : ndarray (N,) of int
     pushes : ndarray (N, K, 5) or None
+    noise_ids : ndarray (N,) of int, optional
+        The number that keys each rollout's noise stream with the seed (default: its
+        index); a study gives a rollout the same number whatever runs beside it.
     """
 
     x0: np.ndarray
@@ -82,6 +148,7 @@ class RolloutSet:
     torque_noise: np.ndarray | None = None
     delay_steps: np.ndarray | None = None
     pushes: np.ndarray | None = None
+    noise_ids: np.ndarray | None = None
     labels: dict = field(default_factory=dict)
 
     def __post_init__(self):
@@ -96,6 +163,8 @@ class RolloutSet:
             current = getattr(self, name)
             setattr(self, name, np.full(shape, value) if current is None else np.broadcast_to(
                 np.asarray(current, dtype=float), shape).copy())
+        self.noise_ids = np.arange(n, dtype=np.int64) if self.noise_ids is None else \
+            np.asarray(self.noise_ids, dtype=np.int64).reshape(n)
         if len(self.controllers) != n or (self.plants is not None and len(self.plants) != n):
             raise PaaError("a study needs one controller (and plant) per rollout")
 
@@ -110,7 +179,7 @@ class RolloutSet:
                 "torque_limit": self.torque_limit[part], "noise_std": self.noise_std[part],
                 "torque_noise": self.torque_noise[part], "delay_steps": self.delay_steps[part],
                 "pushes": None if self.pushes is None else self.pushes[part],
-                "rollout_ids": np.arange(start, stop, dtype=np.int64)}
+                "rollout_ids": self.noise_ids[part]}
 
     def definition(self) -> dict:
         """What identifies these rollouts (for the chunk store's key)."""
@@ -118,12 +187,18 @@ class RolloutSet:
         return {"x0": self.x0, "controllers": [_spec_dict(s) for s in self.controllers], "plants": plants,
                 "torque_limit": np.where(np.isinf(self.torque_limit), -1.0, self.torque_limit),
                 "noise_std": self.noise_std, "torque_noise": self.torque_noise, "delay_steps": self.delay_steps,
-                "pushes": self.pushes}
+                "pushes": self.pushes, "noise_ids": self.noise_ids}
 
 
 def _spec_dict(spec: ControllerSpec):
     return {"name": spec.name, "gains": spec.gains, "check": spec.check, "options": [list(o) for o in spec.options],
-            "believed": None if spec.believed is None else spec.believed.as_dict()}
+            "believed": None if spec.believed is None else spec.believed.as_dict(), "source": spec.source_digest()}
+
+
+def peak_torques(max_abs_tau, completed):
+    """The largest :math:`|\\tau_2|, |\\tau_3|` applied over the finished runs [N m] (None if none finished)."""
+    done = np.asarray(max_abs_tau)[np.asarray(completed, bool)]
+    return np.max(done, axis=0).tolist() if len(done) else None
 
 
 def _run_chunk(xml, name, kwargs, t_final, seed, nthread, retire):
@@ -136,11 +211,14 @@ def _run_chunk(xml, name, kwargs, t_final, seed, nthread, retire):
 
 
 def map_chunks(task, payloads, *, scheduler="inline", store=None, progress=False, desc="chunks", is_complete=None,
-               shared=None):
+               shared=None, fits=None):
     """Run ``task(shared, payload)`` for every payload, in this process or on Dask, keeping each result in ``store``.
 
-    Results already in ``store`` (and complete, by ``is_complete``) are not computed again;
-    each new one is saved as it arrives. ``shared`` is sent to each Dask worker once.
+    Results already in ``store`` are not computed again when they fit their payload
+    (``fits(payload, result)``: the names and shapes of the arrays, and what identifies
+    the payload) and are complete (``is_complete``); a kept result that does not fit is
+    computed again, and a line on stderr says so. Each new one is saved as it arrives.
+    ``shared`` is sent to each Dask worker once.
 
     Returns
     -------
@@ -155,14 +233,21 @@ def map_chunks(task, payloads, *, scheduler="inline", store=None, progress=False
     """
     store = store or ChunkStore(None, "")
     is_complete = is_complete or (lambda result: True)
-    finished = {}
+    fits = fits or (lambda payload, result: True)
+    finished, misfits = {}, 0
     for index in range(len(payloads)):
         kept = store.load(index)
-        if kept is not None and is_complete(kept):
+        if kept is None:
+            continue
+        if fits(payloads[index], kept) and is_complete(kept):
             finished[index] = kept
+        else:
+            misfits += 1
+    if misfits:
+        print(f"note: {misfits} kept chunk(s) in {store.path} did not fit this study (damaged or from other"
+              " code) and are computed again", file=sys.stderr)
     todo = [index for index in range(len(payloads)) if index not in finished]
-    bar = tqdm(total=len(payloads), initial=len(finished), unit="chunk", disable=None if progress else True,
-               desc=desc)
+    bar = progress_bar(total=len(payloads), initial=len(finished), unit="chunk", enabled=progress, desc=desc)
     interrupted = False
     try:
         if scheduler == "inline":
@@ -197,7 +282,7 @@ def _rollout_task(shared, payload):
 
 
 def run_study(robot: Robot, rollouts: RolloutSet, t_final: float, *, seed=0, scheduler="inline", store=None,
-              chunk=CHUNK, retire=True, progress=False) -> BatchResult:
+              chunk=CHUNK, retire=True, progress=False, desc="study") -> BatchResult:
     """All rollouts of a study, chunk by chunk, resuming from ``store`` (:func:`map_chunks`).
 
     Parameters
@@ -221,9 +306,20 @@ def run_study(robot: Robot, rollouts: RolloutSet, t_final: float, *, seed=0, sch
     payloads = [rollouts.chunk(start, min(start + chunk, n)) for start in starts]
     shared = (robot.xml, robot.name, t_final, seed, retire, None if scheduler == "inline" else 1)
     finished, interrupted = map_chunks(_rollout_task, payloads, scheduler=scheduler, store=store, progress=progress,
-                                       desc=f"{n} rollouts", shared=shared,
+                                       desc=f"{desc}, {n} rollouts", shared=shared, fits=_chunk_fits,
                                        is_complete=lambda result: bool(np.all(result["completed"])))
     return _merge(rollouts, starts, finished, chunk, n, interrupted, scheduler)
+
+
+#: The width of each per-rollout outcome of a chunk (1: one value per rollout).
+_WIDTHS = {"x0": 6, "final_state": 6, "max_abs_tau": 2}
+
+
+def _chunk_fits(payload, result) -> bool:
+    """A kept chunk is this payload's: every outcome, one row per rollout, from the same initial states."""
+    rows = len(payload["x0"])
+    shapes = {name: (rows, _WIDTHS[name]) if name in _WIDTHS else (rows,) for name in (*OUTCOMES, "completed")}
+    return check_arrays(result, shapes) and np.array_equal(result["x0"], payload["x0"])
 
 
 @contextlib.contextmanager
@@ -287,13 +383,15 @@ def _run_on_dask(task, shared, payloads, todo, scheduler, finished, store, bar, 
                                    f" {' '.join(str(err).split())}); use --scheduler inline") from None
                 client = Client(cluster)
             else:
+                probe_scheduler(scheduler)
                 try:
                     client = Client(scheduler, timeout=5)
                 except (OSError, TimeoutError, ValueError) as err:
                     raise PaaError(f"cannot reach the Dask scheduler {scheduler}: {' '.join(str(err).split())}") from None
             with client:
                 remote = client.scatter(shared, broadcast=True)
-                futures = {client.submit(task, remote, payloads[index], pure=False): index for index in todo}
+                quiet_task = _StdoutToStderr(task)
+                futures = {client.submit(quiet_task, remote, payloads[index], pure=False): index for index in todo}
                 try:
                     for future in as_completed(futures):
                         try:
@@ -325,7 +423,7 @@ def _run_on_dask(task, shared, payloads, todo, scheduler, finished, store, bar, 
 
 def _merge(rollouts, starts, finished, chunk, n, interrupted, scheduler) -> BatchResult:
     empty = {"switch_time": np.nan, "balanced": False, "final_state": np.nan, "E_minus_Er_final": np.nan,
-             "V_final": np.nan, "max_abs_tau": np.nan, "diverged": False, "held": False, "t_end": np.nan,
+             "V_final": np.nan, "max_abs_tau": np.nan, "diverged": False, "success": False, "t_end": np.nan,
              "status": -1, "t_region": np.nan, "t_balanced": np.nan, "int_tau2": np.nan, "work": np.nan,
              "smoothness": np.nan, "max_speed": np.nan}
     widths = {"final_state": 6, "max_abs_tau": 2}

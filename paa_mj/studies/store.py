@@ -10,9 +10,11 @@ gets another KEY. ``--fresh`` deletes the study's chunks first.
 """
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import shutil
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -21,22 +23,47 @@ from ..errors import PaaError
 from ..io import _json_default, ensure_dir, write_npz
 
 
+@functools.lru_cache(maxsize=1)
+def package_digest() -> str:
+    """A digest of the package's own code and model files: a study computed by other code is another study."""
+    root = Path(__file__).resolve().parent.parent
+    digest = hashlib.sha256()
+    for path in sorted(root.rglob("*")):
+        if path.suffix in (".py", ".xml") and "__pycache__" not in path.parts:
+            digest.update(str(path.relative_to(root)).encode() + b"\0" + path.read_bytes() + b"\0")
+    return digest.hexdigest()
+
+
 def study_key(definition: dict) -> str:
-    """A digest of a study's definition (any JSON-able dict with arrays) and of the package's version."""
+    """A digest of a study's definition (any JSON-able dict with arrays: the robot's MJCF text, every
+    controller's recipe and source, every option that changes a result) and of the package (version and code)."""
     from .. import __version__
 
-    text = json.dumps({"version": __version__, **definition}, sort_keys=True, default=_json_default)
+    text = json.dumps({"version": __version__, "package": package_digest(), **definition}, sort_keys=True,
+                      default=_json_default)
     return hashlib.sha256(text.encode()).hexdigest()[:20]
 
 
 class ChunkStore:
-    """The chunks of one study under ``folder/.chunks/key``; ``folder=None`` keeps nothing."""
+    """The chunks of one study under ``folder/.chunks/STUDY-KEY``; ``folder=None`` keeps nothing.
 
-    def __init__(self, folder, key: str, fresh: bool = False):
-        self.path = None if folder is None else Path(folder) / ".chunks" / key
+    Chunks of an earlier, different study of the same kind (``STUDY``) in the same
+    folder are removed when this one starts: a folder keeps the chunks of the
+    last study of each kind it holds, not every study ever run there.
+    """
+
+    def __init__(self, folder, key: str, fresh: bool = False, study: str = "study"):
+        self.path = None if folder is None else Path(folder) / ".chunks" / f"{study}-{key}"
         if self.path is not None:
             if fresh and self.path.exists():
                 shutil.rmtree(self.path)
+            stale = [p for p in self.path.parent.glob(f"{study}-*") if p.is_dir() and p != self.path] \
+                if self.path.parent.is_dir() else []
+            for old in stale:
+                shutil.rmtree(old, ignore_errors=True)
+            if stale:
+                print(f"note: removed the kept chunks of an earlier, different {study} study in {folder}",
+                      file=sys.stderr)
             ensure_dir(self.path)
 
     def _file(self, index):
@@ -61,3 +88,14 @@ class ChunkStore:
 
     def count(self) -> int:
         return 0 if self.path is None else len(list(self.path.glob("chunk-*.npz")))
+
+
+def check_arrays(arrays, shapes: dict) -> bool:
+    """True when ``arrays`` holds exactly the names of ``shapes``, each of that shape (None: any length there)."""
+    if not isinstance(arrays, dict) or set(arrays) != set(shapes):
+        return False
+    for name, shape in shapes.items():
+        actual = np.shape(arrays[name])
+        if len(actual) != len(shape) or any(want is not None and got != want for got, want in zip(actual, shape)):
+            return False
+    return True

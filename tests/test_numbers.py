@@ -256,3 +256,29 @@ def test_a_min_time_plan_that_cannot_fit_its_time_range_is_refused(gymnast, monk
     monkeypatch.setattr(trajopt, "TIME_RANGE", (0.2, 0.5))  # below the true minimum of about 0.9 s
     with pytest.raises(PaaError):
         trajopt.solve_kip(gymnast.analytic, [470.0, 217.0], "min-time", duration=0.4, intervals=20, use_cache=False)
+
+
+def test_a_cached_plan_that_is_not_the_one_asked_for_is_solved_again(gymnast, tmp_path, monkeypatch):
+    import paa_mj.control.trajopt as trajopt
+    from paa_mj.io import write_npz
+
+    monkeypatch.setenv("PAA_MJ_CACHE", str(tmp_path))
+    first = trajopt.solve_kip(gymnast.analytic, [300.0, 150.0], "min-effort", duration=1.5, intervals=12)
+    (entry,) = (tmp_path / "trajopt").glob("*.npz")
+    damaged = first.arrays()
+    damaged["u"] = damaged["u"][:-2]  # a short torque table
+    write_npz(entry, **damaged)
+    again = trajopt.solve_kip(gymnast.analytic, [300.0, 150.0], "min-effort", duration=1.5, intervals=12)
+    np.testing.assert_allclose(again.u, first.u, atol=1e-6)
+    foreign = first.arrays()
+    foreign["x"] = foreign["x"] + 0.1  # the right shapes, but not a solution of (1)
+    write_npz(entry, **foreign)
+    third = trajopt.solve_kip(gymnast.analytic, [300.0, 150.0], "min-effort", duration=1.5, intervals=12)
+    assert third.defects(gymnast.analytic) < 1e-6
+
+
+def test_study_summaries_identify_the_robot_by_its_model(gymnast):
+    import hashlib
+
+    summary, _ = basin(gymnast, (0, 1), 2, 0.1)
+    assert summary["robot_sha256"] == hashlib.sha256(gymnast.xml.encode()).hexdigest()

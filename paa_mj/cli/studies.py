@@ -174,8 +174,9 @@ def register(sub, parser_class):
                                               output_parent("one chart per factor (PNG, SVG), robustness.npz,"
                                                             " summary.json and the finished chunks")],
                        help="success rate against noise, limits, model error, delay, pushes and starts",
-                       description="Success rate of the controller with 95 % Wilson intervals, one factor at a"
-                                   " time, every level on the same starts.")
+                       description="Success rate of the controller, one factor at a time, every level on the same"
+                                   " starts: with a 95 % Wilson interval where the runs are independent random draws,"
+                                   " one run without an interval where a setting is deterministic.")
     p.add_argument("--trials", type=positive_int, default=64, help="starts per level")
     p.add_argument("--t-final", type=positive, default=30.0, help="duration of each run [s]")
     p.add_argument("--seed", type=seed, default=0, help="seed of the starts and the noise")
@@ -212,7 +213,8 @@ def register(sub, parser_class):
                    help=f"points per axis of the reach grid over (q1, q2) (default {SIZES['full']['grid']},"
                         f" {SIZES['quick']['grid']} with --quick)")
     p.add_argument("--seed", type=seed, default=0, help="seed of the disturbances")
-    p.add_argument("--quick", action="store_true", help="fewer trials and a coarser reach grid (a few minutes)")
+    p.add_argument("--quick", action="store_true",
+                   help="fewer trials, every second level of the sweeps and a coarser reach grid")
     p.add_argument("--no-video", action="store_true", help="skip the side-by-side video")
     p.add_argument("--gl", choices=("auto", "egl", "osmesa"), help="GL backend for the video (default: auto)")
     p.set_defaults(func=cmd_compare)

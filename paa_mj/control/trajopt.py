@@ -36,6 +36,7 @@ from ..errors import PaaError
 from ..model import equations as eq
 from ..model.dynamics import AnalyticModel
 from ..model.states import Q_UDD, X0_HANGING
+from ..provenance import package_digest
 
 OBJECTIVES = ("min-time", "min-effort")
 #: Collocation intervals by default.
@@ -145,7 +146,8 @@ def cache_dir() -> Path:
 
 
 def _key(am, bound, objective, duration, intervals, x0, xN):
-    text = json.dumps({"v": CACHE_VERSION, "robot": am.key(), "bound": np.asarray(bound).tolist(),
+    text = json.dumps({"v": CACHE_VERSION, "package": package_digest(), "robot": am.key(),
+                       "bound": np.asarray(bound).tolist(),
                        "objective": objective, "duration": duration, "intervals": intervals,
                        "x0": np.asarray(x0).tolist(), "xN": np.asarray(xN).tolist()})
     return hashlib.sha256(text.encode()).hexdigest()[:24]
@@ -191,18 +193,36 @@ def solve_kip(am: AnalyticModel, bound, objective="min-time", duration=None, int
     key = _key(am, bound, objective, duration, intervals, x0, xN)
     path = cache_dir() / f"{key}.npz"
     if use_cache and path.is_file():
-        try:
-            with np.load(path, allow_pickle=False) as z:
-                return Kip(float(z["duration"]), z["x"], z["u"], z["x_mid"], z["u_mid"], str(z["objective"]),
-                           float(z["cost"]), z["bound"])
-        except Exception:  # a damaged cache entry is solved again
-            pass
+        kept = _load_kept(path, am, bound, objective, duration, intervals, x0, xN)
+        if kept is not None:
+            return kept
     kip = _solve(am, bound, objective, duration, intervals, x0, xN, max_iter)
     if use_cache:
         try:
             write_npz(path, **kip.arrays())
         except PaaError:
             pass  # an unwritable cache costs a solve next time, nothing else
+    return kip
+
+
+def _load_kept(path, am, bound, objective, duration, intervals, x0, xN):
+    """A cached kip, if it is the one asked for: shapes, settings and end points as asked, and (1) met at its
+    collocation points; None otherwise (a damaged or foreign entry is solved again)."""
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            kip = Kip(float(z["duration"]), np.array(z["x"]), np.array(z["u"]), np.array(z["x_mid"]),
+                      np.array(z["u_mid"]), str(z["objective"]), float(z["cost"]), np.array(z["bound"]))
+    except Exception:
+        return None
+    n = intervals
+    shapes_fit = (kip.x.shape, kip.u.shape, kip.x_mid.shape, kip.u_mid.shape) == ((n + 1, 6), (n + 1, 2), (n, 6),
+                                                                                    (n, 2))
+    if not (shapes_fit and kip.objective == objective and np.array_equal(kip.bound, bound)
+            and (objective == "min-time" or kip.duration == duration)):
+        return None
+    if not (np.allclose(kip.x[0], x0, atol=1e-6) and np.allclose(kip.x[-1], xN, atol=1e-6)
+            and np.all(np.abs(kip.u) <= bound * (1 + 1e-6) + 1e-9) and kip.defects(am) < 1e-5):
+        return None
     return kip
 
 

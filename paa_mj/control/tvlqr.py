@@ -152,16 +152,22 @@ def _cached_table(model, kip, times, table_dt):
     from ..io import write_npz
     from .trajopt import cache_dir
 
-    digest = hashlib.sha256(repr((model.key(), table_dt, LQR_Q.tolist(), LQR_R.tolist())).encode()
+    from ..provenance import package_digest
+
+    digest = hashlib.sha256(repr((package_digest(), model.key(), table_dt, LQR_Q.tolist(), LQR_R.tolist())).encode()
                             + b"".join(np.ascontiguousarray(a).tobytes() for a in (kip.x, kip.u, kip.x_mid, kip.u_mid))
                             ).hexdigest()[:24]
     path = cache_dir() / f"tvlqr-{digest}.npz"
     if path.is_file():
         try:
             with np.load(path, allow_pickle=False) as z:
-                return np.array(z["params"])
+                kept = np.array(z["params"], dtype=float)
         except Exception:  # a damaged entry is computed again
-            pass
+            kept = None
+        n = len(times)
+        if kept is not None and kept.shape == (2 + n * (6 + 2 + 12),) and kept[0] == n and kept[1] == table_dt \
+                and np.all(np.isfinite(kept)):
+            return kept  # else: not this table (damaged, or written by other code), computed again
     x_ref, u_ref = kip.sample(times, model)
     K = riccati_gains(model, times, x_ref, u_ref)
     params = np.concatenate([[len(times), table_dt], x_ref.reshape(-1), u_ref.reshape(-1), K.reshape(-1)])

@@ -11,6 +11,7 @@ import numpy as np
 
 from ..control.registry import ControllerSpec
 from ..errors import PaaError
+from ..provenance import text_sha256
 from ..limits import check_memory, check_steps
 from ..model.robot import Robot
 from ..model.states import Q_DUU, STATE_NAMES, wrap_angle
@@ -95,7 +96,7 @@ def basin(robot: Robot, axes: tuple[int, int] = (0, 1), grid: int = 64, t_final:
         return float(np.mean(mask[completed])) if completed.any() else None
 
     summary = {
-        "robot": robot.name, "controller": spec.short_name, "axes": [COORDINATES[a] for a in axes], "grid": grid,
+        "robot": robot.name, "robot_sha256": text_sha256(robot.xml), "controller": spec.short_name, "axes": [COORDINATES[a] for a in axes], "grid": grid,
         "cells": int(grid * grid), "t_final": t_final, "t_reached": result.t_reached,
         "interrupted": result.interrupted, "completed_fraction": float(np.mean(completed)),
         "success": SUCCESS_DEFINITION, "success_fraction": fraction(success),

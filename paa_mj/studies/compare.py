@@ -36,6 +36,7 @@ import numpy as np
 
 from ..control.registry import OPTIONS, ControllerSpec
 from ..errors import PaaError
+from ..provenance import text_sha256
 from ..progress import stage
 from ..model.robot import Robot
 from ..model.states import X0_HANGING
@@ -137,7 +138,7 @@ def compare(robot: Robot, controllers=DEFAULT_CONTROLLERS, torque_limit=None, tr
             stage(f"compare: planning the {name} kip (collocation, IPOPT; cached after the first solve)", progress)
         specs[name].build(robot)  # gains, files and solves checked (one line) before any study runs
     sweeps = {factor: sweep_levels(factor, quick) for factor in SWEEPS}
-    summary = {"robot": robot.name, "torque_limit": limit.tolist(), "t_final": sizes["t_final"],
+    summary = {"robot": robot.name, "robot_sha256": text_sha256(robot.xml), "torque_limit": limit.tolist(), "t_final": sizes["t_final"],
                "trials": sizes["trials"], "grid": sizes["grid"], "seed": seed, "success": SUCCESS_DEFINITION,
                "intervals": "95 % Wilson intervals over the independent draws of a random factor (random: true);"
                             " a swept deterministic factor's rate is the share of its levels that succeed, one run"

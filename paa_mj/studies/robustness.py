@@ -1,11 +1,17 @@
 """Robustness: the success rate of a controller against model error, noise, limits, delay, pushes and starts.
 
-Each factor has levels (the first is the nominal case); every level runs the
-same ``trials`` initial states, all (factor, level, trial) rollouts in one
-study (:func:`~paa_mj.studies.runner.run_study`). Success: under the balance
-controller and inside region (68) at the end, without divergence (noise keeps
-the state from settling to within 1e-3 of UDD, so "balanced" would be too
-strict). Each rate comes with its 95 % Wilson interval.
+Each factor has levels (the first is the nominal case), all (factor, level,
+run) rollouts in one study (:func:`~paa_mj.studies.runner.run_study`). A level
+whose runs differ from one another (random starts, or a factor that draws
+random numbers: noise, torque noise, pushes, perturbed starts) runs ``trials``
+times and its rate has a 95 % Wilson interval; a deterministic level (the kip
+from (65) under model error, delay or a torque limit, or any factor at level 0)
+is one run, without an interval: repeating it would repeat one number. The
+draws of a run depend on (seed, factor, run) alone, the same whatever other
+factors run beside it and shared by the factor's levels. Success is the
+package's one definition (:data:`~paa_mj.control.region.SUCCESS_DEFINITION`):
+the true state inside region (68) over the last second, without divergence,
+whatever the controller says of itself.
 
 Factors (:data:`FACTORS`):
 
@@ -33,6 +39,7 @@ import numpy as np
 
 from ..control.registry import ControllerSpec
 from ..errors import PaaError
+from ..provenance import text_sha256
 from ..limits import check_memory, check_steps
 from ..model.robot import Robot
 from ..model.states import X0_HANGING
@@ -213,7 +220,7 @@ def robustness(robot: Robot, trials=64, t_final=30.0, seed=0, controller: Contro
                        desc="robustness")
     completed = result.meta["completed"]
     success = result.success
-    summary = {"robot": robot.name, "controller": spec.short_name, "trials": trials, "t_final": t_final, "seed": seed,
+    summary = {"robot": robot.name, "robot_sha256": text_sha256(robot.xml), "controller": spec.short_name, "trials": trials, "t_final": t_final, "seed": seed,
                "torque_limit": None if np.all(np.isinf(base_limit)) else base_limit.tolist(),
                "start": start, "runs": total, "completed_fraction": float(np.mean(completed)),
                "success": SUCCESS_DEFINITION,

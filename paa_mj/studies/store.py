@@ -10,7 +10,6 @@ gets another KEY. ``--fresh`` deletes the study's chunks first.
 """
 from __future__ import annotations
 
-import functools
 import hashlib
 import json
 import shutil
@@ -21,17 +20,7 @@ import numpy as np
 
 from ..errors import PaaError
 from ..io import _json_default, ensure_dir, write_npz
-
-
-@functools.lru_cache(maxsize=1)
-def package_digest() -> str:
-    """A digest of the package's own code and model files: a study computed by other code is another study."""
-    root = Path(__file__).resolve().parent.parent
-    digest = hashlib.sha256()
-    for path in sorted(root.rglob("*")):
-        if path.suffix in (".py", ".xml") and "__pycache__" not in path.parts:
-            digest.update(str(path.relative_to(root)).encode() + b"\0" + path.read_bytes() + b"\0")
-    return digest.hexdigest()
+from ..provenance import package_digest
 
 
 def study_key(definition: dict) -> str:

@@ -1,36 +1,66 @@
 """Progress on stderr, whether or not stderr is a terminal.
 
 On a terminal a bar redraws in place (tqdm). Redirected to a file or a pipe, the
-same bar is written as whole lines, one every :data:`LOG_INTERVAL` seconds at
-most and one at the end, each with the count, the rate and the time left, so a
+same bar is written as whole lines, the first after :data:`LOG_DELAY` seconds,
+then one every :data:`LOG_INTERVAL` seconds at most and one at the end, each with the count, the rate and the time left, so a
 log shows where a long command is and is never silent for long.
 """
 from __future__ import annotations
 
+import math
 import sys
+import time
 
 from tqdm import tqdm
 
 #: Seconds between two progress lines in a log.
 LOG_INTERVAL = 10.0
+#: A log's first progress line comes after this many seconds (work that ends sooner, or fails at once, adds none).
+LOG_DELAY = 2.0
 
 
-class _Lines:
-    """A stream for tqdm that turns its carriage-return redraws into lines."""
+class _LogBar:
+    """A progress counter for a log: whole lines (count, rate, time left), never a redraw."""
 
-    def __init__(self, stream):
-        self.stream = stream
-        self.last = ""
+    def __init__(self, iterable, total, desc, unit, initial, stream):
+        self.iterable, self.total, self.desc, self.unit = iterable, total, desc, unit
+        self.n, self.stream = initial, stream
+        if total is None and iterable is not None and hasattr(iterable, "__len__"):
+            self.total = len(iterable)
+        self.start = self.last = time.monotonic()
+        self.initial, self.shown = initial, False
 
-    def write(self, text):
-        for part in text.replace("\r", "\n").split("\n"):
-            part = part.strip()
-            if part and part != self.last:
-                self.stream.write(part + "\n")
-                self.last = part
+    def __iter__(self):
+        for item in self.iterable:
+            yield item
+            self.update(1)
 
-    def flush(self):
+    def update(self, n=1):
+        self.n += n
+        now = time.monotonic()
+        due = LOG_INTERVAL if self.shown else LOG_DELAY
+        if now - self.last >= due:
+            self._line(now)
+
+    def _line(self, now):
+        text = tqdm.format_meter(self.n, self.total, now - self.start, ncols=0, prefix=self.desc or "",
+                                 unit=self.unit, initial=self.initial, ascii=True)
+        self.stream.write(text.strip() + "\n")
         self.stream.flush()
+        self.last, self.shown = now, True
+
+    def close(self):
+        now = time.monotonic()
+        if self.shown or now - self.start >= LOG_DELAY:
+            self._line(now)
+        self.shown = False
+        self.start = self.last = math.inf  # closed: no more lines
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
 
 
 def progress(iterable=None, *, total=None, desc=None, unit="it", enabled=True, initial=0, leave=False):
@@ -54,8 +84,7 @@ def progress(iterable=None, *, total=None, desc=None, unit="it", enabled=True, i
     stream = sys.stderr
     if stream is not None and hasattr(stream, "isatty") and stream.isatty():
         return tqdm(iterable, total=total, desc=desc, unit=unit, initial=initial, leave=leave, file=stream)
-    return tqdm(iterable, total=total, desc=desc, unit=unit, initial=initial, leave=True, file=_Lines(stream),
-                mininterval=LOG_INTERVAL, maxinterval=LOG_INTERVAL, ascii=True, ncols=100, dynamic_ncols=False)
+    return _LogBar(iterable, total, desc, unit, initial, stream)
 
 
 def stage(message: str, enabled: bool = True):

@@ -1,5 +1,6 @@
 """The command line explains itself: every option has help, defaults and allowed values are shown."""
 import argparse
+import subprocess
 import sys
 from pathlib import Path
 
@@ -78,3 +79,16 @@ def test_docs_cli_reference_is_what_the_parser_prints():
 
     assert CLI_DOC.read_text() == with_reference(CLI_DOC.read_text()), \
         "docs/cli.md is stale: run python -m paa_mj.cli.reference docs/cli.md"
+
+
+def test_help_and_version_load_no_heavy_library():
+    """--version and every --help answer from the parser alone: no MuJoCo, numba, SciPy or NumPy import."""
+    code = ("import sys\nfrom paa_mj.cli import build_parser, main\n"
+            "names = ['--version'] + [[n, '--help'] for n in build_parser()._subparsers._group_actions[0].choices]\n"
+            "for args in names:\n"
+            "    main(args if isinstance(args, list) else [args])\n"
+            "heavy = [m for m in ('mujoco', 'numba', 'scipy', 'numpy', 'casadi', 'matplotlib') if m in sys.modules]\n"
+            "print('HEAVY', heavy, file=sys.stderr)\n")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert "HEAVY []" in proc.stderr

@@ -75,7 +75,8 @@ def _check_environment():
 def _load_libraries():
     """Import MuJoCo and numba (through the package), any failure of theirs as one line."""
     try:
-        from ..sim import mujoco_log  # noqa: F401 (imports mujoco and numba)
+        import mujoco  # noqa: F401
+        import numba  # noqa: F401
     except PaaError:
         raise
     except Exception as err:  # a broken installation fails in many ways; each says why in its message
@@ -93,6 +94,10 @@ def main(argv=None):
     _choose_gl_early(argv)
     previous = install_signal_handlers()
     try:
+        try:  # before MuJoCo, numba and SciPy load: --help and --version answer at once
+            args = build_parser().parse_args(argv)
+        except SystemExit as exit_:  # --help and --version
+            return exit_.code or 0
         _check_environment()
         _load_libraries()
         from ..sim.mujoco_log import mujoco_log_off
@@ -102,10 +107,6 @@ def main(argv=None):
             from ..control.gains import TheoryWarning
 
             warnings.simplefilter("always", TheoryWarning)
-            try:
-                args = build_parser().parse_args(argv)
-            except SystemExit as exit_:  # --help and --version
-                return exit_.code or 0
             with json_only_on_stdout() if getattr(args, "json", False) else contextlib.nullcontext():
                 code = args.func(args)
             sys.stdout.flush()  # a write that fails (a full disk) fails here, where it is reported

@@ -12,7 +12,6 @@ import math
 import signal
 import sys
 
-import numpy as np
 
 from ..errors import PaaError
 
@@ -144,11 +143,11 @@ def gains_parent(stored="the robot's stored gains"):
 
 
 def controller_parent():
-    from ..control.registry import BUILTIN
+    from ..control.catalog import DESCRIPTIONS
 
     p = argparse.ArgumentParser(add_help=False, parents=[gains_parent()])
-    p.add_argument("--controller", default="vcl", metavar="{" + ",".join(BUILTIN) + ",FILE.py:Class}",
-                   help="a built-in controller (" + "; ".join(f"{k}: {v[1]}" for k, v in BUILTIN.items())
+    p.add_argument("--controller", default="vcl", metavar="{" + ",".join(DESCRIPTIONS) + ",FILE.py:Class}",
+                   help="a built-in controller (" + "; ".join(f"{k}: {v}" for k, v in DESCRIPTIONS.items())
                    + ") or your own class in a Python file")
     p.add_argument("--kip-duration", type=positive, metavar="T",
                    help="duration of the trajopt-effort kip [s] (default 3); the first guess of trajopt's")
@@ -156,12 +155,12 @@ def controller_parent():
 
 
 def physics_parent():
-    from ..sim.integrators import INTEGRATORS
+    from ..sim.integrator_names import INTEGRATOR_NAMES
 
     p = argparse.ArgumentParser(add_help=False)
     p.add_argument("--t-final", type=positive, default=30.0, help="duration [s]")
     p.add_argument("--dt", type=positive, help="physics time step [s] (default: the model's, 0.001)")
-    p.add_argument("--integrator", choices=tuple(INTEGRATORS), help="MuJoCo integrator (default: the model's, RK4)")
+    p.add_argument("--integrator", choices=INTEGRATOR_NAMES, help="MuJoCo integrator (default: the model's, RK4)")
     p.add_argument("--torque-limit", type=positive, metavar="T",
                    help="saturate each torque at T [N m] (the model's actuator ranges also apply)")
     return p
@@ -204,7 +203,7 @@ def spec_from_args(args, robot, name=None):
     if name in OPTIONS:
         if getattr(args, "torque_limit", None) is not None:
             options.append(("limit", (args.torque_limit, args.torque_limit)))
-        elif not np.all(np.isfinite(robot.torque_limits)):
+        elif not all(math.isfinite(limit) for limit in robot.torque_limits):
             from ..sim.batch import kip_peak_torques
 
             options.append(("limit", tuple(kip_peak_torques(robot, "vcl").tolist())))

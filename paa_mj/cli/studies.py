@@ -153,8 +153,10 @@ def cmd_bench(args):
 
 
 def register(sub, parser_class):
-    from ..studies.basin import COORDINATES, MAX_GRID
-    from ..studies.robustness import DEFAULT_FACTORS, FACTORS, STARTS
+    from ..studies.settings import (ATLAS_MAX_GRID, ATLAS_PARAMETERS, ATLAS_RANGE, BASIN_COORDINATES as COORDINATES,
+                                    BASIN_MAX_GRID as MAX_GRID, COMPARE_CONTROLLERS, COMPARE_SIZES, FACTOR_LABELS,
+                                    FACTOR_ORDER,
+                                    ROBUSTNESS_DEFAULT_FACTORS as DEFAULT_FACTORS, ROBUSTNESS_FACTORS as FACTORS, STARTS)
 
     p = sub.add_parser("basin", parents=[robot_parent(), controller_parent(), study_parent(),
                                          output_parent("basin.png, basin.svg, basin.npz, summary.json and the"
@@ -190,8 +192,6 @@ def register(sub, parser_class):
                    help="saturate each torque of every run at T [N m] (the torque_limit factor goes below it)")
     p.set_defaults(func=cmd_robustness)
 
-    from ..studies.compare import DEFAULT_CONTROLLERS, FACTORS, SIZES
-
     p = sub.add_parser("compare", parents=[robot_parent(), study_parent(),
                                            output_parent("leaderboard.md, leaderboard.json, the charts, kips.npz,"
                                                          " the video and the studies (a rerun resumes)")],
@@ -199,27 +199,25 @@ def register(sub, parser_class):
                        description="Score kip controllers from (65) the way RealAIGym scores swing-ups: time, torque,"
                                    " effort, smoothness and speed of the kip, success under model error, noise,"
                                    " torque noise, delay, pushes and perturbed starts, and reach over a grid of"
-                                   " starts. Robustness levels: " + ", ".join(f"{k} {v:g}" for k, v in FACTORS.items())
+                                   " starts. Robustness: " + ", ".join(FACTOR_LABELS[k] for k in FACTOR_ORDER)
                                    + ".")
-    p.add_argument("--controllers", default=",".join(DEFAULT_CONTROLLERS), metavar="A,B,...",
+    p.add_argument("--controllers", default=",".join(COMPARE_CONTROLLERS), metavar="A,B,...",
                    help="built-in names or FILE.py:Class, comma-separated")
     p.add_argument("--torque-limit", type=positive, metavar="T",
                    help="the same torque limit for every controller [N m] (default: vcl's peak torques from (65))")
     p.add_argument("--trials", type=positive_int,
-                   help=f"runs per robustness factor (default {SIZES['full']['trials']}, {SIZES['quick']['trials']}"
-                        " with --quick)")
+                   help=f"draws per random robustness factor (default {COMPARE_SIZES['full']['trials']},"
+                        f" {COMPARE_SIZES['quick']['trials']} with --quick)")
     p.add_argument("--t-final", type=positive, help="duration of each run [s] (default 30)")
     p.add_argument("--grid", type=positive_int,
-                   help=f"points per axis of the reach grid over (q1, q2) (default {SIZES['full']['grid']},"
-                        f" {SIZES['quick']['grid']} with --quick)")
+                   help=f"points per axis of the reach grid over (q1, q2) (default {COMPARE_SIZES['full']['grid']},"
+                        f" {COMPARE_SIZES['quick']['grid']} with --quick)")
     p.add_argument("--seed", type=seed, default=0, help="seed of the disturbances")
     p.add_argument("--quick", action="store_true",
                    help="fewer trials, every second level of the sweeps and a coarser reach grid")
     p.add_argument("--no-video", action="store_true", help="skip the side-by-side video")
     p.add_argument("--gl", choices=("auto", "egl", "osmesa"), help="GL backend for the video (default: auto)")
     p.set_defaults(func=cmd_compare)
-
-    from ..studies.atlas import DEFAULT_RANGE, MAX_GRID as ATLAS_GRID, PARAMETERS
 
     p = sub.add_parser("atlas", parents=[robot_parent(), study_parent(),
                                          output_parent("atlas.json, atlas.npz, the maps and the finished chunks")],
@@ -228,10 +226,10 @@ def register(sub, parser_class):
                                    " robot of the family, E_r, constraint (54), deltabar (30), controllability at UDD,"
                                    " kD_min, eta1, eta2 and gains by the rule kD = 1.05 kD_min, kP = 1.05 max(eta1,"
                                    " eta2), kV = kD x (kV/kD of the base); with --simulate, the kip itself.")
-    p.add_argument("--vary", default="l1,m1", metavar="P1,P2", help=f"two of {', '.join(PARAMETERS)}")
-    p.add_argument("--range", default=f"{DEFAULT_RANGE[0]:g}:{DEFAULT_RANGE[1]:g}", metavar="LOW:HIGH",
+    p.add_argument("--vary", default="l1,m1", metavar="P1,P2", help=f"two of {', '.join(ATLAS_PARAMETERS)}")
+    p.add_argument("--range", default=f"{ATLAS_RANGE[0]:g}:{ATLAS_RANGE[1]:g}", metavar="LOW:HIGH",
                    help="the scale factors' range (log-spaced)")
-    p.add_argument("--grid", type=positive_int, default=32, help=f"factors per parameter, 2..{ATLAS_GRID}")
+    p.add_argument("--grid", type=positive_int, default=32, help=f"factors per parameter, 2..{ATLAS_MAX_GRID}")
     p.add_argument("--simulate", action="store_true", help="also run the kip of every robot in MuJoCo")
     p.add_argument("--starts", type=whole_number, help="random starts per robot with --simulate (default 4), besides (65)")
     p.add_argument("--t-final", type=positive, help="duration of each simulated kip [s] with --simulate (default 30)")

@@ -7,14 +7,44 @@
 - :mod:`~paa_mj.control.gains`: the gains against the theory;
 - :mod:`~paa_mj.control.passive`: zero torque.
 """
-from .base import CompiledForm, Controller
-from .combined import CombinedController, RegionCondition, TimeCondition
-from .energy import ConventionalController, EnergyVCLController
-from .gains import TheoryWarning, check_gains
-from .lqr import LQRController
-from .passive import PassiveController
-from .region import BALANCE_TOL, SWITCH_ANGLE, SWITCH_SPEED, in_switch_region, switch_margin
-from .registry import BUILTIN, ControllerSpec, make_controller
+# Names are imported on first use (PEP 562), so that importing one light module of the package
+# (the command line's help, a table of names) does not load MuJoCo, numba or SciPy.
+import importlib
+
+_EXPORTS = {
+    "CompiledForm": ".base",
+    "Controller": ".base",
+    "CombinedController": ".combined",
+    "RegionCondition": ".combined",
+    "TimeCondition": ".combined",
+    "ConventionalController": ".energy",
+    "EnergyVCLController": ".energy",
+    "TheoryWarning": ".gains",
+    "check_gains": ".gains",
+    "LQRController": ".lqr",
+    "PassiveController": ".passive",
+    "BALANCE_TOL": ".region",
+    "SWITCH_ANGLE": ".region",
+    "SWITCH_SPEED": ".region",
+    "in_switch_region": ".region",
+    "switch_margin": ".region",
+    "BUILTIN": ".registry",
+    "ControllerSpec": ".registry",
+    "make_controller": ".registry",
+}
+
+
+def __getattr__(name):
+    if name not in _EXPORTS:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(_EXPORTS[name], __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(list(globals()) + list(_EXPORTS))
+
 
 __all__ = ["BALANCE_TOL", "BUILTIN", "CombinedController", "CompiledForm", "Controller", "ControllerSpec",
            "ConventionalController", "EnergyVCLController", "LQRController", "PassiveController", "RegionCondition",

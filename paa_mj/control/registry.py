@@ -37,6 +37,7 @@ import numpy as np
 from ..errors import PaaError
 from ..model.params import RobotParams
 from .base import Controller
+from .catalog import DESCRIPTIONS, GAIN_CONTROLLERS, OPTIONS
 from .combined import CombinedController, RegionCondition
 from .energy import ConventionalController, EnergyVCLController
 from .lqr import LQRController
@@ -44,8 +45,6 @@ from .passive import PassiveController
 from .trajopt import INTERVALS, solve_kip
 from .tvlqr import kip_controller
 
-#: Controllers that take the gains kD, kP, kV of (40) / (12).
-GAIN_CONTROLLERS = ("vcl", "vcl-only", "vc", "vc-only")
 
 
 def _gains(robot, gains):
@@ -110,18 +109,10 @@ def build_passive(robot, gains=None, check=True):
     return PassiveController()
 
 
-BUILTIN = {
-    "vcl": (build_vcl, "(40) swing-up, then LQR (67) on entering region (68): the paper's controller"),
-    "vcl-only": (build_vcl_only, "(40) alone"),
-    "vc": (build_vc, "conventional candidate (12), then LQR (67) on entering (68)"),
-    "vc-only": (build_vc_only, "conventional candidate (12) alone"),
-    "lqr": (build_lqr, "LQR (67) alone"),
-    "passive": (build_passive, "zero torque"),
-    "trajopt": (build_trajopt, "minimum-time kip by collocation, tracked by TVLQR, then (67)"),
-    "trajopt-effort": (build_trajopt_effort, "least-effort kip over a duration, tracked by TVLQR, then (67)"),
-}
-#: Controllers that take options, and which.
-OPTIONS = {"trajopt": ("limit", "duration", "intervals"), "trajopt-effort": ("limit", "duration", "intervals")}
+BUILTIN = {name: (builder, DESCRIPTIONS[name]) for name, builder in (
+    ("vcl", build_vcl), ("vcl-only", build_vcl_only), ("vc", build_vc), ("vc-only", build_vc_only),
+    ("lqr", build_lqr), ("passive", build_passive), ("trajopt", build_trajopt),
+    ("trajopt-effort", build_trajopt_effort))}
 
 
 def register(name: str, builder, description: str):

@@ -8,10 +8,36 @@
 - :mod:`~paa_mj.model.robot`: :class:`Robot` and :func:`load_robot`;
 - :mod:`~paa_mj.model.crosscheck`: MuJoCo against the analytic model.
 """
-from .dynamics import AnalyticModel
-from .mjcf import mjcf_from_params, params_from_model
-from .params import RobotParams
-from .robot import NAMED_ROBOTS, Robot, load_model, load_robot, model_from_params, robot_from_xml, robot_path
+# Names are imported on first use (PEP 562), so that importing one light module of the package
+# (the command line's help, a table of names) does not load MuJoCo, numba or SciPy.
+import importlib
+
+_EXPORTS = {
+    "AnalyticModel": ".dynamics",
+    "mjcf_from_params": ".mjcf",
+    "params_from_model": ".mjcf",
+    "RobotParams": ".params",
+    "NAMED_ROBOTS": ".robot",
+    "Robot": ".robot",
+    "load_model": ".robot",
+    "load_robot": ".robot",
+    "model_from_params": ".robot",
+    "robot_from_xml": ".robot",
+    "robot_path": ".robot",
+}
+
+
+def __getattr__(name):
+    if name not in _EXPORTS:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(_EXPORTS[name], __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(list(globals()) + list(_EXPORTS))
+
 
 __all__ = ["AnalyticModel", "NAMED_ROBOTS", "Robot", "RobotParams", "load_model", "load_robot", "mjcf_from_params",
            "model_from_params", "params_from_model", "robot_from_xml", "robot_path"]

@@ -5,10 +5,9 @@ import mujoco
 
 from ..errors import PaaError
 from ..limits import positive_finite
+from .integrator_names import INTEGRATOR_NAMES
 
-INTEGRATORS = {"RK4": mujoco.mjtIntegrator.mjINT_RK4, "Euler": mujoco.mjtIntegrator.mjINT_EULER,
-               "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
-               "implicit": mujoco.mjtIntegrator.mjINT_IMPLICIT}
+INTEGRATORS = {name: getattr(mujoco.mjtIntegrator, f"mjINT_{name.upper()}") for name in INTEGRATOR_NAMES}
 
 
 def integrator_name(model) -> str:

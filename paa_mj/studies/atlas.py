@@ -40,11 +40,9 @@ from ..theory.linear import lqr_gain, sampled_spectral_radius, udd_controllabili
 from .basin import OUTCOME_NAMES, classify
 from ..control.region import SUCCESS_DEFINITION
 from .runner import CHUNK, RolloutSet, map_chunks, peak_torques, run_study
+from .settings import ATLAS_MAX_GRID as MAX_GRID, ATLAS_PARAMETERS as PARAMETERS, ATLAS_RANGE as DEFAULT_RANGE
 from .store import ChunkStore, check_arrays, study_key
 
-PARAMETERS = ("m1", "m2", "m3", "l1", "l2", "l3")
-DEFAULT_RANGE = (0.25, 4.0)
-MAX_GRID = 256
 OUTCOMES = OUTCOME_NAMES
 THEORY_CHUNK = 32
 START_SPREAD = (np.pi, 1.0)  # random starts: angles uniform over a full turn, speeds within +-1 rad/s

@@ -14,21 +14,17 @@ from ..errors import PaaError
 from ..provenance import text_sha256
 from ..limits import check_memory, check_steps
 from ..model.robot import Robot
-from ..model.states import Q_DUU, STATE_NAMES, wrap_angle
+from ..model.states import Q_DUU, wrap_angle
 from ..control.region import SUCCESS_DEFINITION
 from .runner import CHUNK, RolloutSet, peak_torques, run_study
+from .settings import BASIN_COORDINATES as COORDINATES, BASIN_MAX_GRID as MAX_GRID, BASIN_RANGE as DEFAULT_RANGE
 from .store import ChunkStore, study_key
 
-COORDINATES = STATE_NAMES
-#: Default range of each coordinate on the grid: angles over a full turn, speeds +-5 rad/s.
-DEFAULT_RANGE = {"q1": (-np.pi, np.pi), "q2": (-np.pi, np.pi), "q3": (-np.pi, np.pi),
-                 "d1": (-5.0, 5.0), "d2": (-5.0, 5.0), "d3": (-5.0, 5.0)}
 #: How a rollout ended, by code.
 OUTCOME_NAMES = ("balanced", "switched, not balanced", "never switched, stuck at DUU", "never switched", "diverged")
 BALANCED, LOST, STUCK_DUU, NEVER, DIVERGED = range(len(OUTCOME_NAMES))
 #: A final state within this distance of DUU (each coordinate, rad and rad/s) is "stuck at DUU".
 DUU_TOL = 0.05
-MAX_GRID = 2048
 
 
 def parse_axes(text: str) -> tuple[int, int]:

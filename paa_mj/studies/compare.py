@@ -45,18 +45,10 @@ from ..control.region import SUCCESS_DEFINITION
 from .basin import basin
 from .robustness import robustness
 from .runner import CHUNK
+from .settings import (COMPARE_CONTROLLERS as DEFAULT_CONTROLLERS, COMPARE_FACTORS as FACTORS, COMPARE_SIZES as SIZES,
+                       COMPARE_SWEEPS as SWEEPS, FACTOR_LABELS, FACTOR_ORDER)
 
-DEFAULT_CONTROLLERS = ("vcl", "vc", "trajopt", "trajopt-effort")
-#: One level per random robustness factor (name in :data:`paa_mj.studies.robustness.FACTORS`: level).
-FACTORS = {"noise": 0.01, "torque_noise": 0.03, "pushes": 0.1, "initial_state": 0.1}
-#: The levels of each deterministic factor, swept (full size; --quick takes every second one).
-SWEEPS = {"model_error": tuple(float(v) for v in range(1, 11)), "delay": tuple(float(v) for v in range(1, 11))}
-FACTOR_LABELS = {"model_error": "model error 1-10 %", "noise": "noise 0.01", "torque_noise": "torque noise 3 %",
-                 "delay": "delay 1-10 ms", "pushes": "pushes 0.1 b1", "initial_state": "start +-0.1"}
-#: The order of the robustness columns.
-FACTOR_ORDER = ("model_error", "noise", "torque_noise", "delay", "pushes", "initial_state")
 METRICS = ("t_region", "t_balanced", "max_tau", "int_tau2", "work", "smoothness", "max_speed", "success")
-SIZES = {"quick": {"trials": 6, "grid": 6, "t_final": 30.0}, "full": {"trials": 48, "grid": 16, "t_final": 30.0}}
 
 
 def _spec(name, limit):

@@ -46,23 +46,13 @@ from ..model.states import X0_HANGING
 from ..sim.batch import kip_peak_torques
 from .runner import CHUNK, RolloutSet, peak_torques, run_study
 from ..control.region import SUCCESS_DEFINITION
+from .settings import ROBUSTNESS_DEFAULT_FACTORS as DEFAULT_FACTORS, ROBUSTNESS_FACTORS as FACTORS, STARTS
 from .store import ChunkStore, study_key
 
-FACTORS = {
-    "noise": {"label": "measurement noise std on q [rad] and qd [rad/s]", "levels": [0.0, 0.01, 0.03, 0.1]},
-    "torque_limit": {"label": "torque limit, fraction of the nominal peak |tau|", "levels": [math.inf, 1.0, 0.6, 0.3]},
-    "model_error": {"label": "controller's masses and lengths off by [%]", "levels": [0.0, 2.0, 5.0, 10.0]},
-    "delay": {"label": "control delay [ms]", "levels": [0.0, 2.0, 5.0, 10.0]},
-    "torque_noise": {"label": "torque noise std, fraction of the nominal peak |tau|", "levels": [0.0, 0.01, 0.03, 0.1]},
-    "pushes": {"label": "push peak on the hands, fraction of b1", "levels": [0.0, 0.05, 0.1, 0.2]},
-    "initial_state": {"label": "start perturbed by +- [rad, rad/s]", "levels": [0.0, 0.01, 0.1, 0.3]},
-}
 #: The largest controller model error tested [%].
 MAX_MODEL_ERROR = 90.0
-DEFAULT_FACTORS = ("noise", "torque_limit", "model_error", "delay")
 #: Factors that draw random numbers at levels above 0 (the others are deterministic from a fixed start).
 RANDOM_FACTORS = ("noise", "torque_noise", "pushes", "initial_state")
-STARTS = ("random", "hanging")
 PUSHES_PER_RUN, PUSH_WIDTH, PUSH_WINDOW = 3, 0.1, (1.0, 10.0)
 MAX_TRIALS = 100_000
 #: A stable number per factor: with the trial, it keys the factor's random draws.

@@ -58,7 +58,7 @@ def check_scheduler(value) -> str:
         if scheme != "tcp":
             raise PaaError(f"--scheduler {value}: only tcp:// scheduler addresses are supported ({scheme}:// would"
                            " need that transport's own security or network set-up)")
-        _host_port(value)
+        probe_scheduler(value)  # before any work: an address that is no scheduler fails within seconds
     if value != "inline" and not dask_available():
         raise PaaError("Dask is not installed: pip install 'paa_mj[dask]' (or use --scheduler inline)")
     return value

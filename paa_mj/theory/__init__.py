@@ -8,10 +8,44 @@ The closed-loop analysis at DUU needs controller (40) and lives in
 :mod:`paa_mj.control.closed_loop`; the whole report is
 :func:`paa_mj.outputs.theory_report.theory_report`.
 """
-from .conditions import (Constraint54, constraint_54, deltabar, eta1, eta1_function, eta2, eta2_function, f54,
-                         frozen_acrobot_controllable, kd_bound_function, kd_min, thresholds)
-from .linear import LQR_Q, LQR_R, lqr_gain, udd_controllability, udd_linearization
-from .maxima import Maximum, grid_maximum
+# Names are imported on first use (PEP 562), so that importing one light module of the package
+# (the command line's help, a table of names) does not load MuJoCo, numba or SciPy.
+import importlib
+
+_EXPORTS = {
+    "Constraint54": ".conditions",
+    "constraint_54": ".conditions",
+    "deltabar": ".conditions",
+    "eta1": ".conditions",
+    "eta1_function": ".conditions",
+    "eta2": ".conditions",
+    "eta2_function": ".conditions",
+    "f54": ".conditions",
+    "frozen_acrobot_controllable": ".conditions",
+    "kd_bound_function": ".conditions",
+    "kd_min": ".conditions",
+    "thresholds": ".conditions",
+    "LQR_Q": ".linear",
+    "LQR_R": ".linear",
+    "lqr_gain": ".linear",
+    "udd_controllability": ".linear",
+    "udd_linearization": ".linear",
+    "Maximum": ".maxima",
+    "grid_maximum": ".maxima",
+}
+
+
+def __getattr__(name):
+    if name not in _EXPORTS:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(_EXPORTS[name], __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(list(globals()) + list(_EXPORTS))
+
 
 __all__ = ["Constraint54", "LQR_Q", "LQR_R", "Maximum", "constraint_54", "deltabar", "eta1", "eta1_function", "eta2",
            "eta2_function", "f54", "frozen_acrobot_controllable", "grid_maximum", "kd_bound_function", "kd_min",

@@ -1,0 +1,22 @@
+"""The built-in controllers by name: what each is, which take the gains of (40) and which take options.
+
+Plain data, importable without MuJoCo, numba or SciPy (the command line's help
+reads it); :mod:`paa_mj.control.registry` joins each name to its builder.
+"""
+from __future__ import annotations
+
+#: Built-in controller names and what each is.
+DESCRIPTIONS = {
+    "vcl": "(40) swing-up, then LQR (67) on entering region (68): the paper's controller",
+    "vcl-only": "(40) alone",
+    "vc": "conventional candidate (12), then LQR (67) on entering (68)",
+    "vc-only": "conventional candidate (12) alone",
+    "lqr": "LQR (67) alone",
+    "passive": "zero torque",
+    "trajopt": "minimum-time kip by collocation, tracked by TVLQR, then (67)",
+    "trajopt-effort": "least-effort kip over a duration, tracked by TVLQR, then (67)",
+}
+#: Controllers that take the gains kD, kP, kV of (40) / (12).
+GAIN_CONTROLLERS = ("vcl", "vcl-only", "vc", "vc-only")
+#: Controllers that take options, and which.
+OPTIONS = {"trajopt": ("limit", "duration", "intervals"), "trajopt-effort": ("limit", "duration", "intervals")}

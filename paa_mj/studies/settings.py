@@ -1,0 +1,59 @@
+"""The studies' settings: grids, ranges, factors and levels, the leaderboard's sizes.
+
+Plain data, importable without MuJoCo, numba or SciPy: the command line's help
+shows them, and each study module takes its own from here.
+"""
+from __future__ import annotations
+
+import math
+
+# --- basin (:mod:`paa_mj.studies.basin`) ------------------------------------------------------------
+
+#: The coordinates a basin grid can span (the state [q1, q2, q3, d1, d2, d3]).
+BASIN_COORDINATES = ("q1", "q2", "q3", "d1", "d2", "d3")
+#: Default range of each coordinate on the grid: angles over a full turn [rad], speeds +-5 rad/s.
+BASIN_RANGE = {"q1": (-math.pi, math.pi), "q2": (-math.pi, math.pi), "q3": (-math.pi, math.pi),
+               "d1": (-5.0, 5.0), "d2": (-5.0, 5.0), "d3": (-5.0, 5.0)}
+#: The most points per axis of a basin grid.
+BASIN_MAX_GRID = 2048
+
+# --- robustness (:mod:`paa_mj.studies.robustness`) --------------------------------------------------
+
+#: Each factor's meaning and default levels (the first is the nominal case).
+ROBUSTNESS_FACTORS = {
+    "noise": {"label": "measurement noise std on q [rad] and qd [rad/s]", "levels": [0.0, 0.01, 0.03, 0.1]},
+    "torque_limit": {"label": "torque limit, fraction of the nominal peak |tau|", "levels": [math.inf, 1.0, 0.6, 0.3]},
+    "model_error": {"label": "controller's masses and lengths off by [%]", "levels": [0.0, 2.0, 5.0, 10.0]},
+    "delay": {"label": "control delay [ms]", "levels": [0.0, 2.0, 5.0, 10.0]},
+    "torque_noise": {"label": "torque noise std, fraction of the nominal peak |tau|", "levels": [0.0, 0.01, 0.03, 0.1]},
+    "pushes": {"label": "push peak on the hands, fraction of b1", "levels": [0.0, 0.05, 0.1, 0.2]},
+    "initial_state": {"label": "start perturbed by +- [rad, rad/s]", "levels": [0.0, 0.01, 0.1, 0.3]},
+}
+ROBUSTNESS_DEFAULT_FACTORS = ("noise", "torque_limit", "model_error", "delay")
+#: Where robustness runs start: random states, or the kip from (65).
+STARTS = ("random", "hanging")
+
+# --- the leaderboard (:mod:`paa_mj.studies.compare`) ------------------------------------------------
+
+COMPARE_CONTROLLERS = ("vcl", "vc", "trajopt", "trajopt-effort")
+#: One level per random robustness factor (name in :data:`ROBUSTNESS_FACTORS`: level).
+COMPARE_FACTORS = {"noise": 0.01, "torque_noise": 0.03, "pushes": 0.1, "initial_state": 0.1}
+#: The levels of each deterministic factor, swept (full size; --quick takes every second one).
+COMPARE_SWEEPS = {"model_error": tuple(float(v) for v in range(1, 11)),
+                  "delay": tuple(float(v) for v in range(1, 11))}
+FACTOR_LABELS = {"model_error": "model error 1-10 %", "noise": "noise 0.01", "torque_noise": "torque noise 3 %",
+                 "delay": "delay 1-10 ms", "pushes": "pushes 0.1 b1", "initial_state": "start +-0.1"}
+#: The order of the robustness columns.
+FACTOR_ORDER = ("model_error", "noise", "torque_noise", "delay", "pushes", "initial_state")
+#: Draws per random factor, points per axis of the reach grid, and the duration of each run [s].
+COMPARE_SIZES = {"quick": {"trials": 6, "grid": 6, "t_final": 30.0},
+                 "full": {"trials": 48, "grid": 16, "t_final": 30.0}}
+
+# --- the atlas (:mod:`paa_mj.studies.atlas`) -----------------------------------------------------------
+
+#: The parameters an atlas can scale.
+ATLAS_PARAMETERS = ("m1", "m2", "m3", "l1", "l2", "l3")
+#: The default range of the scale factors (log-spaced).
+ATLAS_RANGE = (0.25, 4.0)
+#: The most factors per parameter.
+ATLAS_MAX_GRID = 256

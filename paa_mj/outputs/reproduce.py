@@ -14,12 +14,12 @@ import warnings
 from pathlib import Path
 
 import numpy as np
-from tqdm import tqdm
 
 from .. import __version__
 from ..control.closed_loop import duu_eigenvalues
 from ..control.gains import TheoryWarning
 from ..errors import SimulationDiverged
+from ..progress import progress, stage
 from ..io import ensure_dir, write_json, write_text
 from ..model.robot import load_robot
 from ..model.states import X0_HANGING
@@ -46,6 +46,18 @@ PAPER_CITATION = ("Y. Liu and X. Xin, *Set-point control for folded configuratio
                   " published online 1 November 2014")
 
 
+#: The sizes of the studies: ``quick`` (tests), ``default`` (``paa-mj reproduce``, about two CPU-minutes)
+#: and ``full`` (``--full``). Each conclusion of the report holds at the default size; ``full`` narrows the numbers.
+SIZES = {
+    "quick": {"sensitivity_runs": 8, "reading_runs": 4, "reading_sizes": (1e-9,), "reading_cases": 1,
+              "basin_grid": 6, "basin_t_final": 25.0},
+    "default": {"sensitivity_runs": 40, "reading_runs": 10, "reading_sizes": (1e-9, 1e-6), "reading_cases": None,
+                "basin_grid": 12, "basin_t_final": 30.0},
+    "full": {"sensitivity_runs": 200, "reading_runs": 50, "reading_sizes": (1e-9, 1e-6), "reading_cases": None,
+             "basin_grid": 32, "basin_t_final": 30.0},
+}
+
+
 def _study_cases(quick):
     if quick:
         return [("RK4", 1e-3), ("Euler", 1e-3)]
@@ -60,7 +72,7 @@ def discretisation_study(robot, quick=False, t_final=60.0):
     Each MuJoCo run stops once its balance can no longer fail (the engine's retirement rule).
     """
     rows = []
-    for integrator, dt in tqdm(_study_cases(quick), desc="discretisation study", unit="run"):
+    for integrator, dt in progress(_study_cases(quick), desc="discretisation study", unit="run"):
         try:
             traj = simulate_mujoco(robot, "vcl", X0_HANGING, t_final, dt=dt, integrator=integrator, retire=True)
             status = "ok"
@@ -103,13 +115,23 @@ def _roots(eigenvalues):
                      for re, im in eigenvalues)
 
 
-def reproduce(out_dir="out/reproduction", quick=False, video=True):
-    """Run everything, write figures, ``results.json`` and ``report.md``; return the report's path."""
+def reproduce(out_dir="out/reproduction", quick=False, video=True, size=None):
+    """Run everything, write figures, ``results.json`` and ``report.md``; return the report's path.
+
+    ``size`` is one of :data:`SIZES` (default ``"quick"`` with ``quick=True``, else ``"default"``).
+    """
+    size = size or ("quick" if quick else "default")
+    if size not in SIZES:
+        raise ValueError(f"size must be one of {', '.join(SIZES)}, got {size!r}")
+    quick = size == "quick"
+    sizes = SIZES[size]
     out = ensure_dir(out_dir)
     figs = ensure_dir(out / "figures")
     gymnast, example2 = load_robot("gymnast"), load_robot("example2")
-    results = {"paper": "Liu & Xin (2015), Multibody System Dynamics", "quick": quick}
+    results = {"paper": "Liu & Xin (2015), Multibody System Dynamics", "quick": quick, "size": size,
+               "sizes": {k: list(v) if isinstance(v, tuple) else v for k, v in sizes.items()}}
 
+    stage("[1/8] the theory of both robots: Theorem 1's conditions, DUU, Figs. 5 and 11")
     th1 = theory_report(gymnast.analytic, **gymnast.gains).to_json_dict()
     th2 = theory_report(example2.analytic, **example2.gains).to_json_dict()
     results["theory"] = {"gymnast": th1, "example2": th2}
@@ -122,8 +144,9 @@ def reproduce(out_dir="out/reproduction", quick=False, video=True):
         warnings.simplefilter("ignore", TheoryWarning)  # Example 2 violates (54) on purpose
         specs = [("gymnast_swingup", gymnast, "vcl-only"), ("gymnast_switch", gymnast, "vcl"),
                  ("example2_swingup", example2, "vcl-only")]
-        for key, robot, controller in tqdm(specs, desc="simulations", unit="run"):
-            runs[key] = simulate_mujoco(robot, controller, X0_HANGING, T_FINAL, progress=True)
+        stage(f"[2/8] the paper's simulations, {len(specs)} runs of {T_FINAL:g} s (Figs. 6-10, 12-14)")
+        for key, robot, controller in specs:
+            runs[key] = simulate_mujoco(robot, controller, X0_HANGING, T_FINAL)
             runs[key].save(out / "runs" / key)
     g_sw, g_hy, e_sw = runs["gymnast_swingup"], runs["gymnast_switch"], runs["example2_swingup"]
     for fig, stem in [
@@ -137,25 +160,33 @@ def reproduce(out_dir="out/reproduction", quick=False, video=True):
             (torques_figure(e_sw, "Fig. 14: torques, Table 2, controller (40)"), "fig14_torques_table2")]:
         save_figure(fig, figs, stem)
 
+    stage(f"[3/8] the switch time against the discretisation, {len(_study_cases(quick)) + 1} runs")
     study = discretisation_study(gymnast, quick=quick)
     results["discretisation_study"] = study
     save_figure(discretisation_figure(study), figs, "switch_time_vs_dt")
 
+    stage("[4/8] the exact closed loop (DOP853) and its entries into region (68)")
     exact = switching.exact_swing_up(gymnast, 40.0)
     results["switch_entries"] = switching.switch_entries(gymnast, solution=exact)
-    sensitivity = switching.switch_sensitivity(gymnast, n=8 if quick else 200, progress=True)
+    n_sensitivity = sizes["sensitivity_runs"]
+    stage(f"[5/8] switch sensitivity, {3 * n_sensitivity} runs")
+    sensitivity = switching.switch_sensitivity(gymnast, n=n_sensitivity, progress=True)
     results["switch_sensitivity"] = [{k: v for k, v in row.items() if k != "times"} for row in sensitivity]
-    cases = switching.INTEGRATOR_CASES[:1] if quick else switching.INTEGRATOR_CASES
+    cases = switching.INTEGRATOR_CASES[:sizes["reading_cases"]]
+    reading_sizes, n_reading = sizes["reading_sizes"], sizes["reading_runs"]
+    stage(f"[6/8] a candidate reading of the paper's switch, {len(cases) * len(reading_sizes) * n_reading} runs")
     results["switch_candidate_reading"] = switching.candidate_reading(
-        gymnast, solution=exact, cases=cases, sizes=(1e-9,) if quick else (1e-9, 1e-6), n=4 if quick else 50)
+        gymnast, solution=exact, cases=cases, sizes=reading_sizes, n=n_reading, progress=True)
     save_figure(sensitivity_figure(sensitivity, results["switch_entries"][0]["t_enter"], g_hy.switch_time,
                                    PAPER["gymnast"]["switch_time"]), figs, "switch_sensitivity")
 
-    grid, basin_t = (6, 25.0) if quick else (32, 30.0)
+    grid, basin_t = sizes["basin_grid"], sizes["basin_t_final"]
+    stage(f"[7/8] the basin of Table 1, {grid * grid} starts of {basin_t:g} s")
     basin_summary, basin_arrays = basin(gymnast, (0, 1), grid, basin_t, progress=True, scheduler="inline")
     results["basin_table1"] = basin_summary
     save_figure(basin_figure(basin_summary, basin_arrays), figs, "basin_table1")
 
+    stage("[8/8] the video of the Table 1 kip" if video else "[8/8] the report (no video)")
     video_path = _kip_video(out, g_hy, gymnast) if video else None
     results["runs"] = {k: v.summary() for k, v in runs.items()}
     write_json(out / "results.json", results)
@@ -175,6 +206,18 @@ def _kip_video(out, traj, robot):
     except PaaError as err:
         print(f"paa-mj: warning: no video: {err}")
         return None
+
+
+def _sizes_line(size):
+    """Which study sizes produced this report's numbers, and the other sizes."""
+    def describe(name):
+        sz = SIZES[name]
+        return (f"{sz['sensitivity_runs']} runs per perturbation size in 3.3, {sz['reading_runs']} per size in 3.4,"
+                f" a {sz['basin_grid']} x {sz['basin_grid']} basin in 4")
+    others = [f"`{'paa-mj reproduce' + {'quick': ' --quick', 'default': '', 'full': ' --full'}[n]}`: {describe(n)}"
+              for n in ("default", "full") if n != size]
+    return (f"Study sizes of this report ({size}): {describe(size)}; the paper's runs (section 1) and the"
+            " discretisation study (3.2) are the same at every size. " + "; ".join(others) + ".")
 
 
 def _swing_facts(traj):
@@ -247,13 +290,16 @@ def _report_text(results, runs, video_path):
     lines = [
         "# Liu & Xin (2015) reproduced in MuJoCo",
         "",
-        f"The paper: {PAPER_CITATION}. Generated by `paa-mj reproduce`{' --quick' if results['quick'] else ''}"
+        f"The paper: {PAPER_CITATION}. Generated by `paa-mj reproduce`"
+        f"{ {'quick': ' --quick', 'default': '', 'full': ' --full'}[results['size']]}"
         f" (paa_mj {__version__}, MuJoCo {__import__('mujoco').__version__}). The model, the controllers and the conditions"
         " are described in `docs/model.md` of the paa_mj package; equation numbers like (40) are the paper's.",
         "",
         "Simulations: RK4 at 1 ms, torque held over each step (zero-order hold), from (65) q = (-pi, 0, 0), qd = 0,"
         f" {T_FINAL:.0f} s, gains (66) for Table 1 (kD = 4550, kP = 16000, kV = 5000) and kD = 31, kP = 90, kV = 90"
         " for Table 2. The column *paper* holds the paper's values; every other number is computed here.",
+        "",
+        _sizes_line(results["size"]),
         "",
         "## 1. The paper's claims",
         "",

@@ -23,6 +23,7 @@ from ..control.region import distance_from_udd
 from ..control.registry import make_controller
 from ..model.robot import Robot
 from ..model.states import X0_HANGING
+from ..progress import progress as progress_bar
 from ..sim.batch import simulate_batch
 from ..sim.rollout import simulate_mujoco
 
@@ -147,7 +148,7 @@ INTEGRATOR_CASES = (("RK4", 1e-3), ("RK4", 5e-4), ("RK4", 1e-4), ("Euler", 1e-3)
 
 
 def candidate_reading(robot: Robot, solution=None, t_final=40.0, cases=INTEGRATOR_CASES, sizes=(1e-9, 1e-6),
-                      n=50, seed=0):
+                      n=50, seed=0, progress=False):
     """Where the candidate reading of the paper's switch switches, and how fragile that is.
 
     Returns ``{"t_switch", "duration", "min_margin", "binding", "lqr_balances", "integrators",
@@ -170,11 +171,11 @@ def candidate_reading(robot: Robot, solution=None, t_final=40.0, cases=INTEGRATO
         out = {"t_switch": float(t_in), "duration": float(t_out - t_in), "min_margin": depth,
                "binding": names[int(np.argmax(ratios))], "lqr_balances": lqr_balances_from(robot, state)}
     rows = []
-    for integrator, dt in cases:
+    for integrator, dt in progress_bar(cases, desc="integrators", unit="run", enabled=progress):
         traj = simulate_mujoco(robot, _switched_controller(robot, "reading"), X0_HANGING, 60.0, dt=dt,
                                integrator=integrator, retire=True, stop_on_divergence=False)
         rows.append({"integrator": integrator, "dt": dt, "switch_time": traj.switch_time, "balanced": traj.balanced()})
     out["integrators"] = rows
     out["sensitivity"] = [{k: v for k, v in row.items() if k != "times"}
-                          for row in switch_sensitivity(robot, sizes, n, 60.0, seed, "reading")]
+                          for row in switch_sensitivity(robot, sizes, n, 60.0, seed, "reading", progress)]
     return out

@@ -28,7 +28,7 @@ class _LogBar:
         if total is None and iterable is not None and hasattr(iterable, "__len__"):
             self.total = len(iterable)
         self.start = self.last = time.monotonic()
-        self.initial, self.shown = initial, False
+        self.initial, self.shown, self.shown_n = initial, False, None
 
     def __iter__(self):
         for item in self.iterable:
@@ -47,11 +47,11 @@ class _LogBar:
                                  unit=self.unit, initial=self.initial, ascii=True)
         self.stream.write(text.strip() + "\n")
         self.stream.flush()
-        self.last, self.shown = now, True
+        self.last, self.shown, self.shown_n = now, True, self.n
 
     def close(self):
         now = time.monotonic()
-        if self.shown or now - self.start >= LOG_DELAY:
+        if (self.shown or now - self.start >= LOG_DELAY) and self.shown_n != self.n:
             self._line(now)
         self.shown = False
         self.start = self.last = math.inf  # closed: no more lines

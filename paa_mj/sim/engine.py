@@ -571,7 +571,9 @@ def run(plan: Plan, controllers, nthread=None, progress=False, desc="rollouts") 
     memory_size = max([f.memory.size for f in forms.values() if f is not None] + [1])
     arrays = _Arrays(plan, memory_size)
     interrupted = False
-    bar = progress_bar(total=n, unit="rollout", desc=desc, enabled=progress)
+    # Counted in simulated seconds, so that one long rollout shows its progress too.
+    bar = _SimulatedTime(progress_bar(total=round(n * plan.n_steps * plan.dt, 6), unit="s simulated", desc=desc,
+                                      enabled=progress), arrays, plan)
     try:
         with mujoco_log_off():
             if compiled_rows:
@@ -589,6 +591,25 @@ def run(plan: Plan, controllers, nthread=None, progress=False, desc="rollouts") 
         samples = {"t": arrays.rec_t, "q": arrays.rec_q, "qd": arrays.rec_qd, "tau": arrays.rec_tau,
                    "mode": arrays.rec_mode, "count": arrays.istate[:, I_SAMPLES].copy()}
     return Outcome(arrays.istate, arrays.fstate, samples, interrupted=interrupted or bool(running.any()))
+
+
+class _SimulatedTime:
+    """A progress bar fed with the simulated time of every rollout (finished ones count in full)."""
+
+    def __init__(self, bar, arrays, plan):
+        self.bar, self.arrays, self.plan, self.reported = bar, arrays, plan, 0.0
+
+    def refresh(self):
+        st = self.arrays.istate
+        steps = np.where(st[:, I_STATUS] == RUNNING, st[:, I_STEP], self.plan.n_steps)
+        done = round(float(np.sum(steps)) * self.plan.dt, 6)
+        if done > self.reported:
+            self.bar.update(done - self.reported)
+            self.reported = done
+
+    def close(self):
+        self.refresh()
+        self.bar.close()
 
 
 def _run_compiled(plan, controllers, forms, rows, arrays, nthread, bar):
@@ -611,10 +632,12 @@ def _run_compiled(plan, controllers, forms, rows, arrays, nthread, bar):
             status = advance_compiled(form.first, form.second, form.condition, r, step_to, form.params,
                                       model._address, data._address, *views,
                                       *step_args, arrays.memory, arrays.delay_line, *state_args)
+            if nthread == 1:
+                bar.refresh()
             if status != RUNNING:
                 return
 
-    def work(on_done=None):
+    def work():
         datas = {}
         while not stop.is_set():
             with lock:
@@ -622,26 +645,21 @@ def _run_compiled(plan, controllers, forms, rows, arrays, nthread, bar):
             if r is None:
                 return
             run_one(r, datas)
-            if on_done is not None:
-                on_done()
 
     if nthread == 1:  # in this thread, so Ctrl-C lands between two segments
         try:
-            work(lambda: bar.update(1))
+            work()
         except KeyboardInterrupt:
             return True
         return False
     with ThreadPoolExecutor(nthread) as pool:
         futures = {pool.submit(work) for _ in range(nthread)}
-        reported = 0
         try:
             while futures:
                 finished, futures = wait(futures, timeout=0.2, return_when=FIRST_COMPLETED)
                 for future in finished:
                     future.result()
-                done = int(np.sum(arrays.istate[rows, I_STATUS] != RUNNING))
-                bar.update(done - reported)
-                reported = done
+                bar.refresh()
         except KeyboardInterrupt:
             stop.set()
             wait(futures)
@@ -674,8 +692,8 @@ def _run_python(plan, controller, rows, arrays, bar):
                 model = plan.models[plan.model_index[r]]
                 finish_step(r, step, int(modes[k]), np.ascontiguousarray(tau[k]), model._address, datas[k]._address,
                             *views[k], *step_args, arrays.delay_line, *state_args)
-                if arrays.istate[r, I_STATUS] != RUNNING:
-                    bar.update(1)
+                if step % SEGMENT == 0:
+                    bar.refresh()
     except KeyboardInterrupt:
         return True
     return False

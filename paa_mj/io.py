@@ -53,8 +53,8 @@ def signals_held():
     finally:
         for signum, handler in previous.items():
             signal.signal(signum, handler)
-        if pending:
-            os.kill(os.getpid(), pending[0])
+        if pending:  # raised in this thread, so it acts before the block's caller goes on
+            signal.raise_signal(pending[0])
 
 
 def _check_target(final: Path):

@@ -2,8 +2,9 @@
 
 On a terminal a bar redraws in place (tqdm). Redirected to a file or a pipe, the
 same bar is written as whole lines, the first after :data:`LOG_DELAY` seconds,
-then one every :data:`LOG_INTERVAL` seconds at most and one at the end, each with the count, the rate and the time left, so a
-log shows where a long command is and is never silent for long.
+then one every :data:`LOG_INTERVAL` seconds at most and one at the end, each
+with the count, the rate and the time left, so a log shows where a long command
+is and is never silent for long.
 """
 from __future__ import annotations
 

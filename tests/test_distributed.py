@@ -93,7 +93,7 @@ def test_interrupt_keeps_the_chunks_already_finished_and_a_rerun_resumes(gymnast
     np.testing.assert_array_equal(resumed.final_state, whole.final_state)
 
 
-def _basin_cmd(out, grid=8, t_final=2, chunk=8):
+def _basin_cmd(out, grid=8, t_final=4, chunk=4):  # 16 chunks: a signal lands long before the last
     return [sys.executable, "-m", "paa_mj.cli", "basin", "--grid", str(grid), "--t-final", str(t_final),
             "--chunk", str(chunk), "--scheduler", "inline", "--json", "--out", str(out)]
 

@@ -89,7 +89,11 @@ def test_a_failed_solve_is_one_line(gymnast):
         solve_kip(gymnast.analytic, [100.0, 100.0], "min-effort")
 
 
-def test_compare_quick_json_has_every_key(capsys):
+def test_compare_quick_json_has_every_key(capsys, monkeypatch):
+    import paa_mj.studies.compare as compare_module
+
+    # two levels per sweep at --quick: every believed model of the sweep plans its own kip (a solve each)
+    monkeypatch.setattr(compare_module, "SWEEPS", {"model_error": (1.0, 2.0, 3.0, 5.0), "delay": (1.0, 2.0, 3.0, 5.0)})
     assert main(["compare", "--quick", "--controllers", "vcl,trajopt-effort", "--trials", "1", "--grid", "2",
                  "--t-final", "25", "--scheduler", "inline", "--json"]) == 0
     summary = json.loads(capsys.readouterr().out)

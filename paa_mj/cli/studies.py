@@ -155,8 +155,8 @@ def cmd_bench(args):
 def register(sub, parser_class):
     from ..studies.settings import (ATLAS_MAX_GRID, ATLAS_PARAMETERS, ATLAS_RANGE, BASIN_COORDINATES as COORDINATES,
                                     BASIN_MAX_GRID as MAX_GRID, COMPARE_CONTROLLERS, COMPARE_SIZES, FACTOR_LABELS,
-                                    FACTOR_ORDER,
-                                    ROBUSTNESS_DEFAULT_FACTORS as DEFAULT_FACTORS, ROBUSTNESS_FACTORS as FACTORS, STARTS)
+                                    FACTOR_ORDER, ROBUSTNESS_DEFAULT_FACTORS as DEFAULT_FACTORS,
+                                    ROBUSTNESS_FACTORS as FACTORS, STARTS)
 
     p = sub.add_parser("basin", parents=[robot_parent(), controller_parent(), study_parent(),
                                          output_parent("basin.png, basin.svg, basin.npz, summary.json and the"
@@ -231,7 +231,8 @@ def register(sub, parser_class):
                    help="the scale factors' range (log-spaced)")
     p.add_argument("--grid", type=positive_int, default=32, help=f"factors per parameter, 2..{ATLAS_MAX_GRID}")
     p.add_argument("--simulate", action="store_true", help="also run the kip of every robot in MuJoCo")
-    p.add_argument("--starts", type=whole_number, help="random starts per robot with --simulate (default 4), besides (65)")
+    p.add_argument("--starts", type=whole_number,
+                   help="random starts per robot with --simulate (default 4), besides (65)")
     p.add_argument("--t-final", type=positive, help="duration of each simulated kip [s] with --simulate (default 30)")
     p.add_argument("--torque-limit", type=positive, metavar="T",
                    help="saturate each torque of every simulated kip at T [N m] with --simulate (default: none)")

@@ -130,8 +130,8 @@ def compare(robot: Robot, controllers=DEFAULT_CONTROLLERS, torque_limit=None, tr
             stage(f"compare: planning the {name} kip (collocation, IPOPT; cached after the first solve)", progress)
         specs[name].build(robot)  # gains, files and solves checked (one line) before any study runs
     sweeps = {factor: sweep_levels(factor, quick) for factor in SWEEPS}
-    summary = {"robot": robot.name, "robot_sha256": text_sha256(robot.xml), "torque_limit": limit.tolist(), "t_final": sizes["t_final"],
-               "trials": sizes["trials"], "grid": sizes["grid"], "seed": seed, "success": SUCCESS_DEFINITION,
+    summary = {"robot": robot.name, "robot_sha256": text_sha256(robot.xml), "torque_limit": limit.tolist(),
+               "t_final": sizes["t_final"], "trials": sizes["trials"], "grid": sizes["grid"], "seed": seed, "success": SUCCESS_DEFINITION,
                "intervals": "95 % Wilson intervals over the independent draws of a random factor (random: true);"
                             " a swept deterministic factor's rate is the share of its levels that succeed, one run"
                             " each (random: false), without an interval",
@@ -150,7 +150,7 @@ def compare(robot: Robot, controllers=DEFAULT_CONTROLLERS, torque_limit=None, tr
         rob, _ = robustness(robot, trials=sizes["trials"], t_final=sizes["t_final"], seed=seed, controller=spec,
                             factors=list(FACTOR_ORDER), levels=levels, start="hanging", progress=progress,
                             scheduler=scheduler, out_dir=folder, fresh=fresh, torque_limit=limit, chunk=chunk)
-        rates = {factor: _factor_rate(rob["factors"][factor]["levels"]) for factor in FACTOR_ORDER}
+        rates = {factor: _factor_rate(rob["factors"][factor]["levels"], factor in sweeps) for factor in FACTOR_ORDER}
         complete = [r["rate"] for r in rates.values() if r["rate"] is not None]
         basin_summary, basins[name] = basin(robot, (0, 1), sizes["grid"], sizes["t_final"], controller=spec,
                                             progress=progress, scheduler=scheduler, out_dir=folder, fresh=fresh,
@@ -171,9 +171,9 @@ def compare(robot: Robot, controllers=DEFAULT_CONTROLLERS, torque_limit=None, tr
     return summary, trajectories, basins
 
 
-def _factor_rate(levels):
+def _factor_rate(levels, swept):
     """One factor's column: a random factor's rate over its draws, or a sweep's share of levels that succeed."""
-    if len(levels) == 1:
+    if not swept:
         level = levels[0]
         return {"rate": level["success_rate"], "low": level["low"], "high": level["high"], "trials": level["trials"],
                 "random": level["random"]}

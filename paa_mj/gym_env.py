@@ -35,9 +35,25 @@ from gymnasium import spaces
 
 from .model.robot import load_robot
 from .model.states import X0_HANGING, udd_error
+from .sim.mujoco_log import mujoco_log_off
 from .sim.rollout import divergence_reason
 
 ENV_ID = "paa_mj/GymnastKip-v0"
+#: The largest torque limit [N m]: the action space is float32.
+MAX_TORQUE_LIMIT = 1e12
+#: The most environment steps of one episode.
+MAX_EPISODE_STEPS = 1e12
+
+
+def _real_array(value):
+    """``value`` as a float array, or None when it is not real numbers (text, complex, booleans, objects)."""
+    try:
+        array = np.asarray(value)
+    except (TypeError, ValueError):
+        return None
+    if array.dtype.kind not in "fiu":
+        return None
+    return array.astype(float)
 
 
 def _number(name, value, accept, rule):
@@ -109,9 +125,10 @@ class GymnastKipEnv(gym.Env):
         seconds = _number("max_episode_seconds", max_episode_seconds, lambda v: v > 0, "must be a positive finite"
                           " number [s]")
         if torque_limit is not None:
-            # a negative limit would turn np.clip(a, -T, T) into T for every action: every torque inverted
-            torque_limit = _number("torque_limit", torque_limit, lambda v: v > 0, "must be a positive finite"
-                                   " number [N m]")
+            # a negative limit would turn np.clip(a, -T, T) into T for every action: every torque inverted; one
+            # beyond float32 would make the action space's bounds infinite
+            torque_limit = _number("torque_limit", torque_limit, lambda v: 0 < v <= MAX_TORQUE_LIMIT,
+                                   f"must be a positive finite number [N m] up to {MAX_TORQUE_LIMIT:g}")
         init_noise = _number("init_noise", init_noise, lambda v: v >= 0, "must be a finite number >= 0 [rad]")
         width, height = _whole("width", width, 16, 4096), _whole("height", height, 16, 4096)
         self.robot = load_robot(robot)
@@ -119,7 +136,11 @@ class GymnastKipEnv(gym.Env):
         self.data = mujoco.MjData(self.model)
         self.frame_skip = frame_skip
         self.dt = self.model.opt.timestep * self.frame_skip
-        self.max_steps = int(round(seconds / self.dt))
+        steps = seconds / self.dt
+        if not steps <= MAX_EPISODE_STEPS:
+            raise ValueError(f"max_episode_seconds {max_episode_seconds!r} is too long: {steps:.3g} environment steps"
+                             f" of {self.dt:g} s, more than {MAX_EPISODE_STEPS:g}")
+        self.max_steps = int(round(steps))
         if self.max_steps < 1:
             raise ValueError(f"max_episode_seconds {max_episode_seconds!r} is shorter than one environment step"
                              f" ({self.dt:g} s)")
@@ -145,21 +166,42 @@ class GymnastKipEnv(gym.Env):
 
     def reset(self, *, seed=None, options=None):
         """Back to (65) (or ``options["x0"]``) with the angles perturbed by up to ``init_noise`` [rad]."""
+        if options is not None:
+            # an option this environment does not know (a typo of x0) would be ignored in silence
+            if not isinstance(options, dict):
+                raise ValueError(f"options must be a dict (or None), got {type(options).__name__}")
+            unknown = sorted(map(str, set(options) - {"x0"}))
+            if unknown:
+                raise ValueError(f"unknown reset option(s) {', '.join(unknown)}: the only option is x0")
+        x0 = _real_array((options or {}).get("x0", X0_HANGING))
+        if x0 is None or x0.shape != (6,) or not np.all(np.isfinite(x0)):
+            raise ValueError("options['x0'] must be 6 finite numbers")
         super().reset(seed=seed)
         mujoco.mj_resetData(self.model, self.data)
-        x0 = np.asarray((options or {}).get("x0", X0_HANGING), dtype=float)
-        if x0.shape != (6,) or not np.all(np.isfinite(x0)):
-            raise ValueError("options['x0'] must be 6 finite numbers")
         x0 = x0.copy()
         x0[:3] += self.np_random.uniform(-self.init_noise, self.init_noise, 3)
         self.data.qpos[:], self.data.qvel[:] = x0[:3], x0[3:]
-        mujoco.mj_forward(self.model, self.data)
+        with mujoco_log_off():
+            mujoco.mj_forward(self.model, self.data)
         self._steps = 0
         return self._obs(), self._info()
 
     def action_to_torque(self, action):
-        """The torques [N m] an action asks for (scaled when actions are normalised), within the limits."""
-        action = np.asarray(action, dtype=float)
+        """The torques [N m] an action asks for (scaled when actions are normalised), within the limits.
+
+        Raises
+        ------
+        ValueError
+            An action that is not two finite real numbers: one number would be given to both motors and a
+            NaN or infinite one would be clipped or end the episode as a divergence, in silence.
+        """
+        given, action = action, _real_array(action)
+        if action is None or action.shape != (2,):
+            shown = " ".join(repr(given).split())
+            raise ValueError("an action is two real numbers [tau2, tau3], shape (2,), got "
+                             + (f"{shown[:60]}" if action is None else f"shape {action.shape}"))
+        if not np.all(np.isfinite(action)):
+            raise ValueError(f"an action must be finite, got {action.tolist()}")
         if self.normalize_actions:
             action = action * self.torque_limits
         return np.clip(action, -self.torque_limits, self.torque_limits)
@@ -173,8 +215,9 @@ class GymnastKipEnv(gym.Env):
         """Hold the action's torques over ``frame_skip`` physics steps; (obs, reward, terminated, truncated, info)."""
         tau = self.action_to_torque(action)
         self.data.ctrl[:] = tau
-        for _ in range(self.frame_skip):
-            mujoco.mj_step(self.model, self.data)
+        with mujoco_log_off():  # a diverging step ends the episode; MuJoCo's warning must not leave MUJOCO_LOG.TXT
+            for _ in range(self.frame_skip):
+                mujoco.mj_step(self.model, self.data)
         self._steps += 1
         diverged = divergence_reason(self.data) is not None
         if diverged:

@@ -94,6 +94,7 @@ def test_a_factors_draws_do_not_depend_on_the_other_factors(gymnast):
     rows = slice(len(b["x0"]) - 3, None)
     np.testing.assert_array_equal(a["x0"], b["x0"][rows])
     np.testing.assert_array_equal(a["switch_time"], b["switch_time"][rows])
+    np.testing.assert_array_equal(a["final_state"], b["final_state"][rows])  # the same noise, step by step
     assert alone["factors"]["noise"] == beside["factors"]["noise"]
 
 

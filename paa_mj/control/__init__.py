@@ -7,9 +7,7 @@
 - :mod:`~paa_mj.control.gains`: the gains against the theory;
 - :mod:`~paa_mj.control.passive`: zero torque.
 """
-# Names are imported on first use (PEP 562), so that importing one light module of the package
-# (the command line's help, a table of names) does not load MuJoCo, numba or SciPy.
-import importlib
+from ..lazy import lazy_exports
 
 _EXPORTS = {
     "CompiledForm": ".base",
@@ -33,18 +31,7 @@ _EXPORTS = {
     "make_controller": ".registry",
 }
 
-
-def __getattr__(name):
-    if name not in _EXPORTS:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(importlib.import_module(_EXPORTS[name], __name__), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__():
-    return sorted(list(globals()) + list(_EXPORTS))
-
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, globals())
 
 __all__ = ["BALANCE_TOL", "BUILTIN", "CombinedController", "CompiledForm", "Controller", "ControllerSpec",
            "ConventionalController", "EnergyVCLController", "LQRController", "PassiveController", "RegionCondition",

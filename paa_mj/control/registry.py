@@ -58,7 +58,15 @@ EFFORT_DURATION = 3.0
 
 
 def _kip_bound(robot, limit):
-    limits = np.minimum(robot.torque_limits, np.inf if limit is None else np.asarray(limit, float))
+    if limit is not None:
+        try:
+            limit = np.asarray(limit, float)
+        except (TypeError, ValueError):
+            raise PaaError(f"the option limit must be a torque limit [N m], one number or (T2, T3), got {limit!r}") \
+                from None
+        if limit.shape not in ((), (1,), (2,)):
+            raise PaaError(f"the option limit needs one number or two (T2, T3) [N m], got shape {limit.shape}")
+    limits = np.minimum(robot.torque_limits, np.inf if limit is None else limit)
     if not np.all(np.isfinite(limits)):
         raise PaaError("a planned kip needs a torque limit: give limit=(T2, T3) [N m] or a model with actuator ranges"
                        " (the command line uses the peak torques of vcl from (65))")
@@ -143,7 +151,7 @@ def load_user_class(spec: str):
             module = importlib.util.module_from_spec(loader_spec)
             sys.modules[module_name] = module
             loader_spec.loader.exec_module(module)
-        except Exception as err:  # the user's file may fail in any way
+        except (Exception, SystemExit) as err:  # the user's file may fail in any way, sys.exit() at import included
             sys.modules.pop(module_name, None)
             raise PaaError(f"cannot load controller file {path_text}: {type(err).__name__}: {' '.join(str(err).split())}") from None
     cls = getattr(module, class_name, None)
@@ -176,6 +184,14 @@ class ControllerSpec:
     options: tuple = ()
 
     def __post_init__(self):
+        if not isinstance(self.name, str):
+            raise PaaError(f"a controller is named by a string (one of {', '.join(BUILTIN)} or"
+                           f" path/to/file.py:ClassName), got {self.name!r}")
+        if not isinstance(self.check, (bool, np.bool_)):
+            raise PaaError(f"check must be True or False, got {self.check!r}")
+        if self.believed is not None and not isinstance(self.believed, RobotParams):
+            raise PaaError(f"believed must be the RobotParams the controller believes in (or None), got"
+                           f" {type(self.believed).__name__}")
         if is_user_controller(self.name):
             path, cls = self.name.rsplit(":", 1)
             object.__setattr__(self, "name", f"{Path(path).expanduser().resolve()}:{cls}")
@@ -186,8 +202,11 @@ class ControllerSpec:
             if self.name not in GAIN_CONTROLLERS:
                 raise PaaError(f"gains kD, kP, kV apply to the controllers {', '.join(GAIN_CONTROLLERS)},"
                                f" not to {self.short_name}")
-            object.__setattr__(self, "gains", tuple(float(g) for g in self.gains))
-        options = dict(self.options)
+            object.__setattr__(self, "gains", _three_gains(self.gains))
+        try:
+            options = dict(self.options)
+        except (TypeError, ValueError):
+            raise PaaError(f"options must be (name, value) pairs, got {self.options!r}") from None
         unknown = sorted(set(options) - set(OPTIONS.get(self.name, ())))
         if unknown:
             raise PaaError(f"option(s) {', '.join(unknown)} do not apply to the controller {self.short_name}")
@@ -211,14 +230,18 @@ class ControllerSpec:
 
     def build(self, robot) -> Controller:
         """The controller for ``robot`` (the plant); it believes in ``believed`` when given."""
+        from ..model.robot import Robot
+
+        if not isinstance(robot, Robot):
+            raise PaaError(f"controllers are built for a robot of load_robot(), got {type(robot).__name__}")
         believed = robot if self.believed is None else robot.with_params(self.believed)
         if is_user_controller(self.name):
             cls = load_user_class(self.name)
             try:
-                controller = cls(believed)
-            except PaaError:
+                controller = cls(_private_copy(believed))
+            except (PaaError, KeyboardInterrupt):
                 raise
-            except Exception as err:
+            except (Exception, SystemExit) as err:  # sys.exit() in __init__ must not end the command as a success
                 raise PaaError(f"controller {self.short_name}(robot) failed: {type(err).__name__}:"
                                f" {' '.join(str(err).split())}") from None
             if not callable(getattr(controller, "torque", None)):
@@ -226,6 +249,31 @@ class ControllerSpec:
             return controller
         gains = None if self.gains is None else dict(zip(("kD", "kP", "kV"), self.gains))
         return BUILTIN[self.name][0](believed, gains=gains, check=self.check, **dict(self.options))
+
+
+def _three_gains(gains) -> tuple:
+    """``gains`` as (kD, kP, kV) floats, or a one-line error (a fourth value must not be dropped in silence)."""
+    try:
+        values = tuple(gains)
+    except TypeError:
+        raise PaaError(f"gains must be three numbers (kD, kP, kV), got {gains!r}") from None
+    if len(values) != 3 or any(isinstance(v, (bool, np.bool_, str, bytes)) for v in values):
+        raise PaaError(f"gains must be three numbers (kD, kP, kV), got {gains!r}")
+    try:
+        return tuple(float(v) for v in values)
+    except (TypeError, ValueError):
+        raise PaaError(f"gains must be three numbers (kD, kP, kV), got {gains!r}") from None
+
+
+def _private_copy(robot):
+    """A copy of ``robot`` for a user's controller: what its ``__init__`` changes in the robot it is given (the
+    MjModel's gravity or time step, the torque limits, the parameters) must not change the robot simulated."""
+    import copy
+    from dataclasses import replace
+
+    return replace(robot, model=robot.model.__copy__(), params=copy.deepcopy(robot.params),
+                   analytic=copy.deepcopy(robot.analytic), gains=copy.deepcopy(robot.gains),
+                   torque_limits=np.array(robot.torque_limits, float))
 
 
 def _hashable(value):
@@ -238,7 +286,13 @@ def make_controller(name: str, robot, gains: dict | None = None, check: bool = T
     ``gains`` ({"kD", "kP", "kV"}, any subset) override the robot's stored gains;
     ``options`` are the controller's own (:data:`OPTIONS`).
     """
+    from ..model.robot import Robot
+
+    if not isinstance(robot, Robot):
+        raise PaaError(f"controllers are built for a robot of load_robot(), got {type(robot).__name__}")
     values = None
     if gains:
+        if not isinstance(gains, dict) or set(gains) - {"kD", "kP", "kV"}:
+            raise PaaError(f"gains must be a dict with some of kD, kP, kV, got {gains!r}")
         values = tuple(robot.resolve_gains(**gains).values())
     return ControllerSpec(name, values, check=check, options=tuple(options.items())).build(robot)

@@ -175,9 +175,20 @@ def solve_kip(am: AnalyticModel, bound, objective="min-time", duration=None, int
     """
     from ..io import write_npz
 
+    if not isinstance(am, AnalyticModel):
+        raise PaaError(f"solve_kip needs the robot's AnalyticModel (robot.analytic), got {type(am).__name__}")
     if objective not in OBJECTIVES:
         raise PaaError(f"unknown objective {objective!r}: use {' or '.join(OBJECTIVES)}")
-    bound = np.broadcast_to(np.asarray(bound, float), (2,)).copy()
+    bound = _real(bound, "torque bounds of the kip")
+    if bound.shape not in ((), (1,), (2,)):
+        raise PaaError(f"torque bounds of the kip are one number or two (T2, T3) [N m], got shape {bound.shape}")
+    bound = np.broadcast_to(bound, (2,)).copy()
+    if duration is not None:
+        duration = float(_real(duration, "the kip duration").reshape(-1)[0]) if np.size(duration) == 1 else None
+        if duration is None:
+            raise PaaError("the kip duration is one number [s]")
+    if not (isinstance(max_iter, (int, np.integer)) and not isinstance(max_iter, bool) and max_iter >= 0):
+        raise PaaError(f"max_iter must be a whole number >= 0 (IPOPT's iterations), got {max_iter!r}")
     if not np.all(np.isfinite(bound) & (bound > 0)):
         raise PaaError(f"torque bounds of the kip must be finite and > 0, got {bound.tolist()}")
     if objective == "min-effort" and not (duration is not None and np.isfinite(duration) and duration > 0):
@@ -188,8 +199,12 @@ def solve_kip(am: AnalyticModel, bound, objective="min-time", duration=None, int
                        " solution stored over the whole duration")
     if not (isinstance(intervals, (int, np.integer)) and 4 <= intervals <= 2000):
         raise PaaError(f"collocation intervals must be an integer in [4, 2000], got {intervals}")
-    x0 = np.asarray(x0, float)
-    xN = np.concatenate([Q_UDD, np.zeros(3)]) if xN is None else np.asarray(xN, float)
+    x0 = _real(x0, "the kip's initial state x0")
+    xN = np.concatenate([Q_UDD, np.zeros(3)]) if xN is None else _real(xN, "the kip's final state xN")
+    for name, state in (("x0", x0), ("xN", xN)):
+        if state.shape != (6,) or not np.all(np.isfinite(state)):
+            raise PaaError(f"the kip's {name} must be 6 finite numbers (q1 q2 q3 d1 d2 d3), got shape {state.shape}"
+                           + ("" if state.shape != (6,) else f" {state.tolist()}"))
     key = _key(am, bound, objective, duration, intervals, x0, xN)
     path = cache_dir() / f"{key}.npz"
     if use_cache and path.is_file():
@@ -224,6 +239,17 @@ def _load_kept(path, am, bound, objective, duration, intervals, x0, xN):
             and np.all(np.abs(kip.u) <= bound * (1 + 1e-6) + 1e-9) and kip.defects(am) < 1e-5):
         return None
     return kip
+
+
+def _real(value, what) -> np.ndarray:
+    """``value`` as a float array, or a one-line error when it is not real numbers."""
+    try:
+        array = np.asarray(value)
+        if array.dtype.kind not in "fiu":
+            raise TypeError
+        return array.astype(float)
+    except (TypeError, ValueError):
+        raise PaaError(f"{what} must be real numbers, got {value!r}") from None
 
 
 def _check_interior(duration, bound):

@@ -8,9 +8,7 @@
 - :mod:`~paa_mj.model.robot`: :class:`Robot` and :func:`load_robot`;
 - :mod:`~paa_mj.model.crosscheck`: MuJoCo against the analytic model.
 """
-# Names are imported on first use (PEP 562), so that importing one light module of the package
-# (the command line's help, a table of names) does not load MuJoCo, numba or SciPy.
-import importlib
+from ..lazy import lazy_exports
 
 _EXPORTS = {
     "AnalyticModel": ".dynamics",
@@ -26,18 +24,7 @@ _EXPORTS = {
     "robot_path": ".robot",
 }
 
-
-def __getattr__(name):
-    if name not in _EXPORTS:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(importlib.import_module(_EXPORTS[name], __name__), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__():
-    return sorted(list(globals()) + list(_EXPORTS))
-
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, globals())
 
 __all__ = ["AnalyticModel", "NAMED_ROBOTS", "Robot", "RobotParams", "load_model", "load_robot", "mjcf_from_params",
            "model_from_params", "params_from_model", "robot_from_xml", "robot_path"]

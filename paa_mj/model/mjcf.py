@@ -318,6 +318,12 @@ def _check_joints(model, source):
         raise _shape_error(source, "needs one hinge on each link")
     if np.any(np.abs(model.jnt_pos) > 1e-12):
         raise _shape_error(source, "each hinge must sit at its body's origin")
+    hands = np.asarray(model.body_pos[1], float)
+    across = hands - (hands @ model.jnt_axis[0]) * model.jnt_axis[0] / (model.jnt_axis[0] @ model.jnt_axis[0])
+    if not np.all(np.abs(across) <= 1e-12):
+        # the bar is the world origin: MuJoCo's potential energy is the paper's P(q) of (7) only there
+        raise _shape_error(source, f"link 1 must hang from the bar at the world origin (its hinge, the hands, is at"
+                                   f" {hands.tolist()} m)")
     if np.any(model.qpos0 != 0):
         raise _feature_error(source, f"joint reference angles (ref {np.asarray(model.qpos0).tolist()} rad; q = 0 must"
                                      " be every link straight up)")
@@ -357,7 +363,7 @@ def _check_actuators(model, source):
             raise _feature_error(source, f"actuator {act} gear \"{' '.join(f'{v:g}' for v in gear)}\": gear component"
                                          f"{'s' if len(others) > 1 else ''} {', '.join(others)} must be 0 (a motor on a"
                                          " hinge uses the first component only, and the model needs it to be 1)")
-        if abs(gear[0] - 1) > 1e-12:
+        if not abs(gear[0] - 1) <= 1e-12:  # written so that a NaN gear is refused too
             raise _feature_error(source, f"actuator {act} gear {gear[0]:g} (the model needs gear 1)")
         is_motor = (model.actuator_gaintype[act] == mujoco.mjtGain.mjGAIN_FIXED
                     and model.actuator_biastype[act] == mujoco.mjtBias.mjBIAS_NONE
@@ -376,6 +382,15 @@ def _symmetric_limit(low, high, what, source):
     return float(high)
 
 
+def _check_unused_range(limited, values, what, source):
+    """Refuse a range that is written but not a range (inverted, empty or NaN): MuJoCo then leaves the limit off
+    in silence, so the motor would run unlimited although the file asks for a limit."""
+    low, high = (float(v) for v in values)
+    if not limited and (low != 0 or high != 0) and not (np.isfinite(low) and np.isfinite(high) and low < high):
+        raise _feature_error(source, f"{what} [{low:g}, {high:g}] is not a range (MuJoCo would apply no limit at all):"
+                                     " give -T T with T > 0, or leave it out")
+
+
 def torque_limits_from_model(model: mujoco.MjModel, source: str = "model") -> np.ndarray:
     """The torque limit of each motor [N m], shape (2,), +inf where none.
 
@@ -386,6 +401,13 @@ def torque_limits_from_model(model: mujoco.MjModel, source: str = "model") -> np
     limits = np.full(2, np.inf)
     for act in range(min(model.nu, 2)):
         joint = int(model.actuator_trnid[act, 0])
+        _check_unused_range(model.actuator_ctrllimited[act], model.actuator_ctrlrange[act], f"actuator {act} ctrlrange",
+                            source)
+        _check_unused_range(model.actuator_forcelimited[act], model.actuator_forcerange[act],
+                            f"actuator {act} forcerange", source)
+        if 0 <= joint < model.njnt:
+            _check_unused_range(model.jnt_actfrclimited[joint], model.jnt_actfrcrange[joint],
+                                f"joint {joint + 1} actuatorfrcrange", source)
         ranges = []
         if model.actuator_ctrllimited[act]:
             ranges.append(("ctrlrange", model.actuator_ctrlrange[act]))

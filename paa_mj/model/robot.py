@@ -59,7 +59,16 @@ class Robot:
         missing = [k for k, v in given.items() if v is None and k not in base]
         if missing:
             raise PaaError(f"robot {self.name} stores no default gains: give {', '.join('--' + k for k in missing)}")
-        return {k: float(base[k] if v is None else v) for k, v in given.items()}
+        resolved = {}
+        for k, v in given.items():
+            value = base[k] if v is None else v
+            if isinstance(value, (bool, np.bool_, str, bytes)):  # float() would read True as 1 and "5" as 5
+                raise PaaError(f"gain {k} must be a number, got {value!r}")
+            try:
+                resolved[k] = float(value)
+            except (TypeError, ValueError):
+                raise PaaError(f"gain {k} must be a number, got {value!r}") from None
+        return resolved
 
     def with_params(self, params: RobotParams, name: str | None = None) -> "Robot":
         """The same robot with other parameters (same gains and limits), compiled from the template.
@@ -74,7 +83,12 @@ class Robot:
 
 def robot_path(robot: str | os.PathLike) -> Path:
     """Resolve a robot name (``gymnast``, ``example2``) or an MJCF path to a file path."""
+    if not isinstance(robot, (str, os.PathLike)):
+        raise PaaError(f"unknown robot {robot!r}: use one of {', '.join(NAMED_ROBOTS)} or a path to an MJCF .xml file")
     text = str(robot)
+    if not text.strip():
+        raise PaaError(f"unknown robot {text!r} (an empty name): use one of {', '.join(NAMED_ROBOTS)} or a path to an"
+                       " MJCF .xml file")
     if text in NAMED_ROBOTS:
         return MODEL_DIR / f"{text}.xml"
     path = Path(text)

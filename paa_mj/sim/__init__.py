@@ -6,9 +6,7 @@
 - :mod:`~paa_mj.sim.analytic`: :func:`simulate_analytic`, (1) integrated by ``solve_ivp``;
 - :mod:`~paa_mj.sim.trajectory`: the record and its files.
 """
-# Names are imported on first use (PEP 562), so that importing one light module of the package
-# (the command line's help, a table of names) does not load MuJoCo, numba or SciPy.
-import importlib
+from ..lazy import lazy_exports
 
 _EXPORTS = {
     "X0_HANGING": "..model.states",
@@ -19,17 +17,6 @@ _EXPORTS = {
     "Trajectory": ".trajectory",
 }
 
-
-def __getattr__(name):
-    if name not in _EXPORTS:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(importlib.import_module(_EXPORTS[name], __name__), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__():
-    return sorted(list(globals()) + list(_EXPORTS))
-
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, globals())
 
 __all__ = ["BatchResult", "Trajectory", "X0_HANGING", "simulate_analytic", "simulate_batch", "simulate_mujoco"]

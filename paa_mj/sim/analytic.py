@@ -28,6 +28,8 @@ from .trajectory import Trajectory
 
 #: Smallest step of the adaptive integrator [s]; a smooth closed loop of this model takes steps of 1e-5 s or more.
 MIN_STEP = 1e-10
+#: Finest interval at which the switching condition may be watched [s].
+MIN_EVENT_RESOLUTION = 1e-9
 
 
 class _NonFiniteTorque(Exception):
@@ -92,6 +94,13 @@ def simulate_analytic(robot: Robot, controller="vcl", x0=X0_HANGING, t_final: fl
     x0 = check_initial_state(x0)[0]
     t_final = positive_finite("final time", t_final, allow_none=False)
     sample_dt = positive_finite("sample interval", sample_dt, allow_none=False)
+    # SciPy takes a NaN or infinite tolerance without a word and then never finishes a step
+    rtol = positive_finite("rtol", rtol, allow_none=False)
+    atol = positive_finite("atol", atol, allow_none=False)
+    event_resolution = positive_finite("event_resolution", event_resolution, allow_none=False)
+    if not event_resolution >= MIN_EVENT_RESOLUTION:
+        raise PaaError(f"event_resolution {event_resolution:g} s is below {MIN_EVENT_RESOLUTION:g} s: the region would"
+                       " be watched at more points than memory holds")
     if not np.isfinite(t_final / 1e-3):  # steps_for would fail to count the steps
         raise PaaError(f"final time {t_final:g} s is too long: it would need about 1e+"
                        f"{int(np.floor(np.log10(t_final) + 3))} solver steps of 1 ms; lower it")
@@ -102,8 +111,11 @@ def simulate_analytic(robot: Robot, controller="vcl", x0=X0_HANGING, t_final: fl
     check_steps(t_final / 1e-3, f"the exact closed loop over {t_final:g} s (counted in 1 ms steps)", "--t-final",
                 cores=1)
     controller = controllers_for(robot, controller, 1)[0]
-    limits = np.minimum(np.broadcast_to(np.inf if torque_limit is None else np.asarray(torque_limit, float), (2,)),
-                        robot.torque_limits)
+    try:
+        requested = np.broadcast_to(np.inf if torque_limit is None else np.asarray(torque_limit, float), (2,))
+    except (TypeError, ValueError):
+        raise PaaError(f"torque limit must be one number or two (T2, T3) [N m], got {torque_limit!r}") from None
+    limits = np.minimum(requested, robot.torque_limits)
     if np.any(~(limits > 0)):
         raise PaaError("torque limits must be > 0")
     am = robot.analytic
@@ -111,7 +123,9 @@ def simulate_analytic(robot: Robot, controller="vcl", x0=X0_HANGING, t_final: fl
     laws, condition = _phases(controller)
 
     def law_torque(law, q, qd, t):
-        return np.clip(torque_of(law, q[None], qd[None], t)[0], -limits, limits)
+        tau = torque_of(law, q[None], qd[None], t)[0]
+        # a non-finite torque stays non-finite (a divergence, as in MuJoCo): clipping would turn inf into the limit
+        return np.clip(tau, -limits, limits) if np.all(np.isfinite(tau)) else tau
 
     nonfinite_at = []  # times where the controller returned NaN or inf (the integrator then shrinks its step)
 
@@ -195,6 +209,9 @@ def simulate_analytic(robot: Robot, controller="vcl", x0=X0_HANGING, t_final: fl
     t = np.concatenate(ts) if ts else np.zeros(0)
     X = np.concatenate(xs) if xs else np.zeros((0, 6))
     mode = np.concatenate(modes) if modes else np.zeros(0, np.int8)
+    if failure and not len(t):
+        # failed at the start: the start state is what was computed (kept and summarised, as MuJoCo's first sample)
+        t, X, mode = np.zeros(1), x0[None].copy(), np.full(1, phase, np.int8)
     q, qd = X[:, :3], X[:, 3:]
     tau = np.array([law_torque(laws[m], q[i], qd[i], t[i]) for i, m in enumerate(mode)]).reshape(-1, 2)
     e_err, V = trajectory_quantities(controller, robot, q, qd)

@@ -107,8 +107,10 @@ class Trajectory:
     def load(cls, path) -> "Trajectory":
         """Read a ``trajectory.npz`` written by :meth:`save`; one-line error when it is not one."""
         path = Path(path)
-        if not path.is_file():
+        if not path.exists():
             raise PaaError(f"trajectory file not found: {path}")
+        if not path.is_file():
+            raise PaaError(f"trajectory file is not a regular file: {path}")
         if not zipfile.is_zipfile(path):
             raise PaaError(f"corrupted or foreign trajectory file {path}: not an .npz archive (simulate --out writes"
                            " trajectory.npz)")
@@ -123,6 +125,13 @@ class Trajectory:
                     sha = str(z["robot_sha256"])
         except Exception as err:  # zipfile, KeyError, ValueError...: all mean "not our file"
             raise PaaError(f"corrupted or foreign trajectory file {path}: {type(err).__name__}: {' '.join(str(err).split())}") from None
+        if not isinstance(meta, dict) or not isinstance(meta.get("robot", ""), str):
+            raise PaaError(f"corrupted trajectory file {path}: its meta is not a JSON object naming its robot")
+        for name, values in arrays.items():
+            if values.dtype.kind not in "fiu":
+                # complex numbers would lose their imaginary part in silence, text or objects fail later
+                raise PaaError(f"corrupted trajectory file {path}: {name} holds {values.dtype} values, not real"
+                               " numbers")
         n = len(arrays["t"])
         shapes = {"q": (n, 3), "qd": (n, 3), "tau": (n, 2), "E_minus_Er": (n,), "V": (n,), "mode": (n,)}
         for name, shape in shapes.items():
@@ -132,6 +141,9 @@ class Trajectory:
             raise PaaError(f"corrupted trajectory file {path}: empty or non-finite samples")
         if arrays["t"][0] < 0 or np.any(np.diff(arrays["t"]) <= 0):
             raise PaaError(f"corrupted trajectory file {path}: the times are not increasing from t >= 0")
+        if np.any((arrays["mode"] != 0) & (arrays["mode"] != 1)):
+            raise PaaError(f"corrupted trajectory file {path}: a controller mode is not 0 (swing-up) or 1 (balance)")
+        arrays["mode"] = arrays["mode"].astype(np.int8)
         if robot_xml is not None and mjcf_sha256(robot_xml) != sha:
             raise PaaError(f"corrupted trajectory file {path}: its robot's MJCF text does not match its sha256")
         return cls(**arrays, switch_time=None if np.isnan(switch) else switch, meta=meta, robot_xml=robot_xml)

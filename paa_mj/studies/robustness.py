@@ -228,6 +228,6 @@ def robustness(robot: Robot, trials=64, t_final=30.0, seed=0, controller: Contro
                           "diverged_rate": float(np.mean(result.diverged[rows])) if len(rows) else None})
         summary["factors"][factor] = {"label": fspec["label"], "levels": rates}
     arrays = {"x0": np.array(x0), "success": success, "diverged": result.diverged, "switch_time": result.switch_time,
-              "completed": completed}
+              "final_state": result.final_state, "max_abs_tau": result.max_abs_tau, "completed": completed}
     return summary, arrays
 

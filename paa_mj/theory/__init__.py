@@ -8,9 +8,7 @@ The closed-loop analysis at DUU needs controller (40) and lives in
 :mod:`paa_mj.control.closed_loop`; the whole report is
 :func:`paa_mj.outputs.theory_report.theory_report`.
 """
-# Names are imported on first use (PEP 562), so that importing one light module of the package
-# (the command line's help, a table of names) does not load MuJoCo, numba or SciPy.
-import importlib
+from ..lazy import lazy_exports
 
 _EXPORTS = {
     "Constraint54": ".conditions",
@@ -34,18 +32,7 @@ _EXPORTS = {
     "grid_maximum": ".maxima",
 }
 
-
-def __getattr__(name):
-    if name not in _EXPORTS:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(importlib.import_module(_EXPORTS[name], __name__), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__():
-    return sorted(list(globals()) + list(_EXPORTS))
-
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, globals())
 
 __all__ = ["Constraint54", "LQR_Q", "LQR_R", "Maximum", "constraint_54", "deltabar", "eta1", "eta1_function", "eta2",
            "eta2_function", "f54", "frozen_acrobot_controllable", "grid_maximum", "kd_bound_function", "kd_min",

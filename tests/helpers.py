@@ -28,7 +28,7 @@ def replay_torques_analytic(robot, x0, torques, dt, rtol=1e-12, atol=1e-12):
     x = np.asarray(x0, float)
     out = np.empty((len(torques), 6))
     for i, tau in enumerate(torques):
-        sol = solve_ivp(lambda _t, s: np.concatenate([s[3:], am.acceleration(s[:3], s[3:], tau)]),
+        sol = solve_ivp(lambda _t, s: am.state_derivative(s, tau),
                         (0.0, dt), x, method="DOP853", rtol=rtol, atol=atol)
         x = sol.y[:, -1]
         out[i] = x

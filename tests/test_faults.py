@@ -776,8 +776,7 @@ def test_simulate_does_not_overwrite_a_summary_it_did_not_write(tmp_path, run):
 #
 # Every table below is a set of distinct cases; each asserts something that could fail: the exit code and the
 # one line on stderr with its key words, no traceback, a strict JSON object alone on stdout, or a consistency
-# property of what was computed. A defect found here whose fix lies outside the modules this pass may change
-# is marked xfail(strict=True) with the place it is suspected in.
+# property of what was computed.
 
 def _made(text, old, new):
     """``text`` (make-model's MJCF) with ``old`` replaced by ``new`` once (all occurrences when old starts with *)."""
@@ -1069,9 +1068,7 @@ BAD_OPTIONS = [
     (["basin", "--torque-limit", "nan"], "argument --torque-limit: must be a positive finite number, got nan"),
     (["basin", "--controller", "passive", "--kD", "5000", "--scheduler", "inline"],
      "apply to the controllers vcl, vcl-only, vc, vc-only, not to passive"),
-    pytest.param(["basin", "--torque-limit", "-1e3"], "argument --torque-limit: must be a positive finite number",
-                 marks=pytest.mark.xfail(strict=True, reason="the study parsers (cli/studies.py) read -1e3 as an"
-                                                             " option: 'expected one argument'")),
+    (["basin", "--torque-limit", "-1e3"], "argument --torque-limit: must be a positive finite number"),
     # robustness
     (["robustness", "--factors", "bogus"], "unknown robustness factor(s) ['bogus']"),
     (["robustness", "--factors", ",,,"], "no robustness factor given"),
@@ -1106,9 +1103,7 @@ BAD_OPTIONS = [
     (["atlas", "--simulate", "--starts", "10001", "--scheduler", "inline"], "--starts must be an integer in [0, 10000]"),
     (["atlas", "--torque-limit", "5"], "--torque-limit applies with --simulate only"),
     (["atlas", "--seed", "1"], "--seed applies with --simulate only"),
-    pytest.param(["atlas", "--range", "1e-300:1e300", "--grid", "2", "--scheduler", "inline"], "--range",
-                 marks=pytest.mark.xfail(strict=True, reason="studies/atlas.py: the scaled robot's own check speaks"
-                                                             " ('J1 = 0 must be > 0'), not naming --range")),
+    (["atlas", "--range", "1e-300:1e300", "--grid", "2", "--scheduler", "inline"], "--range"),
     # bench, reproduce
     (["bench", "--batch-size", "0"], "argument --batch-size: must be >= 1, got 0"),
     (["bench", "--batch-size", "1e99"], "argument --batch-size: not a whole number: '1e99'"),
@@ -1132,9 +1127,6 @@ def test_bad_options_of_every_command_are_one_line(args, fragment, tmp_path, mon
     assert not list(tmp_path.iterdir())  # nothing written, not even a lock or a log
 
 
-@pytest.mark.xfail(strict=True, reason="studies/compare.py checks the reach grid in basin(), after the kip and the"
-                                       " robustness study: 'compare --grid 1' spends 23 s (default sizes) before it"
-                                       " is refused")
 def test_compare_refuses_a_reach_grid_before_any_rollout(monkeypatch, tmp_path, run):
     import paa_mj.studies.compare as compare
 
@@ -1596,12 +1588,8 @@ def test_a_folder_reached_through_a_symbolic_link_is_written_and_keeps_other_fil
 
 
 @pytest.mark.parametrize("command", [
-    pytest.param(["basin", "--grid", "2", "--t-final", "0.05", "--scheduler", "inline"], marks=pytest.mark.xfail(
-        strict=True, reason="cli/studies.py + outputs/results.py: basin --out replaces a summary.json it did not"
-                            " write (simulate refuses: check_simulate_folder)")),
-    pytest.param(["robustness", "--trials", "1", "--t-final", "0.05", "--factors", "noise", "--scheduler", "inline"],
-                 marks=pytest.mark.xfail(strict=True, reason="cli/studies.py + outputs/results.py: robustness"
-                                                             " --out replaces a summary.json it did not write")),
+    ["basin", "--grid", "2", "--t-final", "0.05", "--scheduler", "inline"],
+    ["robustness", "--trials", "1", "--t-final", "0.05", "--factors", "noise", "--scheduler", "inline"],
     ["atlas", "--grid", "2", "--scheduler", "inline"],
     ["simulate", "--t-final", "0.05"],
 ], ids=["basin", "robustness", "atlas", "simulate"])
@@ -1889,9 +1877,6 @@ def test_a_diverged_run_reports_no_success_and_keeps_its_samples(engine, tmp_pat
     assert kept == summary and kept["samples"] >= 5
 
 
-@pytest.mark.xfail(strict=True, reason="sim/rollout.py: simulate_mujoco builds the Trajectory from the recorded samples"
-                                       " only, so summary()['max_abs_tau'] misses the peaks between samples; the"
-                                       " engine's per-step peak (outcome_arrays' max_abs_tau) is not used")
 def test_the_peak_torque_of_a_run_does_not_depend_on_the_recording_interval(run):
     fine = _strict(run("simulate", "--t-final", "2", "--sample-dt", "0.001", "--json").stdout)
     coarse = _strict(run("simulate", "--t-final", "2", "--sample-dt", "0.1", "--json").stdout)
@@ -1900,12 +1885,8 @@ def test_the_peak_torque_of_a_run_does_not_depend_on_the_recording_interval(run)
 
 @pytest.mark.parametrize("command", [
     ["simulate", "--t-final", "0.2"],
-    pytest.param(["basin", "--grid", "2", "--t-final", "0.2", "--scheduler", "inline"], marks=pytest.mark.xfail(
-        strict=True, reason="studies/basin.py reports the requested --torque-limit, not the limit applied (capped"
-                            " by the model's ctrlrange), unlike simulate")),
-    pytest.param(["robustness", "--trials", "1", "--t-final", "0.2", "--scheduler", "inline", "--factors", "noise"],
-                 marks=pytest.mark.xfail(strict=True, reason="studies/robustness.py reports the requested"
-                                                             " --torque-limit, not the limit applied")),
+    ["basin", "--grid", "2", "--t-final", "0.2", "--scheduler", "inline"],
+    ["robustness", "--trials", "1", "--t-final", "0.2", "--scheduler", "inline", "--factors", "noise"],
 ], ids=["simulate", "basin", "robustness"])
 def test_the_torque_limit_reported_is_the_one_applied(command, made_xml, tmp_path, run):
     robot = tmp_path / "limited.xml"
@@ -2054,7 +2035,7 @@ def test_the_python_api_refuses_bad_arguments_with_one_paa_error(name, gymnast):
     assert API_FRAGMENTS[name] in message and "\n" not in message, message
 
 
-def _api_xfail_cases(gymnast):
+def _api_refusal_cases(gymnast):
     from paa_mj.sim import simulate_batch, simulate_mujoco
     from paa_mj.studies.atlas import atlas
     from paa_mj.studies.basin import basin
@@ -2077,28 +2058,27 @@ def _api_xfail_cases(gymnast):
     }
 
 
-API_XFAIL = {
-    "simulate_batch rollout_ids shorter than the batch": "sim/batch.py build_plan: rollout_ids of another length"
-    " than x0 are accepted; the engine reads ids past their end (other noise, in silence)",
-    "simulate_batch plants that are names": "sim/batch.py _plants: AttributeError 'str' object has no attribute 'key'",
-    "simulate_mujoco x0 as text": "sim/batch.py check_initial_state: ValueError from float('abc')",
-    "simulate_mujoco seed 2**70": "sim/batch.py build_plan / engine: OverflowError for a seed beyond int64",
-    "basin over one axis twice": "studies/basin.py basin(): axes (0, 0) accepted (the CLI's parse_axes refuses)",
-    "basin chunk 0": "studies/runner.py: ValueError 'range() arg 3 must not be zero'",
-    "basin scheduler unknown": "studies/basin.py / runner.py: IndexError for an unknown scheduler",
-    "robustness seed -1": "studies/robustness.py: ValueError from numpy's default_rng",
-    "atlas of unknown parameters": "studies/atlas.py scale(): IndexError for a parameter name",
-    "atlas range from 0": "studies/atlas.py grid_factors(): ValueError from np.geomspace",
-}
+#: Python calls that once failed with another exception than PaaError, or not at all.
+API_REFUSALS = (
+    "simulate_batch rollout_ids shorter than the batch",
+    "simulate_batch plants that are names",
+    "simulate_mujoco x0 as text",
+    "simulate_mujoco seed 2**70",
+    "basin over one axis twice",
+    "basin chunk 0",
+    "basin scheduler unknown",
+    "robustness seed -1",
+    "atlas of unknown parameters",
+    "atlas range from 0",
+)
 
 
-@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.xfail(strict=True, reason=r))
-                                  for n, r in API_XFAIL.items()], ids=list(API_XFAIL))
+@pytest.mark.parametrize("name", list(API_REFUSALS), ids=list(API_REFUSALS))
 def test_the_simulation_and_study_functions_refuse_bad_arguments_with_one_paa_error(name, gymnast):
     from paa_mj.errors import PaaError
 
     with pytest.raises(PaaError):
-        _api_xfail_cases(gymnast)[name]()
+        _api_refusal_cases(gymnast)[name]()
 
 
 BAD_GYM_CALLS = [

@@ -111,9 +111,8 @@ def test_linearisation_matches_finite_differences(gymnast):
     am = gymnast.analytic
     A, B = theory.udd_linearization(am)
 
-    def field(x, tau=np.zeros(2)):
-        q = x[:3] + Q_UDD
-        return np.concatenate([x[3:], am.acceleration(q, x[3:], tau)])
+    def field(x):
+        return am.state_derivative(x + np.concatenate([Q_UDD, np.zeros(3)]), np.zeros(2))
 
     np.testing.assert_allclose(A, _central_jacobian(field, np.zeros(6)), atol=1e-7)
 
@@ -127,8 +126,10 @@ def test_exact_closed_loop_jacobian_matches_finite_differences(gymnast, law, nam
     am = gymnast.analytic
     ctrl = make_controller(name, gymnast)
 
+    closed = am.closed_loop(ctrl)
+
     def field(x):
-        return np.concatenate([x[3:], am.acceleration(x[:3], x[3:], ctrl.torque(x[:3], x[3:]))])
+        return closed(0.0, x)
 
     x0 = np.concatenate([Q_DUU, np.zeros(3)]) + [0.05, -0.02, 0.03, 0.1, 0.0, -0.1]
     exact = closed_loop_jacobian(am, **GAINS1, law=law, state=x0)

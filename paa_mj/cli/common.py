@@ -9,6 +9,7 @@ import argparse
 import contextlib
 import os
 import math
+import re
 import signal
 import sys
 
@@ -31,12 +32,21 @@ class Formatter(argparse.RawDescriptionHelpFormatter):
         return text + " (default: %(default)s)"
 
 
+#: What argparse must read as a negative number, not an option: its own pattern misses -1e-3, -1. and -inf.
+_NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|infinity|nan)$", re.IGNORECASE)
+
+
 class Parser(argparse.ArgumentParser):
-    """An argument parser whose errors are one line (a :class:`PaaError`), not usage text and exit 2."""
+    """An argument parser whose errors are one line (a :class:`PaaError`), not usage text and exit 2.
+
+    Negative numbers are values (``--x0 -1e-3 ...``, ``--torque-limit -1e3``), refused or used as such by
+    the option's type, not unknown options ("expected one argument").
+    """
 
     def __init__(self, *args, **kwargs):
         kwargs.setdefault("formatter_class", Formatter)
         super().__init__(*args, **kwargs)
+        self._negative_number_matcher = _NEGATIVE_NUMBER
 
     def error(self, message):
         raise PaaError(f"{message} (see '{self.prog} --help')")
@@ -257,6 +267,14 @@ def interrupt_name() -> str:
 #: The file that marks a folder as holding a command's results (``--out``).
 RESULT_FILES = {"simulate": "trajectory.npz", "basin": "basin.npz", "robustness": "robustness.npz",
                 "compare": "leaderboard.json", "atlas": "atlas.npz", "reproduce": "report.md"}
+#: The other files each command writes: found without the command's result file beside them, they are
+#: somebody else's, and the command refuses to replace them.
+ALSO_WRITTEN = {"basin": ("summary.json", "basin.png", "basin.svg"), "robustness": ("summary.json",),
+                "compare": ("leaderboard.md", "leaderboard.png", "leaderboard.svg", "kips.npz", "kips_overlaid.png",
+                            "kips_overlaid.svg", "kips_side_by_side.mp4"),
+                "atlas": ("atlas.json", "atlas_theory.png", "atlas_theory.svg", "atlas_outcome.png",
+                          "atlas_outcome.svg"),
+                "reproduce": ("results.json",)}
 
 
 def output_lock(out, command):
@@ -272,6 +290,10 @@ def output_lock(out, command):
     for other, name in RESULT_FILES.items():
         if other != command and os.path.exists(os.path.join(out, name)):
             raise PaaError(f"{out} holds the results of 'paa-mj {other}' ({name}): choose another --out")
+    replaced = [name for name in ALSO_WRITTEN.get(command, ()) if os.path.lexists(os.path.join(out, name))]
+    if replaced and not os.path.exists(os.path.join(out, RESULT_FILES[command])):
+        raise PaaError(f"{out} holds {', '.join(replaced)}, not the results of a 'paa-mj {command}' it would replace:"
+                       " choose another --out, or move those files")
     return OutputLock(out)
 
 

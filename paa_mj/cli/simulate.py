@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import argparse
-import re
 
 from ..errors import PaaError, SimulationDiverged
 from .common import (controller_parent, file_path, finish, finite, output_lock, output_parent,
@@ -276,25 +275,12 @@ def _check_glfw():
         raise PaaError(f"cannot open the viewer: {why}")
 
 
-#: What argparse must read as a negative number, not an option: its own pattern misses -1e-3, -1. and -inf.
-_NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|infinity|nan)$", re.IGNORECASE)
-
-
-def negative_numbers_are_values(parser):
-    """Let ``parser`` take ``--x0 -1e-3 ...`` and ``--t-final -1e3`` as numbers (refused or used as such), not as
-    unknown options ("expected 6 arguments", "expected one argument")."""
-    if hasattr(parser, "_negative_number_matcher"):
-        parser._negative_number_matcher = _NEGATIVE_NUMBER
-    return parser
-
-
 def register(sub, parser_class):
     p = sub.add_parser("simulate", parents=[run_parent(), output_parent("trajectory.npz, trajectory.csv, summary.json")],
                        help="run a controller from an initial state and record it",
                        description="Run a controller on the robot (MuJoCo, or the exact analytic closed loop)."
                                    " A diverging run stops with exit code 3, keeping what was computed in --out.")
     p.set_defaults(func=cmd_simulate)
-    negative_numbers_are_values(p)
 
     p = sub.add_parser("render", parents=[run_parent(robot_default=None)], help="offscreen video of a rollout (EGL or OSMesa)",
                        description="Render a rollout (or a saved trajectory) to MP4 or GIF, offscreen.")
@@ -308,11 +294,9 @@ def register(sub, parser_class):
                    help="offscreen GL backend (auto: EGL, then OSMesa)")
     p.add_argument("--camera", default="side", help="a camera of the model")
     p.set_defaults(func=cmd_render)
-    negative_numbers_are_values(p)
 
     p = sub.add_parser("view", parents=[robot_parent(), controller_parent(), physics_parent()],
                        help="MuJoCo's interactive viewer with the controller running (needs a display)",
                        description="Watch a controller in MuJoCo's viewer, in real time.")
     p.add_argument("--x0", type=finite, nargs=6, metavar="X", help="initial q1 q2 q3 d1 d2 d3 (default (65))")
     p.set_defaults(func=cmd_view)
-    negative_numbers_are_values(p)

@@ -86,7 +86,6 @@ def _rule_gains(params):
 
 
 def register(sub, parser_class):
-    from .simulate import negative_numbers_are_values
 
     p = sub.add_parser("theory", parents=[robot_parent(), gains_parent()],
                        help="thresholds (41), (59), (60), constraint (54), controllability, LQR (67), DUU",
@@ -94,7 +93,6 @@ def register(sub, parser_class):
                                    " closed loop at DUU.")
     p.add_argument("--json", action="store_true", help="one JSON object on stdout")
     p.set_defaults(func=cmd_theory)
-    negative_numbers_are_values(p)
 
     p = sub.add_parser("check", parents=[robot_parent()], help="cross-check MuJoCo against the analytic model",
                        description="MuJoCo's inertia matrix, bias forces, accelerations and energy against (1)-(7)"
@@ -103,7 +101,6 @@ def register(sub, parser_class):
     p.add_argument("--seed", type=seed, default=0, help="seed of the random states")
     p.add_argument("--json", action="store_true", help="one JSON object on stdout")
     p.set_defaults(func=cmd_check)
-    negative_numbers_are_values(p)
 
     p = sub.add_parser("make-model", parents=[gains_parent(stored="5 % above the bounds (41), (59), (60) of the new"
                                                                    " robot")], help="write the MJCF of a gymnast with given parameters",
@@ -119,4 +116,3 @@ def register(sub, parser_class):
     p.add_argument("--title", default="", help="one line for the file's header comment")
     p.add_argument("--out", type=file_path, required=True, metavar="FILE.xml", help="MJCF file to write")
     p.set_defaults(func=cmd_make_model)
-    negative_numbers_are_values(p)

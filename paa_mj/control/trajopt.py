@@ -108,8 +108,7 @@ class Kip:
         h = self.duration / self.intervals
         k = np.minimum((times / h).astype(int), self.intervals - 1)
         s = (times - k * h) / h
-        f = np.stack([np.concatenate([self.x[i, 3:], am.acceleration(self.x[i, :3], self.x[i, 3:], self.u[i])])
-                      for i in range(len(self.x))])
+        f = am.state_derivative(self.x, self.u)
         h00, h10, h01, h11 = 2 * s**3 - 3 * s**2 + 1, s**3 - 2 * s**2 + s, -2 * s**3 + 3 * s**2, s**3 - s**2
         x = (h00[:, None] * self.x[k] + h10[:, None] * h * f[k] + h01[:, None] * self.x[k + 1]
              + h11[:, None] * h * f[k + 1])
@@ -120,10 +119,7 @@ class Kip:
     def defects(self, am: AnalyticModel) -> float:
         """The largest violation of the collocation equations, evaluated with NumPy's (1) [rad, rad/s]."""
         h = self.duration / self.intervals
-
-        def f(x, u):
-            return np.concatenate([x[..., 3:], am.acceleration(x[..., :3], x[..., 3:], u)], axis=-1)
-
+        f = am.state_derivative
         fk, fk1, fm = f(self.x[:-1], self.u[:-1]), f(self.x[1:], self.u[1:]), f(self.x_mid, self.u_mid)
         d_mid = self.x_mid - (0.5 * (self.x[:-1] + self.x[1:]) + h / 8 * (fk - fk1))
         d_step = self.x[1:] - (self.x[:-1] + h / 6 * (fk + 4 * fm + fk1))

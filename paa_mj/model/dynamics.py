@@ -120,6 +120,17 @@ class AnalyticModel:
         qdd = eq.acceleration(self.constants, *_split(q), *_split(qd), tau[..., 0], tau[..., 1])
         return np.stack(np.broadcast_arrays(*qdd), -1)
 
+    def state_derivative(self, x, tau):
+        """(1) as a first-order system: d/dt [q, qd] = [qd, qdd(q, qd, tau)], shape (..., 6)."""
+        x = np.asarray(x, dtype=float)
+        return np.concatenate([x[..., 3:], self.acceleration(x[..., :3], x[..., 3:], tau)], axis=-1)
+
+    def closed_loop(self, controller):
+        """The right-hand side f(t, x) of (1) closed by ``controller`` (torque(q, qd, t)), as ODE solvers take it."""
+        def field(t, x):
+            return self.state_derivative(x, controller.torque(x[..., :3], x[..., 3:], t))
+        return field
+
     def linearize(self, q_eq):
         """Linearisation of (1) about the equilibrium (q_eq, 0).
 

@@ -137,7 +137,7 @@ def simulate_analytic(robot: Robot, controller="vcl", x0=X0_HANGING, t_final: fl
                 if t == start:  # at the start itself no step helps, and SciPy's step floor is 0 at t = 0
                     raise _NonFiniteTorque
                 nonfinite_at.append(t)
-            return np.concatenate([qd, am.acceleration(q, qd, tau)])
+            return am.state_derivative(x, tau)
         return f
 
     def stuck_on_nonfinite_torque(t):

@@ -104,9 +104,16 @@ def _rows(value, n, width, name, default):
     return np.ascontiguousarray(arr)
 
 
+def _as_floats(x0, what):
+    try:
+        return np.asarray(x0, dtype=float)
+    except (TypeError, ValueError):
+        raise PaaError(f"{what} must be numbers (q1 q2 q3 d1 d2 d3), got {x0!r:.60}") from None
+
+
 def check_initial_states(x0) -> np.ndarray:
     """x0 as a finite (N, 6) array, or a one-line error."""
-    x0 = np.atleast_2d(np.asarray(x0, dtype=float))
+    x0 = np.atleast_2d(_as_floats(x0, "initial states"))
     if x0.ndim != 2 or x0.shape[1] != 6 or len(x0) == 0:
         raise PaaError(f"initial states must be an (N, 6) array of q1 q2 q3 d1 d2 d3, got shape {x0.shape}")
     if not np.all(np.isfinite(x0)):
@@ -117,7 +124,7 @@ def check_initial_states(x0) -> np.ndarray:
 
 def check_initial_state(x0) -> np.ndarray:
     """One initial state as a finite (1, 6) array, or a one-line error."""
-    x0 = np.asarray(x0, dtype=float).reshape(-1)
+    x0 = _as_floats(x0, "initial state").reshape(-1)
     if x0.size != 6:
         raise PaaError(f"initial state needs 6 numbers (q1 q2 q3 d1 d2 d3), got {x0.size}")
     if not np.all(np.isfinite(x0)):
@@ -225,7 +232,11 @@ def build_plan(robot: Robot, x0, t_final, controllers, dt=None, integrator=None,
             certificates[key] = engine.retirement_certificate(plant_robots[model_index[r]].analytic, gain, dt)
         if not disturbed[r]:
             cert[r], setup[r, S_LEVEL] = certificates[key]
-    ids = np.arange(n, dtype=np.int64) if rollout_ids is None else np.asarray(rollout_ids, dtype=np.int64)
+    ids = np.arange(n, dtype=np.int64) if rollout_ids is None else np.asarray(rollout_ids, dtype=np.int64).reshape(-1)
+    if ids.shape != (n,) or np.any(ids < 0):
+        raise PaaError(f"rollout_ids must be {n} whole numbers >= 0, one per rollout, got shape {ids.shape}")
+    if not (isinstance(seed, (int, np.integer)) and not isinstance(seed, bool) and 0 <= seed < 2**63):
+        raise PaaError(f"seed must be a whole number in [0, 2^63), got {seed!r}")
     return engine.Plan(models=models, model_index=model_index, x0=np.ascontiguousarray(x0), setup=setup, cert=cert,
                        pushes=pushes, rollout_ids=ids, seed=int(seed), dt=dt, n_steps=n_steps, every=int(every),
                        retire=bool(retire))
@@ -237,8 +248,13 @@ def _plants(robot, base, plants, n):
         return [base], np.zeros(n, np.int64), [robot]
     if len(plants) != n:
         raise PaaError(f"plants needs one entry per rollout ({n}), got {len(plants)}")
+    from ..model.params import RobotParams
+
     models, robots, index, seen = [], [], np.empty(n, np.int64), {}
     for r, params in enumerate(plants):
+        if params is not None and not isinstance(params, RobotParams):
+            raise PaaError(f"plants must hold RobotParams (or None for the nominal robot), got {type(params).__name__}"
+                           f" at {r}")
         key = None if params is None else params.key()
         if key not in seen:
             plant = robot if params is None else robot.with_params(params)

@@ -90,6 +90,8 @@ def simulate_mujoco(robot: Robot, controller="vcl", x0: ArrayLike = X0_HANGING, 
                             "torque_limit": _limit_meta(plan)}, robot_xml=robot.xml)
     when = float(out["t_end"][0])
     traj.meta["success"] = bool(out["success"][0])
+    # the engine's peak over every step, not only over the recorded samples
+    traj.meta["max_abs_tau"] = out["max_abs_tau"][0].tolist()
     traj.meta["success_definition"] = SUCCESS_DEFINITION
     if status in engine.DIVERGED:
         traj.meta["status"] = f"diverged at t = {when:.4f} s: {engine.STATUS_TEXT[status]}"

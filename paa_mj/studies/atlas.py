@@ -39,7 +39,7 @@ from ..control.gains import gain_rule
 from ..theory.linear import lqr_gain, sampled_spectral_radius, udd_controllability
 from .basin import OUTCOME_NAMES, classify
 from ..control.region import SUCCESS_DEFINITION
-from .runner import CHUNK, RolloutSet, map_chunks, peak_torques, run_study
+from .runner import CHUNK, RolloutSet, applied_limit, map_chunks, peak_torques, run_study
 from .settings import ATLAS_MAX_GRID as MAX_GRID, ATLAS_PARAMETERS as PARAMETERS, ATLAS_RANGE as DEFAULT_RANGE
 from .store import ChunkStore, check_arrays, study_key
 
@@ -55,13 +55,32 @@ def parse_vary(text) -> tuple[str, str]:
     return names[0], names[1]
 
 
+#: The scale factors an atlas may apply: beyond them a robot is not a body of this shape (and its
+#: parameters leave the range MuJoCo and the theory are checked over).
+FACTOR_BOUNDS = (1e-3, 1e3)
+
+
 def parse_range(text) -> tuple[float, float]:
     try:
         low, high = (float(v) for v in str(text).split(":"))
     except ValueError:
         raise PaaError(f"--range must be LOW:HIGH, two positive factors, got {text!r}") from None
+    return check_range((low, high), text)
+
+
+def check_range(factor_range, text=None) -> tuple[float, float]:
+    """``(low, high)`` with 0 < low < high within :data:`FACTOR_BOUNDS`, or a one-line error."""
+    try:
+        low, high = (float(v) for v in factor_range)
+    except (TypeError, ValueError):
+        raise PaaError(f"--range must be LOW:HIGH, two positive factors, got {factor_range!r}") from None
+    shown = text if text is not None else f"{low:g}:{high:g}"
     if not (math.isfinite(low) and math.isfinite(high) and 0 < low < high):
-        raise PaaError(f"--range must be LOW:HIGH with 0 < LOW < HIGH, got {text!r}")
+        raise PaaError(f"--range must be LOW:HIGH with 0 < LOW < HIGH, got {shown!r}")
+    if low < FACTOR_BOUNDS[0] or high > FACTOR_BOUNDS[1]:
+        raise PaaError(f"--range {shown}: scale factors must lie within [{FACTOR_BOUNDS[0]:g}, {FACTOR_BOUNDS[1]:g}]"
+                       " (a body scaled further is no gymnast, and its parameters leave the range this package"
+                       " checks)")
     return low, high
 
 
@@ -138,6 +157,8 @@ def atlas(robot: Robot, vary=("l1", "m1"), factor_range=DEFAULT_RANGE, grid=32, 
     """
     if not (isinstance(grid, (int, np.integer)) and 2 <= grid <= MAX_GRID):
         raise PaaError(f"--grid must be an integer in [2, {MAX_GRID}], got {grid}")
+    vary = parse_vary(",".join(map(str, vary)) if isinstance(vary, (tuple, list)) else vary)
+    factor_range = check_range(factor_range)
     if not (isinstance(starts, (int, np.integer)) and 0 <= starts <= 10_000):
         raise PaaError(f"--starts must be an integer in [0, 10000], got {starts}")
     n = grid * grid
@@ -174,7 +195,7 @@ def atlas(robot: Robot, vary=("l1", "m1"), factor_range=DEFAULT_RANGE, grid=32, 
         arrays["V_final"] = V_final
         summary["interrupted"] = interrupted
         summary["starts"], summary["t_final"] = starts, t_final
-        summary["torque_limit"] = None if torque_limit is None else np.broadcast_to(torque_limit, (2,)).tolist()
+        summary["torque_limit"] = applied_limit(robot, torque_limit)
         summary["max_abs_tau"] = peak
         summary["success"] = SUCCESS_DEFINITION
     summary["robots"] = _robot_rows(family, arrays, f1, f2)

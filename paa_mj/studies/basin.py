@@ -16,7 +16,7 @@ from ..limits import check_memory, check_steps
 from ..model.robot import Robot
 from ..model.states import Q_DUU, wrap_angle
 from ..control.region import SUCCESS_DEFINITION
-from .runner import CHUNK, RolloutSet, peak_torques, run_study
+from .runner import CHUNK, RolloutSet, applied_limit, peak_torques, run_study
 from .settings import BASIN_COORDINATES as COORDINATES, BASIN_MAX_GRID as MAX_GRID, BASIN_RANGE as DEFAULT_RANGE
 from .store import ChunkStore, study_key
 
@@ -70,6 +70,10 @@ def basin(robot: Robot, axes: tuple[int, int] = (0, 1), grid: int = 64, t_final:
     With ``out_dir``, finished chunks are kept there and a rerun resumes.
     """
     spec = ControllerSpec(controller) if isinstance(controller, str) else controller
+    if not (len(axes) == 2 and all(isinstance(a, (int, np.integer)) and 0 <= a < len(COORDINATES) for a in axes)
+            and axes[0] != axes[1]):
+        raise PaaError(f"axes must be two different coordinates out of {', '.join(COORDINATES)} (indices 0 to"
+                       f" {len(COORDINATES) - 1}), got {axes!r}")
     if not (isinstance(grid, (int, np.integer)) and 2 <= grid <= MAX_GRID):
         raise PaaError(f"--grid must be an integer in [2, {MAX_GRID}], got {grid}")
     check_memory(grid * grid * 400.0, "basin results", "--grid")
@@ -96,7 +100,7 @@ def basin(robot: Robot, axes: tuple[int, int] = (0, 1), grid: int = 64, t_final:
         "cells": int(grid * grid), "t_final": t_final, "t_reached": result.t_reached,
         "interrupted": result.interrupted, "completed_fraction": float(np.mean(completed)),
         "success": SUCCESS_DEFINITION, "success_fraction": fraction(success),
-        "torque_limit": None if torque_limit is None else np.broadcast_to(torque_limit, (2,)).tolist(),
+        "torque_limit": applied_limit(robot, torque_limit),
         "max_abs_tau": peak_torques(result.max_abs_tau, completed),
         "switched_fraction": fraction(np.isfinite(result.switch_time)),
         "diverged_fraction": fraction(result.diverged),

@@ -43,10 +43,10 @@ from ..model.states import X0_HANGING
 from ..sim.batch import kip_peak_torques, simulate_batch
 from ..control.region import SUCCESS_DEFINITION
 from .basin import basin
-from .robustness import robustness
+from .robustness import MAX_TRIALS, robustness
 from .runner import CHUNK
-from .settings import (COMPARE_CONTROLLERS as DEFAULT_CONTROLLERS, COMPARE_FACTORS as FACTORS, COMPARE_SIZES as SIZES,
-                       COMPARE_SWEEPS as SWEEPS, FACTOR_LABELS, FACTOR_ORDER)
+from .settings import (BASIN_MAX_GRID, COMPARE_CONTROLLERS as DEFAULT_CONTROLLERS, COMPARE_FACTORS as FACTORS,
+                       COMPARE_SIZES as SIZES, COMPARE_SWEEPS as SWEEPS, FACTOR_LABELS, FACTOR_ORDER)
 
 METRICS = ("t_region", "t_balanced", "max_tau", "int_tau2", "work", "smoothness", "max_speed", "success")
 
@@ -112,6 +112,10 @@ def compare(robot: Robot, controllers=DEFAULT_CONTROLLERS, torque_limit=None, tr
         sizes["t_final"] = t_final
     if grid is not None:
         sizes["grid"] = grid
+    if not (isinstance(sizes["grid"], (int, np.integer)) and 2 <= sizes["grid"] <= BASIN_MAX_GRID):
+        raise PaaError(f"--grid must be an integer in [2, {BASIN_MAX_GRID}], got {sizes['grid']}")
+    if not (isinstance(sizes["trials"], (int, np.integer)) and 1 <= sizes["trials"] <= MAX_TRIALS):
+        raise PaaError(f"--trials must be an integer in [1, {MAX_TRIALS}], got {sizes['trials']}")
     names = list(dict.fromkeys(controllers))
     if not names:
         raise PaaError("--controllers needs at least one controller")
@@ -122,8 +126,8 @@ def compare(robot: Robot, controllers=DEFAULT_CONTROLLERS, torque_limit=None, tr
             raise PaaError(f"controllers {other} and {name} would share the name {folder_name(name)} in the results:"
                            " rename one file or class")
     specs = {name: None for name in names}
-    limit = np.full(2, float(torque_limit)) if torque_limit is not None else \
-        np.minimum(kip_peak_torques(robot, "vcl"), robot.torque_limits)
+    limit = np.minimum(np.full(2, float(torque_limit)) if torque_limit is not None else
+                       kip_peak_torques(robot, "vcl"), robot.torque_limits)
     for name in names:
         specs[name] = _spec(name, limit)
         if name in OPTIONS:

@@ -44,7 +44,7 @@ from ..limits import check_memory, check_steps
 from ..model.robot import Robot
 from ..model.states import X0_HANGING
 from ..sim.batch import kip_peak_torques
-from .runner import CHUNK, RolloutSet, peak_torques, run_study
+from .runner import CHUNK, RolloutSet, applied_limit, peak_torques, run_study
 from ..control.region import SUCCESS_DEFINITION
 from .settings import ROBUSTNESS_DEFAULT_FACTORS as DEFAULT_FACTORS, ROBUSTNESS_FACTORS as FACTORS, STARTS
 from .store import ChunkStore, study_key
@@ -142,6 +142,8 @@ def robustness(robot: Robot, trials=64, t_final=30.0, seed=0, controller: Contro
     spec = ControllerSpec(controller) if isinstance(controller, str) else controller
     if not (isinstance(trials, (int, np.integer)) and 1 <= trials <= MAX_TRIALS):
         raise PaaError(f"--trials must be an integer in [1, {MAX_TRIALS}], got {trials}")
+    if not (isinstance(seed, (int, np.integer)) and not isinstance(seed, bool) and 0 <= seed < 2**63):
+        raise PaaError(f"--seed must be a whole number in [0, 2^63), got {seed!r}")
     if start not in STARTS:
         raise PaaError(f"--start must be one of {', '.join(STARTS)}, got {start!r}")
     factors = [f for f in factors if f]
@@ -211,7 +213,7 @@ def robustness(robot: Robot, trials=64, t_final=30.0, seed=0, controller: Contro
     completed = result.meta["completed"]
     success = result.success
     summary = {"robot": robot.name, "robot_sha256": text_sha256(robot.xml), "controller": spec.short_name, "trials": trials, "t_final": t_final, "seed": seed,
-               "torque_limit": None if np.all(np.isinf(base_limit)) else base_limit.tolist(),
+               "torque_limit": applied_limit(robot, base_limit),
                "start": start, "runs": total, "completed_fraction": float(np.mean(completed)),
                "success": SUCCESS_DEFINITION,
                "intervals": "95 % Wilson intervals over independent draws only (random: true); a deterministic"

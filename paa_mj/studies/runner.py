@@ -195,6 +195,14 @@ def _spec_dict(spec: ControllerSpec):
             "believed": None if spec.believed is None else spec.believed.as_dict(), "source": spec.source_digest()}
 
 
+def applied_limit(robot, torque_limit):
+    """The torque limits a study's runs get [N m]: ``torque_limit`` capped by the model's actuator ranges,
+    as a list of two, or None when neither limits."""
+    limits = np.minimum(np.broadcast_to(np.inf if torque_limit is None else np.asarray(torque_limit, float), (2,)),
+                        robot.torque_limits)
+    return None if np.all(np.isinf(limits)) else limits.tolist()
+
+
 def peak_torques(max_abs_tau, completed):
     """The largest :math:`|\\tau_2|, |\\tau_3|` applied over the finished runs [N m] (None if none finished)."""
     done = np.asarray(max_abs_tau)[np.asarray(completed, bool)]
@@ -231,6 +239,7 @@ def map_chunks(task, payloads, *, scheduler="inline", store=None, progress=False
     StudyIncomplete
         Every Dask worker was lost; the finished results are kept in ``store``.
     """
+    scheduler = check_scheduler(scheduler)
     store = store or ChunkStore(None, "")
     is_complete = is_complete or (lambda result: True)
     fits = fits or (lambda payload, result: True)
@@ -298,6 +307,8 @@ def run_study(robot: Robot, rollouts: RolloutSet, t_final: float, *, seed=0, sch
         and the result ``interrupted``.
     """
     n = len(rollouts)
+    if not (isinstance(chunk, (int, np.integer)) and not isinstance(chunk, bool) and chunk >= 1):
+        raise PaaError(f"--chunk must be a whole number >= 1, got {chunk!r}")
     check_memory(n * 8.0 * 40, "study results", "the grid or the number of trials")
     if scheduler in SCHEDULERS:  # here; a remote cluster's size is its own
         check_steps(n * t_final / float(robot.model.opt.timestep), f"{n} rollouts of {t_final:g} s",

@@ -35,9 +35,7 @@ def exact_swing_up(robot: Robot, t_final=40.0, rtol=1e-10):
     """The dense solution of (1) closed by (40) alone from (65), as SciPy returns it."""
     controller = make_controller("vcl-only", robot)
     am = robot.analytic
-
-    def field(_t, x):
-        return np.concatenate([x[3:], am.acceleration(x[:3], x[3:], controller.torque(x[:3], x[3:]))])
+    field = am.closed_loop(controller)
 
     return solve_ivp(field, (0.0, t_final), X0_HANGING, method="DOP853", rtol=rtol, atol=rtol, dense_output=True)
 
@@ -88,9 +86,7 @@ def lqr_balances_from(robot: Robot, state, seconds=15.0, rtol=1e-10):
     """Whether the LQR (67), started at ``state``, brings the exact closed loop within 1e-3 of UDD."""
     lqr = make_controller("lqr", robot)
     am = robot.analytic
-
-    def field(_t, x):
-        return np.concatenate([x[3:], am.acceleration(x[:3], x[3:], lqr.torque(x[:3], x[3:]))])
+    field = am.closed_loop(lqr)
 
     end = solve_ivp(field, (0.0, seconds), state, method="DOP853", rtol=rtol, atol=rtol).y[:, -1]
     return bool(distance_from_udd(end[:3], end[3:]) < 1e-3)

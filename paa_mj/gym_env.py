@@ -1,27 +1,61 @@
-"""The kip as a Gymnasium environment: ``paa_mj/GymnastKip-v0`` (extra ``paa_mj[gym]``).
+"""The gymnast as Gymnasium environments (extra ``paa_mj[gym]``).
+
+Registered ids (importing this module registers them; ``gym.make("paa_mj.gym_env:<id>")`` imports it by itself):
+
+``paa_mj/GymnastKip-v1``
+    The paper's task: from hanging (65), angles perturbed uniformly by up to ``init_noise`` = 0.05 rad,
+    to balanced at UDD (8). 30 s episodes (``max_episode_steps`` = 3000 at the default 10 ms control period).
+``paa_mj/GymnastBalance-v1``
+    Stay balanced: the start is UDD plus a uniform perturbation, every angle error in
+    [-0.05, 0.05] rad and every speed in [-0.05, 0.05] rad/s; 10 s episodes (``max_episode_steps`` = 1000).
+``paa_mj/GymnastKip-v0``
+    The first version, kept for compatibility with its old defaults: torques [N m] as actions, one
+    1 ms physics step per environment step, the reward of v0 below (:class:`GymnastKipEnv`).
+
+The v1 ids also build :class:`paa_mj.gym_vector.GymnastVectorEnv` through
+``gym.make_vec(id, num_envs=N)``: N robots stepped together by one compiled call.
 
 Observation space
-    ``Box(9,)`` float32: cos q_i, sin q_i for i = 1, 2, 3, then qd [rad/s] (unbounded).
+    ``Box(9,)`` float32: cos q_i, sin q_i for i = 1, 2, 3, then qd [rad/s] (unbounded); the map is
+    :func:`observation`, also used by :class:`paa_mj.control.policy.SB3Policy`.
 Action space
-    ``Box(2,)`` float32: the shoulder and hip torques [N m] within the torque limits, the
-    smaller of ``torque_limit`` (default 2 b1 / 1 rad, above the paper's peak torques) and the
-    model's actuator ranges (:attr:`Robot.torque_limits <paa_mj.model.robot.Robot.torque_limits>`),
-    or, with ``normalize_actions=True``, in [-1, 1] and scaled by those limits.
+    v1: ``Box(2,)`` in [-1, 1], scaled by the torque limits: tau = clip(a T, -T, T) [N m]
+    (:func:`action_to_torque`). T is the smaller of ``torque_limit`` (default 2 b1 / 1 rad, above
+    the paper's peak torques) and the model's actuator ranges (:func:`torque_limits_for`).
+    With ``normalize_actions=False`` (v0) the actions are the torques [N m] themselves, clipped at T.
 Dynamics
-    One environment step is ``frame_skip`` physics steps with the torque held
-    (default one RK4 step of 1 ms, as the paper's controller runs).
-Reward
-    Minus the squared distance to UDD: :math:`-(|x_{angles}|^2 / (3 \\pi^2) + 10^{-3} |\\dot q|^2 + 10^{-8} |\\tau|^2)`,
-    x the error from UDD with the angles wrapped; 0 at UDD, -10 when the simulation diverges.
+    One environment step holds the torque over ``frame_skip`` physics steps of MuJoCo (RK4, 1 ms):
+    a control period of 10 ms in v1, 1 ms in v0. The physics runs in compiled code
+    (``mj_step`` called from numba, as :mod:`paa_mj.sim.engine` does), the same code for one
+    environment and for the vector environment.
+Reward (per environment step, dimensionless)
+    With x = [q1, q2 + pi, q3, d1, d2, d3] the error from UDD (angles wrapped to (-pi, pi], rad and
+    rad/s), l = [pi/6, pi/6, pi/6, 0.5, 0.5, 0.5] the half-widths of region (68), u = tau / T the
+    applied torques over their limits (in [-1, 1]) and 1[(68)] = 1 when the state after the step is
+    inside region (68), else 0:
+
+    - kip (v1): :math:`r = 1[(68)] - |x_{1:3}|^2 / (3 \\pi^2) - 10^{-3} |x_{4:6}|^2 - 10^{-2} \\bar{u^2}`,
+      speeds in rad/s (the angle term is 1 at the farthest posture, the speed term 0.1 at 10 rad/s);
+    - balance (v1): :math:`r = 1[(68)] - \\frac{1}{2} \\overline{(x / l)^2} - \\frac{1}{10} \\bar{u^2}`
+      (bars: means over the coordinates), so r is in [0.4, 1] inside region (68);
+    - v0: :math:`r = -(|x_{1:3}|^2 / (3 \\pi^2) + 10^{-3} |x_{4:6}|^2 + 10^{-8} |\\tau|^2)`, tau in N m.
+
+    A step that diverges gets :data:`DIVERGED_REWARD` (-100; -10 in v0).
 Termination and truncation
-    Terminated when the state diverges (non-finite, runaway speeds, MuJoCo warnings);
-    truncated after ``max_episode_seconds``.
+    Terminated when the state diverges (non-finite, speeds above 1e4 rad/s, MuJoCo warnings); the
+    episode then ends on the last good state. Balance also terminates when the state after a step has
+    left region (68) by ``terminate_margin`` (default 0.5): :math:`\\max_i |x_i| / l_i \\ge 1 + 0.5`,
+    an angle error of pi/4 rad or a speed of 0.75 rad/s. Truncated (when not terminated) after
+    ``max_episode_seconds``; the registered ``max_episode_steps`` gives wrappers the same horizon.
 Info
-    The raw, unwrapped ``q`` and ``qd`` and the ``time``: controller (40) needs the unwrapped q2.
+    ``q``, ``qd``: the raw state, angles unwrapped (controller (40) needs the unwrapped q2);
+    ``time``: physics steps since reset x 1 ms [s] (the time the package's engines give controllers);
+    ``diverged``; ``is_success``: the package's success (:data:`~paa_mj.control.region.SUCCESS_DEFINITION`,
+    :func:`~paa_mj.control.region.succeeded`) of the episode so far, as if it ended now: no divergence,
+    and the true state inside region (68) at every 1 ms physics step of the last second (the whole
+    episode when shorter, the start included). At the last step of an episode it is the episode's success.
 
 A controller of the package as a policy: :func:`controller_policy` (``policy(obs, info) -> action``).
-Importing this module registers the environment; ``gym.make("paa_mj.gym_env:paa_mj/GymnastKip-v0")``
-imports it by itself.
 """
 from __future__ import annotations
 
@@ -32,18 +66,35 @@ import gymnasium as gym
 import mujoco
 import numpy as np
 from gymnasium import spaces
+from numba import njit, types
+from numba.extending import intrinsic, register_jitable
 
+from .control.region import SWITCH_ANGLE, SWITCH_SPEED, inside_region, region_margin, succeeded
 from .model.robot import load_robot
-from .model.states import X0_HANGING, udd_error
+from .model.states import X0_HANGING, Q_UDD, udd_error_components
+from .sim.engine import _WARNINGS, MAX_SPEED, _mj_step
 from .sim.mujoco_log import mujoco_log_off
-from .sim.rollout import divergence_reason
 
 ENV_ID = "paa_mj/GymnastKip-v0"
+KIP_ID = "paa_mj/GymnastKip-v1"
+BALANCE_ID = "paa_mj/GymnastBalance-v1"
 #: The largest torque limit [N m]: the action space is float32.
 MAX_TORQUE_LIMIT = 1e12
 #: The most environment steps of one episode.
 MAX_EPISODE_STEPS = 1e12
+#: The tasks: (episode length [s], angle noise [rad], speed noise [rad/s], terminate_margin) by default.
+TASKS = {"kip": (30.0, 0.05, 0.0, math.inf), "balance": (10.0, 0.05, 0.05, 0.5)}
+#: Physics steps per environment step in v1: a 10 ms control period on the 1 ms step of the models.
+FRAME_SKIP = 10
+#: Registered horizons [environment steps]: the tasks' seconds at the default 10 ms period.
+HORIZONS = {KIP_ID: 3000, BALANCE_ID: 1000}
+#: The reward of a step that diverges, by reward kind (v0, kip, balance).
+DIVERGED_REWARD = {0: -10.0, 1: -100.0, 2: -100.0}
+_REWARD_KIND = {"kip": 1, "balance": 2}
+OBS_SIZE = 9
 
+
+# --- validation of arguments: one line that names the argument -----------------------------------------------
 
 def _real_array(value):
     """``value`` as a float array, or None when it is not real numbers (text, complex, booleans, objects)."""
@@ -56,7 +107,7 @@ def _real_array(value):
     return array.astype(float)
 
 
-def _number(name, value, accept, rule):
+def _number(name, value, accept, rule, finite=True):
     """``value`` as a float for which ``accept`` holds, else a ValueError naming ``name`` and ``rule``."""
     try:
         if isinstance(value, (bool, np.bool_, str, bytes)):  # float() would read True as 1 and "2" as 2
@@ -64,7 +115,7 @@ def _number(name, value, accept, rule):
         number = float(value)
     except (TypeError, ValueError):
         raise ValueError(f"{name} must be a number, got {value!r}") from None
-    if not (math.isfinite(number) and accept(number)):
+    if not ((math.isfinite(number) or not finite) and not math.isnan(number) and accept(number)):
         raise ValueError(f"{name} {rule}, got {value!r}")
     return number
 
@@ -83,28 +134,256 @@ def _whole(name, value, low, high):
     return number
 
 
-class GymnastKipEnv(gym.Env):
-    metadata = {"render_modes": ["rgb_array"], "render_fps": 30}
+def _check_x0(x0, rows=None):
+    """``options["x0"]``: 6 finite numbers, or (with ``rows``) one row of 6 per environment too."""
+    x0 = _real_array(x0)
+    shapes = [(6,)] if rows is None else [(6,), (rows, 6)]
+    if x0 is None or x0.shape not in shapes or not np.all(np.isfinite(x0)):
+        raise ValueError("options['x0'] must be 6 finite numbers" + ("" if rows is None
+                                                                       else f" or {rows} rows of 6"))
+    return x0
 
-    """The kip as a Gymnasium environment (module docstring).
+
+def _check_options(options, known):
+    if options is None:
+        return {}
+    # an option this environment does not know (a typo of x0) would be ignored in silence
+    if not isinstance(options, dict):
+        raise ValueError(f"options must be a dict (or None), got {type(options).__name__}")
+    unknown = sorted(map(str, set(options) - set(known)))
+    if unknown:
+        raise ValueError(f"unknown reset option(s) {', '.join(unknown)}: the options are {', '.join(known)}")
+    return options
+
+
+# --- the maps between the package's states and torques and the learner's observations and actions -----------
+
+def torque_limits_for(robot, torque_limit=None):
+    """The torque limits T [N m], (2,), of the environments: ``torque_limit`` (default 2 b1 / 1 rad) capped by the
+    model's actuator ranges (:attr:`Robot.torque_limits <paa_mj.model.robot.Robot.torque_limits>`)."""
+    limit = float(torque_limit if torque_limit is not None else 2 * robot.analytic.b1)
+    return np.minimum(limit, np.asarray(robot.torque_limits, float))
+
+
+def action_to_torque(action, torque_limits, normalized=True):
+    """Torques tau [N m], (..., 2), of actions (..., 2): tau = clip(a T, -T, T), or clip(a, -T, T) when not normalised.
+
+    The one definition of the action map: the environments and :class:`~paa_mj.control.policy.SB3Policy` use it.
+    """
+    action = np.asarray(action, dtype=float)
+    if normalized:
+        action = action * torque_limits
+    return np.clip(action, -torque_limits, torque_limits)
+
+
+def torque_to_action(tau, torque_limits, normalized=True):
+    """The actions, float32 (..., 2), that ask for the torques ``tau`` [N m] (clipped at the limits T)."""
+    tau = np.clip(np.asarray(tau, dtype=float), -torque_limits, torque_limits)
+    return (tau / torque_limits if normalized else tau).astype(np.float32)
+
+
+@register_jitable
+def _observe_into(q1, q2, q3, d1, d2, d3, out):
+    out[0], out[1] = math.cos(q1), math.sin(q1)
+    out[2], out[3] = math.cos(q2), math.sin(q2)
+    out[4], out[5] = math.cos(q3), math.sin(q3)
+    out[6], out[7], out[8] = d1, d2, d3
+
+
+@njit(cache=True)
+def _observe_rows(q, qd, out):
+    for i in range(q.shape[0]):
+        _observe_into(q[i, 0], q[i, 1], q[i, 2], qd[i, 0], qd[i, 1], qd[i, 2], out[i])
+
+
+def observation(q, qd):
+    """The observations, float32 (..., 9), of states q, qd (..., 3) [rad, rad/s]:
+    [cos q1, sin q1, cos q2, sin q2, cos q3, sin q3, qd1, qd2, qd3].
+
+    The one definition of the observation map (the environments compute it with the same compiled code).
+    """
+    q, qd = np.asarray(q, dtype=float), np.asarray(qd, dtype=float)
+    shape = np.broadcast_shapes(q.shape[:-1], qd.shape[:-1])
+    q = np.ascontiguousarray(np.broadcast_to(q, shape + (3,)).reshape(-1, 3))
+    qd = np.ascontiguousarray(np.broadcast_to(qd, shape + (3,)).reshape(-1, 3))
+    out = np.empty((len(q), OBS_SIZE), np.float32)
+    _observe_rows(q, qd, out)
+    return out.reshape(shape + (OBS_SIZE,))
+
+
+# --- compiled stepping of N MjData: one call per environment step ----------------------------------------------
+
+@intrinsic
+def _float64_at(typingctx, address):
+    """The float64 pointer at an integer address (numba casts no integer to a pointer by itself)."""
+    sig = types.CPointer(types.float64)(types.intp)
+
+    def codegen(context, builder, signature, args):
+        return builder.inttoptr(args[0], context.get_value_type(signature.return_type))
+
+    return sig, codegen
+
+
+@intrinsic
+def _int32_at(typingctx, address):
+    """The int32 pointer at an integer address."""
+    sig = types.CPointer(types.int32)(types.intp)
+
+    def codegen(context, builder, signature, args):
+        return builder.inttoptr(args[0], context.get_value_type(signature.return_type))
+
+    return sig, codegen
+
+
+# Columns of the address table: the mjData and its qpos, qvel, ctrl and warning counters.
+_DATA, _QPOS, _QVEL, _CTRL, _WARN = range(5)
+
+
+@register_jitable
+def _reward(kind, q1, q2, q3, d1, d2, d3, u2, u3, tau2, tau3):
+    """The reward of a step ending in the state q, qd, with torques tau [N m] = u T (module docstring)."""
+    x1, x2, x3 = udd_error_components(q1, q2, q3)
+    angles = x1 * x1 + x2 * x2 + x3 * x3
+    speeds = d1 * d1 + d2 * d2 + d3 * d3
+    if kind == 0:
+        return -(angles / (3.0 * math.pi ** 2) + 1e-3 * speeds + 1e-8 * (tau2 * tau2 + tau3 * tau3))
+    alive = 1.0 if inside_region(q1, q2, q3, d1, d2, d3) else 0.0
+    effort = 0.5 * (u2 * u2 + u3 * u3)
+    if kind == 1:
+        return alive - angles / (3.0 * math.pi ** 2) - 1e-3 * speeds - 1e-2 * effort
+    scaled = (angles / SWITCH_ANGLE ** 2 + speeds / SWITCH_SPEED ** 2) / 6.0
+    return alive - 0.5 * scaled - 0.1 * effort
+
+
+@njit(nogil=True, cache=True)
+def _advance(model_ptr, addresses, warn_stride, rows, tau, limits, frame_skip, kind, diverged_reward,
+             phys_step, last_exit, diverged, q, qd, obs, reward, margin):
+    """One environment step of the environments ``rows``: ``tau[i]`` held over ``frame_skip`` ``mj_step``.
+
+    Per environment: counts the physics steps, the last one whose state was outside region (68), whether
+    it diverged (then the state goes back to the last good one and the step ends), and writes the state,
+    observation, reward and region margin after the step.
+    """
+    for k in range(rows.size):
+        i = rows[k]
+        qpos = _float64_at(addresses[i, _QPOS])
+        qvel = _float64_at(addresses[i, _QVEL])
+        ctrl = _float64_at(addresses[i, _CTRL])
+        warn = _int32_at(addresses[i, _WARN])
+        ctrl[0], ctrl[1] = tau[i, 0], tau[i, 1]
+        bad = False
+        for _ in range(frame_skip):
+            g0, g1, g2, g3, g4, g5 = qpos[0], qpos[1], qpos[2], qvel[0], qvel[1], qvel[2]
+            _mj_step(model_ptr, addresses[i, _DATA])
+            for j in range(3):
+                if not (math.isfinite(qpos[j]) and math.isfinite(qvel[j])) or abs(qvel[j]) > MAX_SPEED:
+                    bad = True
+            for w in _WARNINGS:
+                if warn[w * warn_stride] > 0:
+                    bad = True
+            if bad:
+                qpos[0], qpos[1], qpos[2], qvel[0], qvel[1], qvel[2] = g0, g1, g2, g3, g4, g5
+                break
+            phys_step[i] += 1
+            if not inside_region(qpos[0], qpos[1], qpos[2], qvel[0], qvel[1], qvel[2]):
+                last_exit[i] = phys_step[i]
+        diverged[i] = bad
+        q[i, 0], q[i, 1], q[i, 2] = qpos[0], qpos[1], qpos[2]
+        qd[i, 0], qd[i, 1], qd[i, 2] = qvel[0], qvel[1], qvel[2]
+        _observe_into(qpos[0], qpos[1], qpos[2], qvel[0], qvel[1], qvel[2], obs[i])
+        margin[i] = region_margin(qpos[0], qpos[1], qpos[2], qvel[0], qvel[1], qvel[2])
+        if bad:
+            reward[i] = diverged_reward
+        else:
+            reward[i] = _reward(kind, qpos[0], qpos[1], qpos[2], qvel[0], qvel[1], qvel[2],
+                                tau[i, 0] / limits[0], tau[i, 1] / limits[1], tau[i, 0], tau[i, 1])
+
+
+class _Robots:
+    """N copies of one robot's MjData and their episode counters, stepped by :func:`_advance`.
+
+    :class:`GymnastEnv` holds one, :class:`~paa_mj.gym_vector.GymnastVectorEnv` N: the same code computes
+    their observations and rewards, so that they agree bit for bit.
+    """
+
+    def __init__(self, model, n, frame_skip, kind, torque_limits):
+        self.model, self.frame_skip, self.kind = model, frame_skip, kind
+        self.torque_limits = np.ascontiguousarray(torque_limits, dtype=float)
+        self.datas = [mujoco.MjData(model) for _ in range(n)]
+        # MuJoCo keeps each array of an mjData where it was allocated: the addresses hold as long as the data lives
+        self.addresses = np.array([[d._address, d.qpos.ctypes.data, d.qvel.ctypes.data, d.ctrl.ctypes.data,
+                                    d.warning.number.ctypes.data] for d in self.datas], dtype=np.intp)
+        self.warn_stride = self.datas[0].warning.number.strides[0] // 4
+        self.phys_step = np.zeros(n, np.int64)
+        self.last_exit = np.full(n, -1, np.int64)
+        self.diverged = np.zeros(n, bool)
+        self.q, self.qd = np.zeros((n, 3)), np.zeros((n, 3))
+        self.obs = np.zeros((n, OBS_SIZE), np.float32)
+        self.reward, self.margin = np.zeros(n), np.zeros(n)
+        self.tau = np.zeros((n, 2))
+
+    def reset(self, i, x0):
+        """Environment ``i`` to the state ``x0`` (6,), at rest in time."""
+        data = self.datas[i]
+        mujoco.mj_resetData(self.model, data)
+        data.qpos[:], data.qvel[:] = x0[:3], x0[3:]
+        with mujoco_log_off():
+            mujoco.mj_forward(self.model, data)
+        self.q[i], self.qd[i] = data.qpos, data.qvel
+        self.phys_step[i], self.diverged[i] = 0, False
+        self.last_exit[i] = -1 if inside_region(*self.q[i], *self.qd[i]) else 0
+        _observe_rows(self.q[i:i + 1], self.qd[i:i + 1], self.obs[i:i + 1])
+        self.margin[i] = region_margin(*self.q[i], *self.qd[i])
+
+    def step(self, rows, tau):
+        """One environment step of ``rows`` (int array) with the torques ``tau`` (len(rows), 2) [N m]."""
+        self.tau[rows] = tau
+        with mujoco_log_off():  # a diverging step ends the episode; MuJoCo's warning must not leave MUJOCO_LOG.TXT
+            _advance(self.model._address, self.addresses, self.warn_stride, rows, self.tau, self.torque_limits,
+                     self.frame_skip, self.kind, DIVERGED_REWARD[self.kind], self.phys_step, self.last_exit,
+                     self.diverged, self.q, self.qd, self.obs, self.reward, self.margin)
+
+    def time(self):
+        """Simulated time since reset [s], as the engines give it to controllers (steps x time step)."""
+        return self.phys_step * self.model.opt.timestep
+
+    def success(self):
+        """:func:`~paa_mj.control.region.succeeded` of every episode so far, as if it ended now."""
+        return succeeded(~self.diverged, np.zeros(len(self.datas), bool), self.last_exit, self.phys_step,
+                         self.model.opt.timestep)
+
+
+class GymnastEnv(gym.Env):
+    """The gymnast as a Gymnasium environment, tasks ``kip`` and ``balance`` (module docstring).
 
     Parameters
     ----------
+    task : "kip" or "balance"
+        From hanging (65) to balanced at UDD, or staying balanced from near UDD.
     robot : str or path
         A named robot or an MJCF file, as :func:`~paa_mj.model.load_robot` takes.
     render_mode : None or "rgb_array"
-    max_episode_seconds : float
-        Simulated time before truncation [s], positive and at least one environment step.
+    max_episode_seconds : float, optional
+        Simulated time before truncation [s], positive and at least one environment step;
+        default 30 s (kip), 10 s (balance).
     frame_skip : int
-        Physics steps per environment step, in [1, 1000000].
+        Physics steps (1 ms) per environment step, in [1, 1000000]; default 10 (a 10 ms control period).
     torque_limit : float, optional
-        Saturation of both torques [N m], positive and finite; the model's actuator ranges
+        Saturation of both torques [N m], positive and at most 1e12; the model's actuator ranges
         also apply (the smaller wins). Default 2 b1 / 1 rad.
-    init_noise : float
-        Largest perturbation of the initial angles at reset [rad], finite and >= 0.
+    init_noise : float, optional
+        Half-width of the uniform perturbation of the initial angles at reset [rad], finite and >= 0;
+        default 0.05.
+    init_speed_noise : float, optional
+        Half-width of the uniform perturbation of the initial speeds [rad/s], finite and >= 0;
+        default 0 (kip), 0.05 (balance).
+    terminate_margin : float, optional
+        Terminate when :math:`\\max_i |x_i| / l_i - 1` (:func:`~paa_mj.control.region.region_margin`) reaches it
+        after a step, >= 0; ``math.inf``: never. Default inf (kip), 0.5 (balance).
+    normalize_actions : bool
+        Actions in [-1, 1] scaled by the torque limits (default), or torques [N m].
     width, height : int
         Size of the rendered frames [pixels], in [16, 4096].
-    normalize_actions : bool
 
     Raises
     ------
@@ -114,77 +393,87 @@ class GymnastKipEnv(gym.Env):
         A robot that cannot be loaded.
     """
 
-    def __init__(self, robot="gymnast", render_mode=None, max_episode_seconds=30.0, frame_skip=1,
-                 torque_limit=None, init_noise=0.05, width=480, height=360, normalize_actions=False):
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 30}
+    _legacy = False
+
+    def __init__(self, task="kip", robot="gymnast", render_mode=None, max_episode_seconds=None, frame_skip=FRAME_SKIP,
+                 torque_limit=None, init_noise=None, init_speed_noise=None, terminate_margin=None,
+                 normalize_actions=True, width=480, height=360):
+        if not isinstance(task, str) or task not in TASKS:
+            raise ValueError(f"task must be {' or '.join(map(repr, TASKS))}, got {task!r}")
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
         if not isinstance(normalize_actions, (bool, np.bool_)):
             raise ValueError(f"normalize_actions must be True or False, got {normalize_actions!r}")
+        seconds, noise, speed_noise, margin = TASKS[task]
         # checked before the robot is loaded: a wrong argument is named before any slower failure
         frame_skip = _whole("frame_skip", frame_skip, 1, 1_000_000)
-        seconds = _number("max_episode_seconds", max_episode_seconds, lambda v: v > 0, "must be a positive finite"
-                          " number [s]")
+        if max_episode_seconds is not None:
+            seconds = _number("max_episode_seconds", max_episode_seconds, lambda v: v > 0,
+                              "must be a positive finite number [s]")
         if torque_limit is not None:
             # a negative limit would turn np.clip(a, -T, T) into T for every action: every torque inverted; one
             # beyond float32 would make the action space's bounds infinite
             torque_limit = _number("torque_limit", torque_limit, lambda v: 0 < v <= MAX_TORQUE_LIMIT,
                                    f"must be a positive finite number [N m] up to {MAX_TORQUE_LIMIT:g}")
-        init_noise = _number("init_noise", init_noise, lambda v: v >= 0, "must be a finite number >= 0 [rad]")
+        if init_noise is not None:
+            noise = _number("init_noise", init_noise, lambda v: v >= 0, "must be a finite number >= 0 [rad]")
+        if init_speed_noise is not None:
+            speed_noise = _number("init_speed_noise", init_speed_noise, lambda v: v >= 0,
+                                  "must be a finite number >= 0 [rad/s]")
+        if terminate_margin is not None:
+            margin = _number("terminate_margin", terminate_margin, lambda v: v >= 0,
+                             "must be a number >= 0 (math.inf: never terminate outside region (68))", finite=False)
         width, height = _whole("width", width, 16, 4096), _whole("height", height, 16, 4096)
+        self.task = task
         self.robot = load_robot(robot)
         self.model = self.robot.model.__copy__()
-        self.data = mujoco.MjData(self.model)
         self.frame_skip = frame_skip
         self.dt = self.model.opt.timestep * self.frame_skip
         steps = seconds / self.dt
+        shown = max_episode_seconds if max_episode_seconds is not None else seconds
         if not steps <= MAX_EPISODE_STEPS:
-            raise ValueError(f"max_episode_seconds {max_episode_seconds!r} is too long: {steps:.3g} environment steps"
+            raise ValueError(f"max_episode_seconds {shown!r} is too long: {steps:.3g} environment steps"
                              f" of {self.dt:g} s, more than {MAX_EPISODE_STEPS:g}")
         self.max_steps = int(round(steps))
         if self.max_steps < 1:
-            raise ValueError(f"max_episode_seconds {max_episode_seconds!r} is shorter than one environment step"
-                             f" ({self.dt:g} s)")
+            raise ValueError(f"max_episode_seconds {shown!r} is shorter than one environment step ({self.dt:g} s)")
         self.torque_limit = float(torque_limit if torque_limit is not None else 2 * self.robot.analytic.b1)
         #: The torque limits applied [N m], (2,): ``torque_limit`` capped by the model's actuator ranges.
-        self.torque_limits = np.minimum(self.torque_limit, self.robot.torque_limits)
-        self.init_noise = init_noise
+        self.torque_limits = torque_limits_for(self.robot, self.torque_limit)
+        self.init_noise, self.init_speed_noise, self.terminate_margin = noise, speed_noise, margin
         self.render_mode, self.width, self.height = render_mode, width, height
         self.normalize_actions = bool(normalize_actions)
         bound = np.ones(2) if self.normalize_actions else self.torque_limits
         self.action_space = spaces.Box(-bound.astype(np.float32), bound.astype(np.float32), (2,), np.float32)
         high = np.array([1, 1, 1, 1, 1, 1, np.inf, np.inf, np.inf], np.float32)
         self.observation_space = spaces.Box(-high, high, dtype=np.float32)
+        self._robots = _Robots(self.model, 1, frame_skip, 0 if self._legacy else _REWARD_KIND[task],
+                               self.torque_limits)
+        self.data = self._robots.datas[0]
+        self._rows = np.zeros(1, np.intp)
         self._renderer = None
         self._steps = 0
 
-    def _obs(self):
-        q, qd = self.data.qpos, self.data.qvel
-        return np.concatenate([np.stack([np.cos(q), np.sin(q)], -1).ravel(), qd]).astype(np.float32)
+    @property
+    def start(self):
+        """The state the episodes start from before the perturbation: (65) for the kip, UDD for balance."""
+        return X0_HANGING.copy() if self.task == "kip" else np.concatenate([Q_UDD, np.zeros(3)])
 
     def _info(self):
-        return {"q": self.data.qpos.copy(), "qd": self.data.qvel.copy(), "time": float(self.data.time)}
+        r = self._robots
+        return {"q": r.q[0].copy(), "qd": r.qd[0].copy(), "time": float(r.time()[0]),
+                "diverged": bool(r.diverged[0]), "is_success": bool(r.success()[0])}
 
     def reset(self, *, seed=None, options=None):
-        """Back to (65) (or ``options["x0"]``) with the angles perturbed by up to ``init_noise`` [rad]."""
-        if options is not None:
-            # an option this environment does not know (a typo of x0) would be ignored in silence
-            if not isinstance(options, dict):
-                raise ValueError(f"options must be a dict (or None), got {type(options).__name__}")
-            unknown = sorted(map(str, set(options) - {"x0"}))
-            if unknown:
-                raise ValueError(f"unknown reset option(s) {', '.join(unknown)}: the only option is x0")
-        x0 = _real_array((options or {}).get("x0", X0_HANGING))
-        if x0 is None or x0.shape != (6,) or not np.all(np.isfinite(x0)):
-            raise ValueError("options['x0'] must be 6 finite numbers")
+        """Back to :attr:`start` (or ``options["x0"]``), angles and speeds perturbed uniformly by up to
+        ``init_noise`` [rad] and ``init_speed_noise`` [rad/s]."""
+        x0 = _check_options(options, ("x0",)).get("x0")
+        x0 = self.start if x0 is None else _check_x0(x0)
         super().reset(seed=seed)
-        mujoco.mj_resetData(self.model, self.data)
-        x0 = x0.copy()
-        x0[:3] += self.np_random.uniform(-self.init_noise, self.init_noise, 3)
-        self.data.qpos[:], self.data.qvel[:] = x0[:3], x0[3:]
-        with mujoco_log_off():
-            mujoco.mj_forward(self.model, self.data)
+        self._robots.reset(0, perturbed(x0, self.np_random, self.init_noise, self.init_speed_noise))
         self._steps = 0
-        return self._obs(), self._info()
+        return self._robots.obs[0].copy(), self._info()
 
     def action_to_torque(self, action):
         """The torques [N m] an action asks for (scaled when actions are normalised), within the limits.
@@ -202,30 +491,21 @@ class GymnastKipEnv(gym.Env):
                              + (f"{shown[:60]}" if action is None else f"shape {action.shape}"))
         if not np.all(np.isfinite(action)):
             raise ValueError(f"an action must be finite, got {action.tolist()}")
-        if self.normalize_actions:
-            action = action * self.torque_limits
-        return np.clip(action, -self.torque_limits, self.torque_limits)
+        return action_to_torque(action, self.torque_limits, self.normalize_actions)
 
     def torque_to_action(self, tau):
         """The action that asks for the torques ``tau`` [N m], as float32."""
-        tau = np.clip(np.asarray(tau, dtype=float), -self.torque_limits, self.torque_limits)
-        return (tau / self.torque_limits if self.normalize_actions else tau).astype(np.float32)
+        return torque_to_action(tau, self.torque_limits, self.normalize_actions)
 
     def step(self, action):
         """Hold the action's torques over ``frame_skip`` physics steps; (obs, reward, terminated, truncated, info)."""
         tau = self.action_to_torque(action)
-        self.data.ctrl[:] = tau
-        with mujoco_log_off():  # a diverging step ends the episode; MuJoCo's warning must not leave MUJOCO_LOG.TXT
-            for _ in range(self.frame_skip):
-                mujoco.mj_step(self.model, self.data)
+        r = self._robots
+        r.step(self._rows, tau[None])
         self._steps += 1
-        diverged = divergence_reason(self.data) is not None
-        if diverged:
-            return np.zeros(9, np.float32), -10.0, True, False, self._info() | {"diverged": True}
-        x = udd_error(self.data.qpos, self.data.qvel)
-        reward = -(float(x[:3] @ x[:3]) / (3 * np.pi**2) + 1e-3 * float(x[3:] @ x[3:]) + 1e-8 * float(tau @ tau))
-        truncated = self._steps >= self.max_steps
-        return self._obs(), reward, False, truncated, self._info()
+        terminated = bool(r.diverged[0] or r.margin[0] >= self.terminate_margin)
+        truncated = self._steps >= self.max_steps and not terminated
+        return r.obs[0].copy(), float(r.reward[0]), terminated, truncated, self._info()
 
     def render(self):
         if self.render_mode != "rgb_array":
@@ -244,11 +524,37 @@ class GymnastKipEnv(gym.Env):
             self._renderer = None
 
 
-def controller_policy(controller, env: GymnastKipEnv):
+def perturbed(x0, rng, init_noise, init_speed_noise):
+    """``x0`` with the angles and (when ``init_speed_noise`` > 0) the speeds perturbed uniformly."""
+    x0 = np.array(x0, dtype=float)
+    x0[:3] += rng.uniform(-init_noise, init_noise, 3)
+    if init_speed_noise > 0:  # no draw otherwise: the episodes of v0 start as they always did
+        x0[3:] += rng.uniform(-init_speed_noise, init_speed_noise, 3)
+    return x0
+
+
+class GymnastKipEnv(GymnastEnv):
+    """``paa_mj/GymnastKip-v0``: the kip with the first version's defaults, kept for compatibility.
+
+    Torques [N m] as actions (``normalize_actions=False``), one 1 ms physics step per environment
+    step, 30 s episodes and the v0 reward of the module docstring. Parameters as :class:`GymnastEnv`'s
+    (no ``task``).
+    """
+
+    _legacy = True
+
+    def __init__(self, robot="gymnast", render_mode=None, max_episode_seconds=30.0, frame_skip=1,
+                 torque_limit=None, init_noise=0.05, width=480, height=360, normalize_actions=False,
+                 init_speed_noise=0.0, terminate_margin=math.inf):
+        super().__init__("kip", robot, render_mode, max_episode_seconds, frame_skip, torque_limit, init_noise,
+                         init_speed_noise, terminate_margin, normalize_actions, width, height)
+
+
+def controller_policy(controller, env: GymnastEnv):
     """A policy ``policy(obs, info) -> action`` from a controller of the package (name or object).
 
-    The controller reads the unwrapped state in ``info`` and its torques become actions of ``env``
-    (normalised when the environment's actions are). Call ``policy.reset()`` with ``env.reset()``.
+    The controller reads the unwrapped state and the time in ``info`` and its torques become actions of
+    ``env`` (normalised when the environment's actions are). Call ``policy.reset()`` with ``env.reset()``.
     """
     from .control.base import reset_controller, torque_of
     from .control.registry import make_controller
@@ -266,9 +572,14 @@ def controller_policy(controller, env: GymnastKipEnv):
 
 
 def register():
-    """Register ``paa_mj/GymnastKip-v0`` with Gymnasium (done on import of this module)."""
+    """Register the environments of the module docstring with Gymnasium (done on import of this module)."""
     if ENV_ID not in gym.registry:
         gym.register(id=ENV_ID, entry_point="paa_mj.gym_env:GymnastKipEnv")
+    for env_id, task in ((KIP_ID, "kip"), (BALANCE_ID, "balance")):
+        if env_id not in gym.registry:
+            gym.register(id=env_id, entry_point="paa_mj.gym_env:GymnastEnv",
+                         vector_entry_point="paa_mj.gym_vector:GymnastVectorEnv", kwargs={"task": task},
+                         max_episode_steps=HORIZONS[env_id])
 
 
 register()

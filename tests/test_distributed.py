@@ -113,7 +113,9 @@ def uninterrupted(tmp_path_factory):
 def test_signal_then_rerun_is_byte_identical_to_an_uninterrupted_run(tmp_path, sig, code, uninterrupted):
     """Stopped by a signal after at least one chunk, resumed by the same command: the same bytes."""
     out = tmp_path / "stopped"
-    proc = subprocess.Popen(_basin_cmd(out), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    # Ctrl-C as a terminal delivers it, even when this test runs where SIGINT is ignored (a background job)
+    proc = subprocess.Popen(_basin_cmd(out), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     chunks = out / ".chunks"
     deadline = time.time() + 120
     while time.time() < deadline and not list(chunks.glob("*/chunk-*.npz")):

@@ -303,10 +303,15 @@ def test_ctrl_c_while_a_set_is_written_saves_the_set_then_stops(tmp_path):
         path.write_text("first")
         os.kill(os.getpid(), signal.SIGINT)
 
-    with pytest.raises(KeyboardInterrupt):
-        write_set(tmp_path / "set", {"a.txt": first, "b.txt": lambda path: path.write_text("second")})
-    assert sorted(p.name for p in (tmp_path / "set").iterdir()) == ["a.txt", "b.txt"]
-    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    # as in a terminal, even when this test runs where SIGINT is ignored (a background job)
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            write_set(tmp_path / "set", {"a.txt": first, "b.txt": lambda path: path.write_text("second")})
+        assert sorted(p.name for p in (tmp_path / "set").iterdir()) == ["a.txt", "b.txt"]
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 @pytest.mark.parametrize("kind", ["fifo", "symlink", "folder"])

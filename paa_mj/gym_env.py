@@ -20,8 +20,9 @@ Observation space
     :func:`observation`, also used by :class:`paa_mj.control.policy.SB3Policy`.
 Action space
     v1: ``Box(2,)`` in [-1, 1], scaled by the torque limits: tau = clip(a T, -T, T) [N m]
-    (:func:`action_to_torque`). T is the smaller of ``torque_limit`` (default 2 b1 / 1 rad, above
-    the paper's peak torques) and the model's actuator ranges (:func:`torque_limits_for`).
+    (:func:`action_to_torque`). T is the smaller of ``torque_limit`` and the model's actuator ranges
+    (:func:`torque_limits_for`); ``torque_limit`` is by default 2 b1 / 1 rad for the kip (579 N m for
+    Table 1, above the paper's peak torques) and 0.1 b1 / 1 rad for balance (29 N m).
     With ``normalize_actions=False`` (v0) the actions are the torques [N m] themselves, clipped at T.
 Dynamics
     One environment step holds the torque over ``frame_skip`` physics steps of MuJoCo (RK4, 1 ms):
@@ -35,7 +36,8 @@ Reward (per environment step, dimensionless)
     inside region (68), else 0:
 
     - kip (v1): :math:`r = 1[(68)] - |x_{1:3}|^2 / (3 \\pi^2) - 10^{-3} |x_{4:6}|^2 - 10^{-2} \\bar{u^2}`,
-      speeds in rad/s (the angle term is 1 at the farthest posture, the speed term 0.1 at 10 rad/s);
+      angles in rad, speeds in rad/s, the weights in 1/rad^2 and s^2/rad^2 (the angle term is 1 at the
+      farthest posture, the speed term 0.1 at 10 rad/s);
     - balance (v1): :math:`r = 1[(68)] - \\frac{1}{2} \\overline{(x / l)^2} - \\frac{1}{10} \\bar{u^2}`
       (bars: means over the coordinates), so r is in [0.4, 1] inside region (68);
     - v0: :math:`r = -(|x_{1:3}|^2 / (3 \\pi^2) + 10^{-3} |x_{4:6}|^2 + 10^{-8} |\\tau|^2)`, tau in N m.
@@ -46,7 +48,8 @@ Termination and truncation
     episode then ends on the last good state. Balance also terminates when the state after a step has
     left region (68) by ``terminate_margin`` (default 0.5): :math:`\\max_i |x_i| / l_i \\ge 1 + 0.5`,
     an angle error of pi/4 rad or a speed of 0.75 rad/s. Truncated (when not terminated) after
-    ``max_episode_seconds``; the registered ``max_episode_steps`` gives wrappers the same horizon.
+    ``max_episode_seconds``; the registered ``max_episode_steps`` gives wrappers the same horizon (at the
+    default ``frame_skip``: with another, pass ``max_episode_steps`` to ``gym.make`` as well).
 Info
     ``q``, ``qd``: the raw state, angles unwrapped (controller (40) needs the unwrapped q2);
     ``time``: physics steps since reset x 1 ms [s] (the time the package's engines give controllers);
@@ -82,8 +85,13 @@ BALANCE_ID = "paa_mj/GymnastBalance-v1"
 MAX_TORQUE_LIMIT = 1e12
 #: The most environment steps of one episode.
 MAX_EPISODE_STEPS = 1e12
-#: The tasks: (episode length [s], angle noise [rad], speed noise [rad/s], terminate_margin) by default.
-TASKS = {"kip": (30.0, 0.05, 0.0, math.inf), "balance": (10.0, 0.05, 0.05, 0.5)}
+#: The tasks' defaults: episode length [s], half-widths of the initial perturbation of the angles [rad] and speeds
+#: [rad/s], terminate_margin, and the torque limit in units of b1 / 1 rad [N m]. Balancing needs far less torque
+#: than the kip (the LQR (67), saturated at 0.1 b1, balances every start of the task; unsaturated it peaks near
+#: 0.23 b1), and the smaller limit lets a learner's first, random actions keep the robot near region (68) for
+#: about ten steps instead of one.
+TASKS = {"kip": dict(seconds=30.0, noise=0.05, speed_noise=0.0, margin=math.inf, torque_b1=2.0),
+         "balance": dict(seconds=10.0, noise=0.05, speed_noise=0.05, margin=0.5, torque_b1=0.1)}
 #: Physics steps per environment step in v1: a 10 ms control period on the 1 ms step of the models.
 FRAME_SKIP = 10
 #: Registered horizons [environment steps]: the tasks' seconds at the default 10 ms period.
@@ -158,11 +166,15 @@ def _check_options(options, known):
 
 # --- the maps between the package's states and torques and the learner's observations and actions -----------
 
-def torque_limits_for(robot, torque_limit=None):
-    """The torque limits T [N m], (2,), of the environments: ``torque_limit`` (default 2 b1 / 1 rad) capped by the
-    model's actuator ranges (:attr:`Robot.torque_limits <paa_mj.model.robot.Robot.torque_limits>`)."""
-    limit = float(torque_limit if torque_limit is not None else 2 * robot.analytic.b1)
-    return np.minimum(limit, np.asarray(robot.torque_limits, float))
+def torque_limit_for(robot, task="kip", torque_limit=None):
+    """The torque limit [N m] asked for: ``torque_limit``, by default 2 b1 / 1 rad (kip) or 0.1 b1 / 1 rad (balance)."""
+    return float(torque_limit if torque_limit is not None else TASKS[task]["torque_b1"] * robot.analytic.b1)
+
+
+def torque_limits_for(robot, task="kip", torque_limit=None):
+    """The torque limits T [N m], (2,), of the environments: :func:`torque_limit_for` capped by the model's actuator
+    ranges (:attr:`Robot.torque_limits <paa_mj.model.robot.Robot.torque_limits>`)."""
+    return np.minimum(torque_limit_for(robot, task, torque_limit), np.asarray(robot.torque_limits, float))
 
 
 def action_to_torque(action, torque_limits, normalized=True):
@@ -335,13 +347,19 @@ class _Robots:
         _observe_rows(self.q[i:i + 1], self.qd[i:i + 1], self.obs[i:i + 1])
         self.margin[i] = region_margin(*self.q[i], *self.qd[i])
 
-    def step(self, rows, tau):
-        """One environment step of ``rows`` (int array) with the torques ``tau`` (len(rows), 2) [N m]."""
+    def step(self, rows, tau, log=True):
+        """One environment step of ``rows`` (int array) with the torques ``tau`` (len(rows), 2) [N m].
+
+        ``log=False``: the caller has turned MuJoCo's log off (threads stepping parts of the rows)."""
         self.tau[rows] = tau
+        args = (self.model._address, self.addresses, self.warn_stride, rows, self.tau, self.torque_limits,
+                self.frame_skip, self.kind, DIVERGED_REWARD[self.kind], self.phys_step, self.last_exit,
+                self.diverged, self.q, self.qd, self.obs, self.reward, self.margin)
+        if not log:
+            _advance(*args)
+            return
         with mujoco_log_off():  # a diverging step ends the episode; MuJoCo's warning must not leave MUJOCO_LOG.TXT
-            _advance(self.model._address, self.addresses, self.warn_stride, rows, self.tau, self.torque_limits,
-                     self.frame_skip, self.kind, DIVERGED_REWARD[self.kind], self.phys_step, self.last_exit,
-                     self.diverged, self.q, self.qd, self.obs, self.reward, self.margin)
+            _advance(*args)
 
     def time(self):
         """Simulated time since reset [s], as the engines give it to controllers (steps x time step)."""
@@ -370,7 +388,8 @@ class GymnastEnv(gym.Env):
         Physics steps (1 ms) per environment step, in [1, 1000000]; default 10 (a 10 ms control period).
     torque_limit : float, optional
         Saturation of both torques [N m], positive and at most 1e12; the model's actuator ranges
-        also apply (the smaller wins). Default 2 b1 / 1 rad.
+        also apply (the smaller wins). Default 2 b1 / 1 rad (kip, above the paper's peak torques) or
+        0.1 b1 / 1 rad (balance), b1 of (9) [J]: 579 or 29 N m for Table 1.
     init_noise : float, optional
         Half-width of the uniform perturbation of the initial angles at reset [rad], finite and >= 0;
         default 0.05.
@@ -405,7 +424,7 @@ class GymnastEnv(gym.Env):
             raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
         if not isinstance(normalize_actions, (bool, np.bool_)):
             raise ValueError(f"normalize_actions must be True or False, got {normalize_actions!r}")
-        seconds, noise, speed_noise, margin = TASKS[task]
+        seconds, noise, speed_noise, margin = (TASKS[task][k] for k in ("seconds", "noise", "speed_noise", "margin"))
         # checked before the robot is loaded: a wrong argument is named before any slower failure
         frame_skip = _whole("frame_skip", frame_skip, 1, 1_000_000)
         if max_episode_seconds is not None:
@@ -438,9 +457,9 @@ class GymnastEnv(gym.Env):
         self.max_steps = int(round(steps))
         if self.max_steps < 1:
             raise ValueError(f"max_episode_seconds {shown!r} is shorter than one environment step ({self.dt:g} s)")
-        self.torque_limit = float(torque_limit if torque_limit is not None else 2 * self.robot.analytic.b1)
+        self.torque_limit = torque_limit_for(self.robot, task, torque_limit)
         #: The torque limits applied [N m], (2,): ``torque_limit`` capped by the model's actuator ranges.
-        self.torque_limits = torque_limits_for(self.robot, self.torque_limit)
+        self.torque_limits = torque_limits_for(self.robot, task, torque_limit)
         self.init_noise, self.init_speed_noise, self.terminate_margin = noise, speed_noise, margin
         self.render_mode, self.width, self.height = render_mode, width, height
         self.normalize_actions = bool(normalize_actions)

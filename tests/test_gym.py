@@ -1,13 +1,18 @@
-"""paa_mj/GymnastKip-v0: Gymnasium's checker, seeding, determinism, and the paper's controller as a policy."""
+"""The Gymnasium environments: v0 (checker, seeding, determinism, the paper's controller as a policy), the v1 tasks
+(defaults, success, rewards, termination), the vector environment against single ones bit for bit, a trained
+policy as a controller (a stand-in for a Stable-Baselines3 model), and the PPO example."""
 import numpy as np
 import pytest
 
 gym = pytest.importorskip("gymnasium")
 
 from gymnasium.utils.env_checker import check_env  # noqa: E402
+from gymnasium.vector import AutoresetMode, SyncVectorEnv  # noqa: E402
 
+from paa_mj import gym_env  # noqa: E402
 from paa_mj.control import make_controller  # noqa: E402
-from paa_mj.gym_env import ENV_ID, GymnastKipEnv  # noqa: E402
+from paa_mj.gym_env import BALANCE_ID, ENV_ID, KIP_ID, GymnastEnv, GymnastKipEnv  # noqa: E402
+from paa_mj.gym_vector import GymnastVectorEnv  # noqa: E402
 
 
 def test_passes_gymnasiums_checker():
@@ -89,3 +94,326 @@ def test_render_rgb_array():
     frame = env.render()
     env.close()
     assert frame.shape == (120, 160, 3) and frame.std() > 5
+
+
+# --- v1: the learning defaults, the tasks, success, rewards --------------------------------------------------
+
+@pytest.mark.parametrize("env_id, task, horizon", [(KIP_ID, "kip", 3000), (BALANCE_ID, "balance", 1000)])
+def test_v1_ids_have_learning_defaults_and_a_horizon_wrappers_read(env_id, task, horizon):
+    env = gym.make(env_id)
+    assert env.spec.max_episode_steps == horizon and isinstance(env, gym.wrappers.TimeLimit)
+    inner = env.unwrapped
+    assert inner.task == task and inner.frame_skip == 10 and inner.dt == pytest.approx(0.01)
+    assert inner.max_steps == horizon  # the env's own truncation agrees with the registered horizon
+    assert env.action_space.low.tolist() == [-1, -1] and env.action_space.high.tolist() == [1, 1]
+    check_env(inner, skip_render_check=True)
+    old = gym.make(ENV_ID).unwrapped  # v0 keeps its defaults
+    assert not old.normalize_actions and old.frame_skip == 1 and old.max_steps == 30000
+
+
+def test_balance_starts_from_a_uniform_perturbation_of_udd():
+    env = GymnastEnv(task="balance")
+    starts = np.array([np.concatenate([info["q"], info["qd"]]) for info in
+                       (env.reset(seed=s)[1] for s in range(200))])
+    error = starts - [0, -np.pi, 0, 0, 0, 0]
+    assert np.all(np.abs(error) <= 0.05) and np.all(np.abs(error).max(axis=0) > 0.045)
+    assert abs(error.mean()) < 0.01  # centred
+
+
+def test_is_success_is_the_package_success_over_every_physics_step():
+    """frame_skip 1: every state the env steps through is seen, so succeeded() can be recomputed from them."""
+    from paa_mj.control.region import in_switch_region, succeeded
+
+    env = GymnastEnv(task="balance", frame_skip=1, max_episode_seconds=2.5, terminate_margin=np.inf, torque_limit=500.0)
+    policy = gym_env.controller_policy("lqr", env)
+    # a start just outside region (68) (d1 = 0.6 rad/s): the last second starts when the LQR brings it in
+    obs, info = env.reset(seed=0, options={"x0": [0.05, -np.pi, 0, 0.6, 0, 0]})
+    policy.reset()
+    states, flags, done = [np.concatenate([info["q"], info["qd"]])], [info["is_success"]], False
+    while not done:
+        obs, reward, terminated, truncated, info = env.step(policy(obs, info))
+        states.append(np.concatenate([info["q"], info["qd"]]))
+        flags.append(info["is_success"])
+        done = terminated or truncated
+    states = np.array(states)
+    inside = in_switch_region(states[:, :3], states[:, 3:])
+    assert not inside[0] and inside[-1]
+    steps = np.arange(len(states))
+    last_exit = np.maximum.accumulate(np.where(~inside, steps, -1))
+    expected = succeeded(np.ones(len(steps), bool), np.zeros(len(steps), bool), last_exit, steps, 0.001)
+    np.testing.assert_array_equal(flags, expected)
+    assert flags[-1] and not all(flags)
+
+
+def test_the_rewards_are_the_documented_formulas():
+    from paa_mj.control.region import in_switch_region
+    from paa_mj.model.states import udd_error
+
+    for task in ("kip", "balance"):
+        env = GymnastEnv(task=task)
+        env.reset(seed=1, options={"x0": [0.03, -np.pi + 0.02, -0.02, 0.01, 0.0, 0.0]})  # near UDD: the 1[(68)] too
+        action = np.array([0.3, -0.2] if task == "balance" else [0.02, -0.01], np.float32)  # ~10 N m, both
+        _, reward, _, _, info = env.step(action)
+        x = udd_error(info["q"], info["qd"])
+        u = env.action_to_torque(action) / env.torque_limits
+        alive = float(in_switch_region(info["q"], info["qd"]))
+        if task == "kip":
+            expected = alive - x[:3] @ x[:3] / (3 * np.pi**2) - 1e-3 * x[3:] @ x[3:] - 1e-2 * np.mean(u**2)
+        else:
+            scaled = x / np.array([np.pi / 6] * 3 + [0.5] * 3)
+            expected = alive - 0.5 * np.mean(scaled**2) - 0.1 * np.mean(u**2)
+        assert alive == 1.0 and reward == pytest.approx(expected, abs=1e-12)
+
+
+def test_balance_terminates_when_it_leaves_region_68_by_the_margin():
+    from paa_mj.control.region import switch_margin
+
+    env = GymnastEnv(task="balance")
+    env.reset(seed=0)
+    terminated = truncated = False
+    while not (terminated or truncated):  # no torque: it falls
+        _, _, terminated, truncated, info = env.step(np.zeros(2, np.float32))
+    assert terminated and not truncated and not info["is_success"] and not info["diverged"]
+    assert switch_margin(info["q"], info["qd"]) >= 0.5
+    kip = GymnastEnv(task="kip", max_episode_seconds=0.5)  # the kip leaves region (68) at once: never terminates
+    kip.reset(seed=0)
+    results = [kip.step(np.zeros(2, np.float32)) for _ in range(50)]
+    assert not any(r[2] for r in results) and results[-1][3]
+
+
+def test_the_lqr_balances_every_start_of_the_balance_task():
+    env = gym.make(BALANCE_ID)
+    policy = gym_env.controller_policy("lqr", env)
+    for seed in range(3):
+        obs, info = env.reset(seed=seed)
+        policy.reset()
+        done, total = False, 0.0
+        while not done:
+            obs, reward, terminated, truncated, info = env.step(policy(obs, info))
+            total += reward
+            done = terminated or truncated
+        assert truncated and info["is_success"] and total > 990
+
+
+@pytest.mark.parametrize("kwargs, fragment", [
+    (dict(task="walk"), "task must be 'kip' or 'balance', got 'walk'"),
+    (dict(task=None), "task must be 'kip' or 'balance'"),
+    (dict(init_speed_noise=-0.1), "init_speed_noise must be a finite number >= 0 [rad/s]"),
+    (dict(init_speed_noise=np.nan), "init_speed_noise must be a finite number >= 0"),
+    (dict(terminate_margin=-1.0), "terminate_margin must be a number >= 0"),
+    (dict(terminate_margin=np.nan), "terminate_margin must be a number >= 0"),
+    (dict(terminate_margin="1"), "terminate_margin must be a number, got '1'"),
+    (dict(max_episode_seconds=0.001), "shorter than one environment step (0.01 s)"),
+])
+def test_new_arguments_are_refused_in_one_line(kwargs, fragment):
+    with pytest.raises(ValueError) as caught:
+        GymnastEnv(**kwargs)
+    assert fragment in str(caught.value) and "\n" not in str(caught.value)
+
+
+# --- the vector environment --------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("mode", list(AutoresetMode), ids=lambda m: m.value)
+def test_the_vector_env_equals_single_envs_bit_for_bit(mode):
+    """Random actions, short episodes and a tight margin: terminations, truncations and resets in every mode."""
+    n, options = 5, dict(task="balance", max_episode_seconds=0.25, terminate_margin=0.2)
+    vector = GymnastVectorEnv(n, autoreset_mode=mode, num_threads=2, **options)
+    singles = SyncVectorEnv([lambda: GymnastEnv(**options) for _ in range(n)], autoreset_mode=mode)
+    a, info_a = vector.reset(seed=7)
+    b, info_b = singles.reset(seed=7)
+    np.testing.assert_array_equal(a, b)
+    rng, ended, ends = np.random.default_rng(0), np.zeros(n, bool), 0
+    for _ in range(80):
+        if mode == AutoresetMode.DISABLED and ended.any():
+            a, _ = vector.reset(options={"reset_mask": ended.copy()})
+            b, _ = singles.reset(options={"reset_mask": ended.copy()})
+            np.testing.assert_array_equal(a, b)
+        actions = rng.uniform(-1, 1, (n, 2)).astype(np.float32)
+        got, want = vector.step(actions), singles.step(actions)
+        for x, y in zip(got[:4], want[:4]):
+            np.testing.assert_array_equal(x, y)
+        for key in ("q", "qd", "time", "is_success", "diverged"):
+            np.testing.assert_array_equal(got[4][key], want[4][key])
+        if "final_obs" in want[4]:
+            np.testing.assert_array_equal(got[4]["_final_obs"], want[4]["_final_obs"])
+            for i in np.flatnonzero(want[4]["_final_obs"]):
+                np.testing.assert_array_equal(got[4]["final_obs"][i], want[4]["final_obs"][i])
+            for key in ("is_success", "q"):
+                np.testing.assert_array_equal(got[4]["final_info"][key], want[4]["final_info"][key])
+        ended = got[2] | got[3]
+        ends += ended.sum()
+    assert ends > 10
+    vector.close()
+
+
+def test_make_vec_builds_the_compiled_vector_env():
+    envs = gym.make_vec(BALANCE_ID, num_envs=3)
+    assert isinstance(envs, GymnastVectorEnv) and envs.max_steps == 1000 and envs.num_envs == 3
+    assert envs.metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP
+    assert envs.observation_space.shape == (3, 9) and envs.action_space.shape == (3, 2)
+    obs, info = envs.reset(seed=0)
+    assert obs.dtype == np.float32 and info["is_success"].all() and info["_is_success"].all()
+    obs, rewards, terminated, truncated, info = envs.step(np.zeros((3, 2), np.float32))
+    assert rewards.shape == (3,) and np.all(rewards > 0.5) and info["time"] == pytest.approx([0.01] * 3)
+    short = gym.make_vec(KIP_ID, num_envs=2, max_episode_steps=2)
+    short.reset(seed=0)
+    assert not short.step(np.zeros((2, 2)))[3].any() and short.step(np.zeros((2, 2)))[3].all()
+
+
+@pytest.mark.parametrize("kwargs, call, fragment", [
+    (dict(num_envs=0), None, "num_envs must be in [1, 1000000]"),
+    (dict(num_envs=2.5), None, "num_envs must be a whole number"),
+    (dict(autoreset_mode="sometimes"), None, "autoreset_mode must be one of NextStep, SameStep, Disabled"),
+    (dict(render_mode="rgb_array"), None, "render_mode must be None for the vector environment"),
+    (dict(num_threads=0), None, "num_threads must be in [1, 1024]"),
+    (dict(frame_skip=0), None, "frame_skip must be in [1, 1000000]"),
+    (dict(task="walk"), None, "task must be"),
+    (dict(max_episode_steps=0), None, "max_episode_steps must be in"),
+    ({}, ("step", np.zeros(2)), "actions are two real numbers per sub-environment, shape (2, 2), got shape (2,)"),
+    ({}, ("step", [[np.nan, 0], [0, 0]]), "actions must be finite; sub-environment(s) [0]"),
+    ({}, ("step", [["a", "b"], ["c", "d"]]), "actions are two real numbers per sub-environment"),
+    ({}, ("reset", dict(seed=-1)), "seed must be an integer >= 0"),
+    ({}, ("reset", dict(seed=[1])), "a list of 2 of them"),
+    ({}, ("reset", dict(options={"x_0": 0})), "unknown reset option(s) x_0"),
+    ({}, ("reset", dict(options={"x0": np.zeros((3, 6))})), "options['x0'] must be 6 finite numbers or 2 rows of 6"),
+    ({}, ("reset", dict(options={"reset_mask": np.array([1, 0])})), "options['reset_mask'] must be a bool array"),
+])
+def test_the_vector_env_refuses_what_it_would_misread(kwargs, call, fragment):
+    with pytest.raises(ValueError) as caught:
+        envs = GymnastVectorEnv(**({"num_envs": 2} | kwargs))
+        envs.reset(seed=0)
+        before = envs._robots.q.copy()
+        if call[0] == "reset":
+            envs.reset(**call[1])
+        else:
+            envs.step(call[1])
+    assert fragment in str(caught.value) and "\n" not in str(caught.value), str(caught.value)
+    if call is not None:
+        np.testing.assert_array_equal(envs._robots.q, before)
+
+
+def test_the_vector_env_asks_for_reset_first_and_for_resets_when_autoreset_is_off():
+    envs = GymnastVectorEnv(2, task="balance", autoreset_mode="Disabled", max_episode_steps=1)
+    with pytest.raises(ValueError, match="call reset"):
+        envs.step(np.zeros((2, 2)))
+    envs.reset(seed=0)
+    assert envs.step(np.zeros((2, 2)))[3].all()
+    with pytest.raises(ValueError, match="reset them with"):
+        envs.step(np.zeros((2, 2)))
+
+
+# --- a trained policy as a controller ------------------------------------------------------------------------
+
+STAND_IN = '''
+import numpy as np
+from paa_mj.control.lqr import LQRController
+from paa_mj.control.policy import SB3Policy
+
+
+class Linear:
+    """A stand-in for a trained model: the LQR (67) read off the observation, in normalised actions."""
+
+    def __init__(self, K, limits):
+        self.K, self.limits = K, limits
+
+    def predict(self, obs, deterministic=True):
+        obs = np.asarray(obs, float)
+        x = np.stack([obs[:, 1], -obs[:, 3], obs[:, 5], obs[:, 6], obs[:, 7], obs[:, 8]], -1)
+        return -(x @ self.K.T) / self.limits, None
+
+
+class Trained(SB3Policy):
+    def load_model(self):
+        return Linear(LQRController.for_model(self.robot.analytic).K, self.torque_limits)
+
+
+class Saved(SB3Policy):
+    path = "ppo_balance.zip"
+'''
+
+X0_NEAR_UDD = [0.03, -np.pi + 0.02, -0.02, 0.01, 0.0, 0.0]
+
+
+@pytest.fixture
+def policy_file(tmp_path):
+    path = tmp_path / "mine.py"
+    path.write_text(STAND_IN)
+    return path
+
+
+def test_a_policy_adapter_runs_as_the_env_runs_it(policy_file, gymnast):
+    """The adapter through the package's engine and the same model through the env: the same states."""
+    from paa_mj.control.registry import make_controller
+    from paa_mj.sim.rollout import simulate_mujoco
+
+    controller = make_controller(f"{policy_file}:Trained", gymnast)
+    traj = simulate_mujoco(gymnast, controller, X0_NEAR_UDD, t_final=1.0, sample_dt=0.01)
+    env = GymnastEnv(task="balance", init_noise=0.0, init_speed_noise=0.0)
+    obs, info = env.reset(options={"x0": X0_NEAR_UDD})
+    states = [np.concatenate([info["q"], info["qd"]])]
+    for _ in range(100):
+        action, _ = controller.model.predict(obs[None], deterministic=True)
+        obs, _, _, _, info = env.step(action[0])
+        states.append(np.concatenate([info["q"], info["qd"]]))
+    np.testing.assert_allclose(np.hstack([traj.q, traj.qd]), states, rtol=0, atol=1e-12)
+    assert np.all(np.abs(traj.tau) <= env.torque_limits)
+
+
+def test_a_policy_adapter_through_simulate(policy_file, tmp_path, capsys):
+    import json
+
+    from paa_mj.cli import main
+
+    code = main(["simulate", "--controller", f"{policy_file}:Trained", "--x0", *map(str, X0_NEAR_UDD),
+                 "--t-final", "6", "--json"])
+    summary = json.loads(capsys.readouterr().out)
+    assert code == 0 and summary["balanced"]
+
+
+def test_a_policy_file_without_stable_baselines3_is_one_line(policy_file, capsys):
+    try:
+        import stable_baselines3  # noqa: F401
+    except ImportError:
+        pass
+    else:
+        pytest.skip("stable-baselines3 is installed: the message is for those without it")
+    from paa_mj.cli import main
+
+    assert main(["simulate", "--controller", f"{policy_file}:Saved", "--t-final", "1"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("paa-mj: error:") and 'pip install "paa_mj[rl]"' in err[0]
+
+
+def test_the_observation_and_action_maps_are_the_envs():
+    env = GymnastEnv(task="kip")
+    obs, info = env.reset(seed=3)
+    np.testing.assert_array_equal(gym_env.observation(info["q"], info["qd"]), obs)
+    assert gym_env.observation(np.zeros((4, 5, 3)), np.zeros(3)).shape == (4, 5, 9)
+    actions = np.array([[0.5, -2.0], [1.0, 0.25]])
+    np.testing.assert_array_equal(gym_env.action_to_torque(actions, env.torque_limits),
+                                  [env.action_to_torque(a) for a in actions])
+    np.testing.assert_allclose(gym_env.torque_to_action(gym_env.action_to_torque(actions[1], env.torque_limits),
+                                                        env.torque_limits), actions[1], rtol=1e-6)
+
+
+# --- the PPO example -----------------------------------------------------------------------------------------
+
+def test_the_ppo_example(tmp_path):
+    import importlib.util
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    script = Path(__file__).resolve().parents[1] / "examples" / "rl_balance_ppo.py"
+    have_sb3 = importlib.util.find_spec("stable_baselines3") is not None
+    args = ["--timesteps", "256", "--envs", "2", "--eval-episodes", "1", "--out", str(tmp_path / "ppo.zip")]
+    proc = subprocess.run([sys.executable, str(script), *args], capture_output=True, text=True, cwd=tmp_path,
+                          timeout=300)
+    if have_sb3:
+        assert proc.returncode == 0, proc.stderr[-2000:]
+        assert "success rate" in proc.stdout and (tmp_path / "ppo.zip").is_file()
+    else:
+        assert proc.returncode == 1 and proc.stdout == ""
+        assert proc.stderr.strip().splitlines() == [
+            'rl_balance_ppo.py: stable-baselines3 is not installed (it brings torch): pip install "paa_mj[rl]"']
+        pytest.skip("stable-baselines3 is not installed: the one-line message is checked, not the training")

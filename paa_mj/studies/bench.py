@@ -6,7 +6,11 @@
 * batch: :func:`paa_mj.sim.batch.simulate_batch` of random states, all cores, no early stop, per state-step;
 * basin: the 16 x 16 (q1, q2) basin of Table 1 over 30 s through the batch engine (rollouts retire on
   their own), its time divided by 256 x 30000 bare steps (``basin_effective_ratio``);
-* analytic: the ``solve_ivp`` reference of the 30 s Table 1 run against the MuJoCo rollout.
+* analytic: the ``solve_ivp`` reference of the 30 s Table 1 run against the MuJoCo rollout;
+* vector env (with Gymnasium installed): CPU time per environment step of
+  :class:`~paa_mj.gym_vector.GymnastVectorEnv` of 64 robots against 64 :class:`~paa_mj.gym_env.GymnastEnv`
+  stepped one after the other with the same actions (``vector_env_speedup``: single / vector), at the
+  default 10 ms control period (10 RK4 steps, mostly physics) and at 1 ms (``..._frame_skip_1``, mostly Python).
 
 Every ratio divides two costs measured in this run, on this machine.
 """
@@ -53,7 +57,53 @@ def _best_of(fn, repeats):
     return best
 
 
-def run_bench(batch_size=1024, batch_seconds=2.0, repeats=3, basin_grid=16, basin_seconds=30.0, progress=False):
+def _cpu_best_of(fn, repeats):
+    """The least CPU time of ``repeats`` runs [s] (this process: the stepping runs in the calling thread)."""
+    best = np.inf
+    for _ in range(repeats):
+        start = time.process_time()
+        fn()
+        best = min(best, time.process_time() - start)
+    return best
+
+
+def vector_env_costs(n_envs=64, steps=50, repeats=3, frame_skip=10):
+    """CPU time per environment step [s] of ``n_envs`` single environments and of one vector environment.
+
+    Both run the kip task (no termination, so no reset inside the clock) with the same random actions.
+    Returns (single, vector), or None without Gymnasium.
+    """
+    try:
+        from ..gym_env import GymnastEnv
+        from ..gym_vector import GymnastVectorEnv
+    except ImportError:
+        return None
+    options = dict(task="kip", frame_skip=frame_skip, max_episode_seconds=1e4)
+    singles = [GymnastEnv(**options) for _ in range(n_envs)]
+    vector = GymnastVectorEnv(n_envs, **options)
+    actions = np.random.default_rng(0).uniform(-1, 1, (steps, n_envs, 2)).astype(np.float32)
+
+    def run_singles():
+        for i, env in enumerate(singles):
+            env.reset(seed=i)
+        for k in range(steps):
+            for env, action in zip(singles, actions[k]):
+                env.step(action)
+
+    def run_vector():
+        vector.reset(seed=0)
+        for k in range(steps):
+            vector.step(actions[k])
+
+    run_singles(), run_vector()  # compiled kernels loaded, caches warm
+    per_step = n_envs * steps
+    single, vec = _cpu_best_of(run_singles, repeats) / per_step, _cpu_best_of(run_vector, repeats) / per_step
+    vector.close()
+    return single, vec
+
+
+def run_bench(batch_size=1024, batch_seconds=2.0, repeats=3, basin_grid=16, basin_seconds=30.0, progress=False,
+              vector_envs=64, vector_steps=50):
     """Measure every cost of the module docstring; each is the best of ``repeats`` runs (the basin: of 2)."""
     from .basin import basin
 
@@ -92,6 +142,13 @@ def run_bench(batch_size=1024, batch_seconds=2.0, repeats=3, basin_grid=16, basi
 
     simulate_analytic(robot, make_controller("vcl", robot), X0_HANGING, 0.01)
     analytic = _best_of(lambda: simulate_analytic(robot, make_controller("vcl", robot), X0_HANGING, t_single), 1)
+    vector = {}
+    costs = vector_env_costs(vector_envs, vector_steps, repeats)
+    if costs is not None:
+        fast = vector_env_costs(vector_envs, vector_steps, repeats, frame_skip=1)
+        vector = {"vector_env_num_envs": vector_envs, "single_env_step_us": costs[0] * 1e6,
+                  "vector_env_step_us": costs[1] * 1e6, "vector_env_speedup": costs[0] / costs[1],
+                  "vector_env_speedup_frame_skip_1": fast[0] / fast[1]}
     return {
         "machine_cores": os.cpu_count(),
         "mujoco_version": mujoco.__version__,
@@ -110,6 +167,7 @@ def run_bench(batch_size=1024, batch_seconds=2.0, repeats=3, basin_grid=16, basi
         "analytic_30s_seconds": analytic,
         "mujoco_30s_seconds": single,
         "analytic_to_mujoco_ratio": analytic / single,
+        **vector,
     }
 
 
@@ -123,4 +181,8 @@ def format_bench(r) -> str:
         f"  basin {r['basin_grid']} x {r['basin_grid']}, {r['basin_t_final']:g} s             {r['basin_seconds']:8.2f} s              basin_effective_ratio = {r['basin_effective_ratio']:.2f}",
         f"  30 s Table 1 run: solve_ivp {r['analytic_30s_seconds']:.2f} s, MuJoCo {r['mujoco_30s_seconds']:.2f} s"
         f" (ratio {r['analytic_to_mujoco_ratio']:.1f})",
-    ])
+    ] + ([
+        f"  Gymnasium, {r['vector_env_num_envs']} robots, 10 ms step   single {r['single_env_step_us']:8.2f},"
+        f" vector {r['vector_env_step_us']:8.2f} us CPU/env-step  vector_env_speedup = {r['vector_env_speedup']:.2f}"
+        f" (1 ms step: {r['vector_env_speedup_frame_skip_1']:.2f})",
+    ] if "vector_env_speedup" in r else []))

@@ -1,0 +1,148 @@
+"""A trained policy as a controller of the package: every command runs it like any other controller.
+
+:class:`SB3Policy` maps the controller interface ``torque(q, qd, t)`` (batches (..., 3) [rad, rad/s]
+to torques (..., 2) [N m]) to ``model.predict(obs, deterministic=True)`` of a Stable-Baselines3 model
+trained on the environments of :mod:`paa_mj.gym_env`, through their own maps: the observations are
+:func:`~paa_mj.gym_env.observation` of the state the controller sees and the torques are
+:func:`~paa_mj.gym_env.action_to_torque` of the actions. As in the environment, an action is held over
+``frame_skip`` physics steps (the 10 ms control period of the v1 environments).
+
+A user's file configures it and the commands take it as ``FILE.py:Class``::
+
+    # mine.py
+    from pathlib import Path
+    from paa_mj.control.policy import SB3Policy
+
+    class Balance(SB3Policy):
+        path = Path(__file__).with_name("ppo_balance.zip")   # what model.save() wrote
+        algorithm = "PPO"
+
+    # paa-mj simulate --controller mine.py:Balance --x0 0 -3.1 0 0 0 0 --t-final 10 --out run
+
+Stable-Baselines3 (and torch) are needed only to load a model file: ``pip install "paa_mj[rl]"``.
+A subclass may instead override :meth:`SB3Policy.load_model` to return any object with
+``predict(obs, deterministic=True) -> (actions, state)``.
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import PaaError
+
+#: How to install what a Stable-Baselines3 model needs.
+RL_INSTALL = 'pip install "paa_mj[rl]"'
+
+
+def require_sb3():
+    """The ``stable_baselines3`` module, or a one-line :class:`PaaError` saying how to install it."""
+    try:
+        import stable_baselines3
+    except ImportError:
+        raise PaaError(f"stable-baselines3 is not installed (it brings torch): {RL_INSTALL}") from None
+    return stable_baselines3
+
+
+def _gym_maps():
+    try:
+        from .. import gym_env
+    except ImportError:  # gymnasium missing: the maps live with the environments
+        raise PaaError(f"a trained policy needs the Gymnasium environments' maps (gymnasium): {RL_INSTALL}") from None
+    return gym_env
+
+
+class SB3Policy:
+    """A Stable-Baselines3 model as a controller (module docstring); configure it by subclassing.
+
+    Attributes
+    ----------
+    path : str or Path
+        The model file (``model.save(path)``); relative paths are from the working folder.
+    algorithm : str
+        The class of ``stable_baselines3`` that saved it ("PPO", "SAC", "TD3", ...).
+    task : str
+        The environment's task, "balance" (``paa_mj/GymnastBalance-v1``) or "kip": its default torque limit.
+    torque_limit : float or None
+        As the environment's ``torque_limit`` [N m] (None: the task's default).
+    normalize_actions : bool
+        As the environment's: actions in [-1, 1] scaled by the torque limits.
+    frame_skip : int
+        Physics steps an action is held, as the environment's (10: 10 ms on the 1 ms models).
+    deterministic : bool
+        Passed to ``predict``.
+
+    Parameters
+    ----------
+    robot : paa_mj.model.robot.Robot
+        The robot, as every command builds a user's controller (``Class(robot)``).
+    model : object, optional
+        A model with ``predict(obs, deterministic=True)``; default :meth:`load_model`.
+    """
+
+    name = "sb3-policy"
+    path = None
+    algorithm = "PPO"
+    task = "balance"
+    torque_limit = None
+    normalize_actions = True
+    frame_skip = 10
+    deterministic = True
+    mode = 0
+
+    def __init__(self, robot, model=None):
+        maps = _gym_maps()
+        if self.task not in maps.TASKS:
+            raise PaaError(f"{type(self).__name__}.task must be one of {', '.join(maps.TASKS)}, got {self.task!r}")
+        self._observation, self._action_to_torque = maps.observation, maps.action_to_torque
+        #: The torque limits T [N m], (2,), as the environment computes them.
+        self.torque_limits = maps.torque_limits_for(robot, self.task, self.torque_limit)
+        self.robot = robot
+        self.period = self.frame_skip * robot.model.opt.timestep
+        self.model = self.load_model() if model is None else model
+        if not callable(getattr(self.model, "predict", None)):
+            raise PaaError(f"{type(self).__name__}: the model has no method predict(obs, deterministic=True)")
+        self.reset()
+
+    def load_model(self):
+        """The Stable-Baselines3 model of :attr:`path` (one-line errors: no SB3, no file, unknown algorithm)."""
+        sb3 = require_sb3()
+        if self.path is None:
+            raise PaaError(f"{type(self).__name__}.path is not set: name the model file that model.save() wrote")
+        cls = getattr(sb3, str(self.algorithm), None)
+        if cls is None or not hasattr(cls, "load"):
+            raise PaaError(f"{type(self).__name__}.algorithm {self.algorithm!r} is no algorithm of stable_baselines3")
+        path = Path(self.path).expanduser()
+        if not path.is_file() and not path.with_suffix(".zip").is_file():
+            raise PaaError(f"policy file not found: {self.path}")
+        return cls.load(str(path), device="cpu")
+
+    def reset(self):
+        """Forget the held torques (before a new rollout)."""
+        self._held, self._period_index = None, None
+
+    def actions(self, q, qd):
+        """The model's actions (..., 2) at states q, qd (..., 3), through the environment's observation map."""
+        obs = self._observation(q, qd)
+        flat = obs.reshape(-1, obs.shape[-1])
+        actions, _ = self.model.predict(flat, deterministic=self.deterministic)
+        actions = np.asarray(actions, dtype=float)
+        if actions.shape != (len(flat), 2):
+            raise PaaError(f"{type(self).__name__}: predict returned actions of shape {actions.shape} for"
+                           f" {len(flat)} observations; it must return ({len(flat)}, 2)")
+        return actions.reshape(obs.shape[:-1] + (2,))
+
+    def torque(self, q, qd, t=0.0):
+        """Torques [N m], (..., 2): the actions of the state at the start of each control period, held over it."""
+        q, qd = np.asarray(q, dtype=float), np.asarray(qd, dtype=float)
+        # the period index by floor with a margin: t = k dt arrives a rounding below k dt now and then
+        index = math.floor(float(t) / self.period + 1e-6)
+        if self._held is None or index != self._period_index or self._held.shape[:-1] != q.shape[:-1]:
+            self._held = self._action_to_torque(self.actions(q, qd), self.torque_limits, self.normalize_actions)
+            self._period_index = index
+        return self._held.copy()
+
+    def describe(self) -> dict:
+        return {"controller": type(self).__name__, "policy": None if self.path is None else str(self.path),
+                "algorithm": self.algorithm, "frame_skip": self.frame_skip}

@@ -1,0 +1,227 @@
+"""N gymnasts stepped together: a Gymnasium vector environment on compiled stepping (extra ``paa_mj[gym]``).
+
+``gym.make_vec("paa_mj/GymnastBalance-v1", num_envs=64)`` (or ``paa_mj/GymnastKip-v1``) builds a
+:class:`GymnastVectorEnv`: the sub-environments are those of :class:`paa_mj.gym_env.GymnastEnv`, same
+arguments, spaces, rewards and information, but one environment step of all of them is one compiled call
+(N MjData, each with its torque set and ``frame_skip`` ``mj_step`` from numba). The observations, rewards,
+terminations and truncations equal those of N :class:`~paa_mj.gym_env.GymnastEnv` stepped with the same
+actions, bit for bit (the same compiled code computes both), and so do the resets: sub-environment i is
+seeded with ``seed + i`` as :class:`gymnasium.vector.SyncVectorEnv` seeds its copies.
+
+Autoreset (Gymnasium 1.x, ``metadata["autoreset_mode"]``):
+
+- ``NEXT_STEP`` (default): a sub-environment whose episode ended is reset by the next ``step``, which ignores
+  its action and returns its first observation with reward 0, not terminated, not truncated;
+- ``SAME_STEP``: reset within the step that ended it; the last observation and information are in
+  ``info["final_obs"]`` and ``info["final_info"]`` (masked by ``info["_final_obs"]``);
+- ``DISABLED``: reset ended sub-environments with ``reset(options={"reset_mask": mask})``.
+
+``info`` holds the sub-environments' ``q``, ``qd`` (N, 3), ``time``, ``diverged`` and ``is_success`` (N,),
+each with its mask ``_key``, as :class:`gymnasium.vector.SyncVectorEnv` would batch them.
+"""
+from __future__ import annotations
+
+import math
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+from gymnasium.utils import seeding
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+
+from .sim.mujoco_log import mujoco_log_off
+from .gym_env import GymnastEnv, _check_options, _check_x0, _real_array, _Robots, _whole, action_to_torque, perturbed
+
+#: The most sub-environments of one vector environment.
+MAX_ENVS = 1_000_000
+_MODES = {mode.value: mode for mode in AutoresetMode}
+
+
+class GymnastVectorEnv(VectorEnv):
+    """``num_envs`` copies of :class:`~paa_mj.gym_env.GymnastEnv`, stepped by one compiled call (module docstring).
+
+    Parameters
+    ----------
+    num_envs : int
+        Number of sub-environments, in [1, 1000000].
+    max_episode_steps : int, optional
+        Truncate after this many environment steps too (``gym.make_vec`` passes the registered horizon).
+    autoreset_mode : gymnasium.vector.AutoresetMode or its value ("NextStep", "SameStep", "Disabled")
+    num_threads : int
+        Threads that share the physics of one step, in [1, 1024] (default 1). The compiled stepping releases
+        the GIL, so more threads cut the wall-clock time of a step on a machine with idle cores, not its CPU
+        time; the numbers are the same with any number of threads (each sub-environment is stepped alone).
+    **kwargs
+        The arguments of :class:`~paa_mj.gym_env.GymnastEnv` (``task``, ``robot``, ``frame_skip``, ...),
+        checked the same way; ``render_mode`` must be None.
+
+    Raises
+    ------
+    ValueError
+        An argument of the wrong type or out of range, one line naming it.
+    """
+
+    def __init__(self, num_envs=64, max_episode_steps=None, autoreset_mode=AutoresetMode.NEXT_STEP, num_threads=1,
+                 **kwargs):
+        num_envs = _whole("num_envs", num_envs, 1, MAX_ENVS)
+        num_threads = _whole("num_threads", num_threads, 1, 1024)
+        if kwargs.get("render_mode") is not None:
+            raise ValueError(f"render_mode must be None for the vector environment, got {kwargs['render_mode']!r}")
+        mode = autoreset_mode if isinstance(autoreset_mode, AutoresetMode) else \
+            _MODES.get(autoreset_mode) if isinstance(autoreset_mode, str) else None
+        if mode is None:
+            raise ValueError(f"autoreset_mode must be one of {', '.join(_MODES)} (or gymnasium's AutoresetMode),"
+                             f" got {autoreset_mode!r}")
+        if max_episode_steps is not None:
+            max_episode_steps = _whole("max_episode_steps", max_episode_steps, 1, 10**12)
+        # one sub-environment checks every argument and computes what all of them share
+        self.prototype = GymnastEnv(**kwargs)
+        proto = self.prototype
+        self.num_envs = num_envs
+        self.robot, self.model, self.dt = proto.robot, proto.model, proto.dt
+        self.torque_limits, self.normalize_actions = proto.torque_limits, proto.normalize_actions
+        self.max_steps = min(proto.max_steps, max_episode_steps or math.inf)
+        self.autoreset_mode = mode
+        self.metadata = {"autoreset_mode": mode, "render_modes": []}
+        self.render_mode = None
+        self.single_observation_space = proto.observation_space
+        self.single_action_space = proto.action_space
+        self.observation_space = batch_space(proto.observation_space, num_envs)
+        self.action_space = batch_space(proto.action_space, num_envs)
+        self._robots = _Robots(self.model, num_envs, proto.frame_skip, proto._robots.kind, self.torque_limits)
+        self._rngs = [None] * num_envs
+        self._steps = np.zeros(num_envs, np.int64)
+        self._ended = np.zeros(num_envs, bool)
+        self._reset_once = False
+        self.num_threads = min(num_threads, num_envs)
+        self._pool = None
+
+    # --- resets ---------------------------------------------------------------------------------------------
+
+    def _seeds(self, seed):
+        n = self.num_envs
+        if seed is None:
+            return [None] * n
+        if isinstance(seed, (int, np.integer)) and not isinstance(seed, (bool, np.bool_)):
+            if seed < 0:
+                raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
+            return [int(seed) + i for i in range(n)]
+        if isinstance(seed, (list, tuple)) and len(seed) == n and all(
+                s is None or (isinstance(s, (int, np.integer)) and not isinstance(s, (bool, np.bool_)) and s >= 0)
+                for s in seed):
+            return [None if s is None else int(s) for s in seed]
+        raise ValueError(f"seed must be None, an integer >= 0 or a list of {n} of them (or None), got {seed!r}")
+
+    def _reset_one(self, i, x0, seed=None):
+        if seed is not None or self._rngs[i] is None:
+            self._rngs[i], _ = seeding.np_random(seed)
+        proto = self.prototype
+        self._robots.reset(i, perturbed(x0, self._rngs[i], proto.init_noise, proto.init_speed_noise))
+        self._steps[i] = 0
+        self._ended[i] = False
+
+    def reset(self, *, seed=None, options=None):
+        """Reset every sub-environment, or those of ``options["reset_mask"]`` (bool (N,)); ``options["x0"]``:
+        a start (6,) for all or one per sub-environment (N, 6), perturbed as :meth:`GymnastEnv.reset` does.
+
+        Returns the observations (N, 9) and the information of the sub-environments reset (masked).
+        """
+        options = _check_options(options, ("x0", "reset_mask"))
+        seeds = self._seeds(seed)
+        mask = np.ones(self.num_envs, bool)
+        if "reset_mask" in options:
+            mask = np.asarray(options["reset_mask"])
+            if mask.dtype != np.bool_ or mask.shape != (self.num_envs,) or not mask.any():
+                raise ValueError(f"options['reset_mask'] must be a bool array of shape ({self.num_envs},) with at"
+                                 " least one True")
+            if not self._reset_once and not mask.all():
+                raise ValueError("the first reset resets every sub-environment: drop options['reset_mask']")
+        x0 = options.get("x0")
+        x0 = np.broadcast_to(self.prototype.start if x0 is None else _check_x0(x0, self.num_envs),
+                             (self.num_envs, 6))
+        for i in np.flatnonzero(mask):
+            self._reset_one(i, x0[i], seeds[i])
+        self._reset_once = True
+        return self._robots.obs.copy(), self._info(mask)
+
+    # --- steps ----------------------------------------------------------------------------------------------
+
+    def _torques(self, actions):
+        given, actions = actions, _real_array(actions)
+        shape = (self.num_envs, 2)
+        if actions is None or actions.shape != shape:
+            shown = " ".join(repr(given).split())[:60] if actions is None else f"shape {actions.shape}"
+            raise ValueError(f"actions are two real numbers per sub-environment, shape {shape}, got {shown}")
+        if not np.all(np.isfinite(actions)):
+            bad = np.flatnonzero(~np.all(np.isfinite(actions), axis=1))
+            raise ValueError(f"actions must be finite; sub-environment(s) {bad[:5].tolist()} got non-finite ones")
+        return action_to_torque(actions, self.torque_limits, self.normalize_actions)
+
+    def step(self, actions):
+        """One environment step of every sub-environment (autoreset as the module docstring says).
+
+        Returns
+        -------
+        obs (N, 9) float32, rewards (N,) float64, terminated (N,) bool, truncated (N,) bool, info dict
+        """
+        if not self._reset_once:
+            raise ValueError("call reset() before step()")
+        tau = self._torques(actions)
+        robots, n = self._robots, self.num_envs
+        restart = self._ended.copy() if self.autoreset_mode == AutoresetMode.NEXT_STEP else np.zeros(n, bool)
+        if self.autoreset_mode == AutoresetMode.DISABLED and self._ended.any():
+            raise ValueError(f"sub-environment(s) {np.flatnonzero(self._ended)[:5].tolist()} ended: reset them with"
+                             " reset(options={'reset_mask': mask}) first (autoreset_mode Disabled)")
+        for i in np.flatnonzero(restart):
+            self._reset_one(i, self.prototype.start)
+        rows = np.flatnonzero(~restart)
+        self._step_rows(rows, tau[rows])
+        self._steps[rows] += 1
+        margin = self.prototype.terminate_margin
+        terminated = ~restart & (robots.diverged | (robots.margin >= margin))
+        truncated = ~restart & (self._steps >= self.max_steps) & ~terminated
+        rewards = np.where(restart, 0.0, robots.reward)
+        self._ended = terminated | truncated
+        if self.autoreset_mode != AutoresetMode.SAME_STEP or not self._ended.any():
+            return robots.obs.copy(), rewards, terminated, truncated, self._info()
+        ended = self._ended.copy()
+        final_obs = np.full(n, None, dtype=object)
+        for i in np.flatnonzero(ended):
+            final_obs[i] = robots.obs[i].copy()
+        final_info = self._info(ended)
+        for i in np.flatnonzero(ended):
+            self._reset_one(i, self.prototype.start)
+        info = self._info() | {"final_obs": final_obs, "_final_obs": ended, "final_info": final_info,
+                               "_final_info": ended}
+        return robots.obs.copy(), rewards, terminated, truncated, info
+
+    def _step_rows(self, rows, tau):
+        if self.num_threads == 1 or len(rows) < 2:
+            self._robots.step(rows, tau)
+            return
+        if self._pool is None:
+            self._pool = ThreadPoolExecutor(self.num_threads, thread_name_prefix="paa_mj-gym")
+        # contiguous chunks: each thread writes rows of the shared arrays that no other thread touches
+        chunks = np.array_split(np.arange(len(rows)), min(self.num_threads, len(rows)))
+        with mujoco_log_off():
+            list(self._pool.map(lambda c: self._robots.step(rows[c], tau[c], log=False), chunks))
+
+    def _info(self, mask=None):
+        """The information of the sub-environments in ``mask`` (all by default), batched with masks."""
+        robots = self._robots
+        values = {"q": robots.q, "qd": robots.qd, "time": robots.time(), "diverged": robots.diverged,
+                  "is_success": robots.success()}
+        info = {}
+        for key, value in values.items():
+            if mask is None:
+                info[key], info["_" + key] = value.copy(), np.ones(self.num_envs, bool)
+            else:
+                info[key] = np.where(mask.reshape((-1,) + (1,) * (value.ndim - 1)), value, np.zeros_like(value))
+                info["_" + key] = mask.copy()
+        return info
+
+    def close_extras(self, **kwargs):
+        if self._pool is not None:
+            self._pool.shutdown()
+            self._pool = None
+        self.prototype.close()

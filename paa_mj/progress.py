@@ -1,10 +1,11 @@
 """Progress on stderr, whether or not stderr is a terminal.
 
 On a terminal a bar redraws in place (tqdm). Redirected to a file or a pipe, the
-same bar is written as whole lines, the first after :data:`LOG_DELAY` seconds,
-then one every :data:`LOG_INTERVAL` seconds at most and one at the end, each
-with the count, the rate and the time left, so a log shows where a long command
-is and is never silent for long.
+same bar is written as whole lines, the first after :data:`LOG_DELAY` seconds
+(work that is done by then, or fails, adds none), then one every
+:data:`LOG_INTERVAL` seconds at most and one at the end, each with the count,
+the rate and the time left, so a log shows where a long command is and is never
+silent for long.
 """
 from __future__ import annotations
 
@@ -40,7 +41,8 @@ class _LogBar:
         self.n += n
         now = time.monotonic()
         due = LOG_INTERVAL if self.shown else LOG_DELAY
-        if now - self.last >= due:
+        unfinished = self.total is None or self.n < self.total
+        if now - self.last >= due and unfinished:  # work that ends before its first line is due says nothing
             self._line(now)
 
     def _line(self, now):
@@ -52,7 +54,7 @@ class _LogBar:
 
     def close(self):
         now = time.monotonic()
-        if (self.shown or now - self.start >= LOG_DELAY) and self.shown_n != self.n:
+        if self.shown and self.shown_n != self.n:
             self._line(now)
         self.shown = False
         self.start = self.last = math.inf  # closed: no more lines

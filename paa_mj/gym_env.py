@@ -225,26 +225,22 @@ def observation(q, qd):
 
 # --- compiled stepping of N MjData: one call per environment step ----------------------------------------------
 
-@intrinsic
-def _float64_at(typingctx, address):
-    """The float64 pointer at an integer address (numba casts no integer to a pointer by itself)."""
-    sig = types.CPointer(types.float64)(types.intp)
+def _pointer_at(item_type):
+    """An intrinsic that reads an integer address as a pointer to ``item_type`` (numba casts none by itself)."""
+    @intrinsic
+    def pointer_at(typingctx, address):
+        sig = types.CPointer(item_type)(types.intp)
 
-    def codegen(context, builder, signature, args):
-        return builder.inttoptr(args[0], context.get_value_type(signature.return_type))
+        def codegen(context, builder, signature, args):
+            return builder.inttoptr(args[0], context.get_value_type(signature.return_type))
 
-    return sig, codegen
+        return sig, codegen
+
+    return pointer_at
 
 
-@intrinsic
-def _int32_at(typingctx, address):
-    """The int32 pointer at an integer address."""
-    sig = types.CPointer(types.int32)(types.intp)
-
-    def codegen(context, builder, signature, args):
-        return builder.inttoptr(args[0], context.get_value_type(signature.return_type))
-
-    return sig, codegen
+_float64_at = _pointer_at(types.float64)
+_int32_at = _pointer_at(types.int32)
 
 
 # Columns of the address table: the mjData and its qpos, qvel, ctrl and warning counters.

@@ -47,24 +47,19 @@ class _Uncompiled:
         self.controller.reset()
 
 
-def _best_of(fn, repeats):
-    """The fastest of ``repeats`` runs (the least disturbed by other work on the machine)."""
+def _best_of(fn, repeats, clock=time.perf_counter):
+    """The least time of ``repeats`` runs by ``clock`` [s] (the run least disturbed by other work)."""
     best = np.inf
     for _ in range(repeats):
-        start = time.perf_counter()
+        start = clock()
         fn()
-        best = min(best, time.perf_counter() - start)
+        best = min(best, clock() - start)
     return best
 
 
 def _cpu_best_of(fn, repeats):
     """The least CPU time of ``repeats`` runs [s] (this process: the stepping runs in the calling thread)."""
-    best = np.inf
-    for _ in range(repeats):
-        start = time.process_time()
-        fn()
-        best = min(best, time.process_time() - start)
-    return best
+    return _best_of(fn, repeats, time.process_time)
 
 
 def vector_env_costs(n_envs=64, steps=50, repeats=3, frame_skip=10):

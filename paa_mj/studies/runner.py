@@ -393,8 +393,7 @@ def _run_on_dask(task, shared, payloads, todo, scheduler, finished, store, bar, 
                     raise PaaError(f"cannot start a local Dask cluster ({type(err).__name__}:"
                                    f" {' '.join(str(err).split())}); use --scheduler inline") from None
                 client = Client(cluster)
-            else:
-                probe_scheduler(scheduler)
+            else:  # map_chunks has probed the address (check_scheduler)
                 try:
                     client = Client(scheduler, timeout=5)
                 except (OSError, TimeoutError, ValueError) as err:

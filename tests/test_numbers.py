@@ -291,3 +291,11 @@ def test_chunk_is_honoured_by_compare(tmp_path):
     board = json.loads((tmp_path / "leaderboard.json").read_text())
     runs = sum(rate["trials"] for rate in board["controllers"]["lqr"]["robustness"].values())
     assert len(list(folders["robustness"].glob("chunk-*.npz"))) == runs  # one run per chunk, each run counted once
+
+
+def test_every_controller_of_a_leaderboard_meets_the_same_torque_noise(capsys):
+    """Torque noise is a fraction of the common limit, not of each controller's own peak (passive has none)."""
+    assert main(["compare", "--controllers", "passive,lqr", "--quick", "--trials", "1", "--grid", "2",
+                 "--t-final", "0.3", "--torque-limit", "80", "--scheduler", "inline", "--json"]) == 0
+    board = json.loads(capsys.readouterr().out)
+    assert board["torque_noise_scale"] == 80.0 and set(board["controllers"]) == {"passive", "lqr"}

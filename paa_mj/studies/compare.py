@@ -7,8 +7,8 @@ there), and is scored on
 - performance (:data:`METRICS`): when it first enters region (68) (``t_region``),
   from when it stays within 1e-3 of UDD (``t_balanced``), peak torques, the
   integral of :math:`|\\tau|^2` dt, the work integral of :math:`|\\tau \\cdot \\dot q_a|` dt, the RMS of the
-  torque change per second (smoothness) and the peak joint speed; success means
-  balanced at the end, and a failure says why;
+  torque change per second (smoothness) and the peak joint speed; success is
+  the package's one definition, and a failure says why;
 - robustness: the success rate under each disturbance
   (:mod:`paa_mj.studies.robustness`). Random disturbances (:data:`FACTORS`:
   measurement noise, torque noise, pushes during the swing, a perturbed start)
@@ -22,7 +22,8 @@ there), and is scored on
   (:mod:`paa_mj.studies.basin`), which answers "from where?".
 
 Every run of every part, reach included, is saturated at the same torque limit,
-and success has one meaning throughout
+torque noise is a fraction of that same limit for every controller (so that
+each meets the same disturbance), and success has one meaning throughout
 (:data:`~paa_mj.control.region.SUCCESS_DEFINITION`).
 
 RealAIGym also folds the performance metrics into one score with normalisers
@@ -134,11 +135,15 @@ def compare(robot: Robot, controllers=DEFAULT_CONTROLLERS, torque_limit=None, tr
             stage(f"compare: planning the {name} kip (collocation, IPOPT; cached after the first solve)", progress)
         specs[name].build(robot)  # gains, files and solves checked (one line) before any study runs
     sweeps = {factor: sweep_levels(factor, quick) for factor in SWEEPS}
+    if not np.all(np.isfinite(limit)):
+        raise PaaError("the leaderboard needs a finite torque limit: give --torque-limit (the default, vcl's peak"
+                       " torques from (65), is not finite here)")
     summary = {"robot": robot.name, "robot_sha256": text_sha256(robot.xml), "torque_limit": limit.tolist(),
                "t_final": sizes["t_final"], "trials": sizes["trials"], "grid": sizes["grid"], "seed": seed, "success": SUCCESS_DEFINITION,
                "intervals": "95 % Wilson intervals over the independent draws of a random factor (random: true);"
                             " a swept deterministic factor's rate is the share of its levels that succeed, one run"
                             " each (random: false), without an interval",
+               "torque_noise_scale": float(np.max(limit)),
                "factors": {k: {"label": FACTOR_LABELS[k], "random": k in FACTORS,
                                **({"level": FACTORS[k]} if k in FACTORS else {"levels": list(sweeps[k])})}
                            for k in FACTOR_ORDER},
@@ -153,7 +158,8 @@ def compare(robot: Robot, controllers=DEFAULT_CONTROLLERS, torque_limit=None, tr
         levels = {k: [v] for k, v in FACTORS.items()} | {k: list(v) for k, v in sweeps.items()}
         rob, _ = robustness(robot, trials=sizes["trials"], t_final=sizes["t_final"], seed=seed, controller=spec,
                             factors=list(FACTOR_ORDER), levels=levels, start="hanging", progress=progress,
-                            scheduler=scheduler, out_dir=folder, fresh=fresh, torque_limit=limit, chunk=chunk)
+                            scheduler=scheduler, out_dir=folder, fresh=fresh, torque_limit=limit, chunk=chunk,
+                            torque_scale=float(np.max(limit)))
         rates = {factor: _factor_rate(rob["factors"][factor]["levels"], factor in sweeps) for factor in FACTOR_ORDER}
         complete = [r["rate"] for r in rates.values() if r["rate"] is not None]
         basin_summary, basins[name] = basin(robot, (0, 1), sizes["grid"], sizes["t_final"], controller=spec,

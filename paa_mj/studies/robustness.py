@@ -127,7 +127,7 @@ def nominal_peak(robot: Robot, spec: ControllerSpec, torque_limit=None, t_final=
 
 def robustness(robot: Robot, trials=64, t_final=30.0, seed=0, controller: ControllerSpec | str = "vcl",
                factors=DEFAULT_FACTORS, levels=None, start="random", progress=False, scheduler="inline",
-               out_dir=None, fresh=False, model_error=None, chunk=CHUNK, torque_limit=None):
+               out_dir=None, fresh=False, model_error=None, chunk=CHUNK, torque_limit=None, torque_scale=None):
     """Success rate against each factor; returns (summary dict, arrays dict).
 
     Parameters
@@ -138,6 +138,10 @@ def robustness(robot: Robot, trials=64, t_final=30.0, seed=0, controller: Contro
     start : "random" or "hanging"
     torque_limit : float or (2,), optional
         A saturation [N m] for every rollout (the torque_limit factor goes below it).
+    torque_scale : float, optional
+        The torque [N m] the ``torque_limit`` and ``torque_noise`` levels are fractions of
+        (default: the peak torque of the controller's own kip from (65)); a leaderboard gives
+        every controller the same scale, so that each meets the same disturbance.
     """
     spec = ControllerSpec(controller) if isinstance(controller, str) else controller
     if not (isinstance(trials, (int, np.integer)) and 1 <= trials <= MAX_TRIALS):
@@ -175,7 +179,11 @@ def robustness(robot: Robot, trials=64, t_final=30.0, seed=0, controller: Contro
     spec.build(robot)  # checks the gains (one line) before any work
     quiet = ControllerSpec(spec.name, spec.gains, spec.believed, check=False, options=spec.options)
     base_limit = np.broadcast_to(np.inf if torque_limit is None else np.asarray(torque_limit, float), (2,))
-    peak = nominal_peak(robot, spec, base_limit) if {"torque_limit", "torque_noise"} & set(chosen) else None
+    if torque_scale is not None and not (math.isfinite(torque_scale) and torque_scale > 0):
+        raise PaaError(f"the torque scale must be finite and > 0 [N m], got {torque_scale}")
+    peak = None
+    if {"torque_limit", "torque_noise"} & set(chosen):
+        peak = float(torque_scale) if torque_scale is not None else nominal_peak(robot, spec, base_limit)
     base = initial_states(trials, seed, start)
     dt = robot.model.opt.timestep
     x0, specs, limit, noise, tau_noise, delay, pushes, index, noise_ids = [], [], [], [], [], [], [], [], []
@@ -219,7 +227,9 @@ def robustness(robot: Robot, trials=64, t_final=30.0, seed=0, controller: Contro
                "intervals": "95 % Wilson intervals over independent draws only (random: true); a deterministic"
                             " setting is one run (random: false) and has none",
                "max_abs_tau": peak_torques(result.max_abs_tau, completed),
-               "nominal_peak_torque": peak, "interrupted": result.interrupted, "factors": {}}
+               "torque_scale": peak, "torque_scale_is": None if peak is None else
+               "given" if torque_scale is not None else "the peak torque of the controller's kip from (65)",
+               "interrupted": result.interrupted, "factors": {}}
     index = np.array([f"{factor}:{level_i}" for factor, level_i in index])
     for factor, fspec in chosen.items():
         rates = []

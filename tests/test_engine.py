@@ -210,9 +210,9 @@ def test_bench_reports_ratios_without_timing_assertions():
 
     r = run_bench(batch_size=8, batch_seconds=0.05, repeats=1, basin_grid=2, basin_seconds=0.1)
     for key in ("bare_mj_step_us", "single_step_ratio", "batch_step_ratio", "basin_effective_ratio",
-                "analytic_to_mujoco_ratio"):
+                "analytic_to_mujoco_ratio", "python_step_vs_hand_loop"):
         assert np.isfinite(r[key]) and r[key] > 0
-    assert "basin_effective_ratio" in format_bench(r)
+    assert "basin_effective_ratio" in format_bench(r) and "python_step_vs_hand_loop" in format_bench(r)
 
 
 def test_robustness_cli(capsys, tmp_path):

@@ -134,7 +134,10 @@ def torque_of(controller, q, qd, t):
     """
     q, qd = np.array(q, dtype=float), np.array(qd, dtype=float)
     shape = q.shape
-    raw = _user_call(controller, "torque", lambda: np.asarray(controller.torque(q, qd, t)))
+    raw = _user_call(controller, "torque", controller.torque, q, qd, t)
+    if type(raw) is np.ndarray and raw.dtype == np.float64 and raw.shape == shape[:-1] + (2,):
+        return raw.copy()  # the common case, checked at once (this runs every step of a rollout)
+    raw = _user_call(controller, "torque", np.asarray, raw)
     name = type(controller).__name__
     if raw.dtype.kind not in "fiu":
         # np.asarray(.., float) would drop an imaginary part (a warning at most) and read booleans as 0 and 1
@@ -150,7 +153,10 @@ def torque_of(controller, q, qd, t):
 
 def mode_of(controller, shape=()):
     """The controller's mode as an int array of ``shape`` (0 when it has none), or a one-line error."""
-    mode = _user_call(controller, "mode", lambda: np.asarray(getattr(controller, "mode", 0)))
+    mode = _user_call(controller, "mode", getattr, controller, "mode", 0)
+    if type(mode) is int and (mode == 0 or mode == 1):  # the common case, at once (every step of a rollout)
+        return np.full(shape, mode, np.int8)
+    mode = _user_call(controller, "mode", np.asarray, mode)
     if mode.dtype.kind not in "biu" or not (mode.shape == () or mode.shape == shape):
         raise PaaError(f"controller {type(controller).__name__}.mode must be an integer or one integer per state"
                        f" (shape {shape}), got {mode.dtype} of shape {mode.shape}")

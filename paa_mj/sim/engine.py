@@ -668,32 +668,43 @@ def _run_compiled(plan, controllers, forms, rows, arrays, nthread, bar):
 
 
 def _run_python(plan, controller, rows, arrays, bar):
-    """Rollouts of a controller without a compiled form, stepped together; returns True if interrupted."""
-    rows = np.asarray(rows)
+    """Rollouts of a controller without a compiled form, stepped together; returns True if interrupted.
+
+    The controller's ``torque`` is called once per step on the batch of measured states. Everything
+    else of a step runs in :func:`measure` and :func:`finish_step`, their arguments bound once: the
+    Python between two physics steps is what a hand-written ``mj_step`` loop would have, and little more.
+    """
+    rows = [int(r) for r in rows]
     datas = [mujoco.MjData(plan.models[plan.model_index[r]]) for r in rows]
     views = [_data_views(d) for d in datas]
     for r, data in zip(rows, datas):
         arrays.start(plan, r, plan.models[plan.model_index[r]], data, np.zeros(1))
     reset_controller(controller)
     seen = np.zeros((len(rows), 6))
+    seen_q, seen_qd = seen[:, :3], seen[:, 3:]
     step_args, state_args = arrays.step_args(plan), arrays.state_args(plan)
+    seed, dt, status = int(plan.seed), plan.dt, arrays.istate[:, I_STATUS]
+    measure_args = [(r, views[k][0], views[k][1], plan.setup, plan.rollout_ids, seed, seen[k])
+                    for k, r in enumerate(rows)]
+    step_tails = [(plan.models[plan.model_index[r]]._address, datas[k]._address, *views[k], *step_args,
+                   arrays.delay_line, *state_args) for k, r in enumerate(rows)]
+    active = list(range(len(rows)))
+    batch = (len(rows),)
     try:
         for step in range(plan.n_steps + 1):
-            active = [k for k, r in enumerate(rows) if arrays.istate[r, I_STATUS] == RUNNING]
-            if not active:
-                break
             for k in active:
-                qpos, qvel = views[k][0], views[k][1]
-                measure(rows[k], step, qpos, qvel, plan.setup, plan.rollout_ids, int(plan.seed), seen[k])
-            tau = torque_of(controller, seen[:, :3], seen[:, 3:], step * plan.dt)
-            modes = mode_of(controller, (len(rows),))
+                r, qpos, qvel, setup, ids, seed_, out = measure_args[k]
+                measure(r, step, qpos, qvel, setup, ids, seed_, out)
+            tau = torque_of(controller, seen_q, seen_qd, step * dt)
+            modes = mode_of(controller, batch)
             for k in active:
-                r = rows[k]
-                model = plan.models[plan.model_index[r]]
-                finish_step(r, step, int(modes[k]), np.ascontiguousarray(tau[k]), model._address, datas[k]._address,
-                            *views[k], *step_args, arrays.delay_line, *state_args)
-                if step % SEGMENT == 0:
-                    bar.refresh()
+                finish_step(rows[k], step, int(modes[k]), tau[k], *step_tails[k])
+            if step % SEGMENT == 0:
+                bar.refresh()
+            if any(status[rows[k]] != RUNNING for k in active):
+                active = [k for k in active if status[rows[k]] == RUNNING]
+                if not active:
+                    break
     except KeyboardInterrupt:
         return True
     return False

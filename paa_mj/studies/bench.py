@@ -47,6 +47,38 @@ class _Uncompiled:
         self.controller.reset()
 
 
+class _HoldStraight:
+    """A two-line PD law in plain NumPy: the user's controller of the README, as a hand-written loop would run it."""
+
+    def __init__(self, robot):
+        self.gain = 0.05 * robot.analytic.b1
+
+    def torque(self, q, qd, t):
+        return -self.gain * (q[..., 1:] + 0.5 * qd[..., 1:])
+
+
+def python_loop_costs(robot, seconds=2.0, repeats=3):
+    """CPU time per step [s] of a user's Python controller: in a plain ``mj_step`` loop written by hand, and
+    through the package's engine (which also keeps outcomes, limits and the state checks); (hand, engine)."""
+    controller = _HoldStraight(robot)
+    model = robot.model.__copy__()
+    data = mujoco.MjData(model)
+    steps = round(seconds / model.opt.timestep)
+
+    def by_hand():
+        data.qpos[:], data.qvel[:] = X0_HANGING[:3], X0_HANGING[3:]
+        for k in range(steps):
+            data.ctrl[:] = controller.torque(data.qpos, data.qvel, k * model.opt.timestep)
+            mujoco.mj_step(model, data)
+
+    def through_engine():
+        simulate_batch(robot, X0_HANGING[None], seconds, controller=controller, retire=False)
+
+    through_engine()  # its compiled parts loaded before the clock
+    return (_best_of(by_hand, repeats, time.process_time) / steps,
+            _best_of(through_engine, repeats, time.process_time) / steps)
+
+
 def _best_of(fn, repeats, clock=time.perf_counter):
     """The least time of ``repeats`` runs by ``clock`` [s] (the run least disturbed by other work)."""
     best = np.inf
@@ -124,6 +156,8 @@ def run_bench(batch_size=1024, batch_seconds=2.0, repeats=3, basin_grid=16, basi
     python_step = _best_of(lambda: simulate_mujoco(robot, _Uncompiled(ctrl), X0_HANGING, t_python), 1) \
         / round(t_python / dt)
 
+    hand_step, engine_step = python_loop_costs(robot, repeats=repeats)
+
     rng = np.random.default_rng(0)
     x0 = np.zeros((batch_size, 6))
     x0[:, :3] = rng.uniform(-np.pi, np.pi, (batch_size, 3))
@@ -152,6 +186,9 @@ def run_bench(batch_size=1024, batch_seconds=2.0, repeats=3, basin_grid=16, basi
         "single_step_ratio": single_step / bare_step,
         "python_controller_step_us": python_step * 1e6,
         "python_step_ratio": python_step / bare_step,
+        "python_pd_hand_loop_us": hand_step * 1e6,
+        "python_pd_engine_us": engine_step * 1e6,
+        "python_step_vs_hand_loop": engine_step / hand_step,
         "batch_size": batch_size,
         "batch_state_step_us": batch_state_step * 1e6,
         "batch_step_ratio": batch_state_step / bare_step,
@@ -172,6 +209,8 @@ def format_bench(r) -> str:
         f"  bare mj_step (Python loop)         {r['bare_mj_step_us']:8.2f} us/step        = 1",
         f"  closed loop, compiled controller   {r['single_step_us']:8.2f} us/step        single_step_ratio = {r['single_step_ratio']:.2f}",
         f"  closed loop, controller in Python  {r['python_controller_step_us']:8.2f} us/step        ratio = {r['python_step_ratio']:.1f}",
+        f"  a PD law in Python: engine {r['python_pd_engine_us']:.2f}, hand-written mj_step loop"
+        f" {r['python_pd_hand_loop_us']:.2f} us CPU/step  python_step_vs_hand_loop = {r['python_step_vs_hand_loop']:.2f}",
         f"  batch of {r['batch_size']}, all cores         {r['batch_state_step_us']:8.2f} us/state-step  batch_step_ratio = {r['batch_step_ratio']:.2f}",
         f"  basin {r['basin_grid']} x {r['basin_grid']}, {r['basin_t_final']:g} s             {r['basin_seconds']:8.2f} s              basin_effective_ratio = {r['basin_effective_ratio']:.2f}",
         f"  30 s Table 1 run: solve_ivp {r['analytic_30s_seconds']:.2f} s, MuJoCo {r['mujoco_30s_seconds']:.2f} s"

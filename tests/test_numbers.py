@@ -299,3 +299,10 @@ def test_every_controller_of_a_leaderboard_meets_the_same_torque_noise(capsys):
                  "--t-final", "0.3", "--torque-limit", "80", "--scheduler", "inline", "--json"]) == 0
     board = json.loads(capsys.readouterr().out)
     assert board["torque_noise_scale"] == 80.0 and set(board["controllers"]) == {"passive", "lqr"}
+
+
+def test_chunks_of_an_older_version_do_not_pile_up(tmp_path, capsys):
+    legacy = tmp_path / ".chunks" / ("0123456789abcdef" + "0123")
+    legacy.mkdir(parents=True)
+    assert main(["basin", "--grid", "2", "--t-final", "0.1", "--scheduler", "inline", "--out", str(tmp_path)]) == 0
+    assert not legacy.exists() and len(list((tmp_path / ".chunks").iterdir())) == 1

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import re
 import shutil
 import sys
 from pathlib import Path
@@ -33,6 +34,9 @@ def study_key(definition: dict) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:20]
 
 
+_LEGACY_KEY = re.compile(r"[0-9a-f]{20}")
+
+
 class ChunkStore:
     """The chunks of one study under ``folder/.chunks/STUDY-KEY``; ``folder=None`` keeps nothing.
 
@@ -46,8 +50,10 @@ class ChunkStore:
         if self.path is not None:
             if fresh and self.path.exists():
                 shutil.rmtree(self.path)
-            stale = [p for p in self.path.parent.glob(f"{study}-*") if p.is_dir() and p != self.path] \
-                if self.path.parent.is_dir() else []
+            siblings = [p for p in self.path.parent.iterdir() if p.is_dir()] if self.path.parent.is_dir() else []
+            # the same kind of study with another key, or a folder of version 0.2 (its key alone, no kind)
+            stale = [p for p in siblings if p != self.path and (p.name.startswith(f"{study}-")
+                                                                or _LEGACY_KEY.fullmatch(p.name))]
             for old in stale:
                 shutil.rmtree(old, ignore_errors=True)
             if stale:

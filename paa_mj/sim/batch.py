@@ -21,6 +21,7 @@ from ..control.region import BALANCE_TOL, succeeded
 from ..control.registry import ControllerSpec
 from ..errors import PaaError
 from ..limits import check_memory, check_steps, positive_finite
+from ..model.params import RobotParams
 from ..model.robot import Robot
 from ..model.states import MAX_INITIAL_ANGLE, MAX_INITIAL_SPEED, X0_HANGING, udd_error
 from . import engine
@@ -248,8 +249,6 @@ def _plants(robot, base, plants, n):
         return [base], np.zeros(n, np.int64), [robot]
     if len(plants) != n:
         raise PaaError(f"plants needs one entry per rollout ({n}), got {len(plants)}")
-    from ..model.params import RobotParams
-
     models, robots, index, seen = [], [], np.empty(n, np.int64), {}
     for r, params in enumerate(plants):
         if params is not None and not isinstance(params, RobotParams):

@@ -6,6 +6,7 @@ line that says what it would need and which options lower it.
 from __future__ import annotations
 
 import math
+import numbers
 import os
 
 from .errors import PaaError
@@ -64,3 +65,10 @@ def positive_finite(name: str, value, allow_none=True):
     if not (math.isfinite(number) and number > 0):
         raise PaaError(f"{name} must be a positive finite number, got {value}")
     return number
+
+
+def check_seed(seed, name="seed"):
+    """``seed`` as a whole number in [0, 2^63) (what the noise streams take), or a one-line error."""
+    if not (isinstance(seed, numbers.Integral) and not isinstance(seed, bool) and 0 <= seed < 2**63):
+        raise PaaError(f"{name} must be a whole number in [0, 2^63), got {seed!r}")
+    return int(seed)

@@ -269,7 +269,8 @@ RESULT_FILES = {"simulate": "trajectory.npz", "basin": "basin.npz", "robustness"
                 "compare": "leaderboard.json", "atlas": "atlas.npz", "reproduce": "report.md"}
 #: The other files each command writes: found without the command's result file beside them, they are
 #: somebody else's, and the command refuses to replace them.
-ALSO_WRITTEN = {"basin": ("summary.json", "basin.png", "basin.svg"), "robustness": ("summary.json",),
+ALSO_WRITTEN = {"simulate": ("trajectory.csv", "summary.json"),
+                "basin": ("summary.json", "basin.png", "basin.svg"), "robustness": ("summary.json",),
                 "compare": ("leaderboard.md", "leaderboard.png", "leaderboard.svg", "kips.npz", "kips_overlaid.png",
                             "kips_overlaid.svg", "kips_side_by_side.mp4"),
                 "atlas": ("atlas.json", "atlas_theory.png", "atlas_theory.svg", "atlas_outcome.png",
@@ -290,11 +291,27 @@ def output_lock(out, command):
     for other, name in RESULT_FILES.items():
         if other != command and os.path.exists(os.path.join(out, name)):
             raise PaaError(f"{out} holds the results of 'paa-mj {other}' ({name}): choose another --out")
-    replaced = [name for name in ALSO_WRITTEN.get(command, ()) if os.path.lexists(os.path.join(out, name))]
-    if replaced and not os.path.exists(os.path.join(out, RESULT_FILES[command])):
+    own = RESULT_FILES[command]
+    replaced = [name for name in (own, *ALSO_WRITTEN.get(command, ())) if os.path.lexists(os.path.join(out, name))]
+    if replaced and not _holds_own_result(command, os.path.join(out, own)):
         raise PaaError(f"{out} holds {', '.join(replaced)}, not the results of a 'paa-mj {command}' it would replace:"
                        " choose another --out, or move those files")
     return OutputLock(out)
+
+
+def _holds_own_result(command, path):
+    """Whether ``path`` is ``command``'s result file; a trajectory.npz must be one that simulate writes."""
+    if not os.path.isfile(path):
+        return False
+    if command != "simulate":
+        return True
+    import zipfile
+
+    try:
+        with zipfile.ZipFile(path) as archive:
+            return {"t.npy", "q.npy", "qd.npy", "tau.npy", "meta.npy"} <= set(archive.namelist())
+    except (OSError, zipfile.BadZipFile):
+        return False
 
 
 def finish(interrupted, what, out=None, kept="finished chunks are kept in {out}, run the same command to resume"):

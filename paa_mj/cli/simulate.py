@@ -80,40 +80,8 @@ def run_from_args(args, progress=True):
     return robot, traj
 
 
-#: The files ``simulate --out`` writes, the first the one that says the folder holds its results.
-SIMULATE_FILES = ("trajectory.npz", "trajectory.csv", "summary.json")
-
-
-def _is_own_trajectory(path):
-    """True when ``path`` is an NPZ as :meth:`Trajectory.save <paa_mj.sim.trajectory.Trajectory.save>` writes it."""
-    import zipfile
-
-    try:
-        with zipfile.ZipFile(path) as archive:
-            return {"t.npy", "q.npy", "qd.npy", "tau.npy", "meta.npy"} <= set(archive.namelist())
-    except (OSError, zipfile.BadZipFile):
-        return False
-
-
-def check_simulate_folder(out):
-    """Refuse an ``--out`` folder where simulate would replace files that are not its own results.
-
-    Running simulate again into its own folder replaces its files, and files of other names are
-    left alone; but a ``summary.json`` or ``trajectory.csv`` of the user's, without a
-    trajectory.npz of paa-mj beside it, would be overwritten in silence.
-    """
-    import os
-
-    found = [name for name in SIMULATE_FILES if os.path.lexists(os.path.join(out, name))]
-    if found and not _is_own_trajectory(os.path.join(out, SIMULATE_FILES[0])):
-        raise PaaError(f"{out} holds {', '.join(found)}, not the results of a 'paa-mj simulate' it would replace:"
-                       " choose another --out, or move those files")
-
-
 def cmd_simulate(args):
     with output_lock(args.out, "simulate"):
-        if args.out:
-            check_simulate_folder(args.out)
         try:
             _, traj = run_from_args(args, progress=not args.json)
         except SimulationDiverged as err:
@@ -188,7 +156,7 @@ def _robot_of(traj, path, given):
     the name gymnast). An older file names its robot only: it is drawn as before, with a warning.
     """
     from ..model.robot import load_robot, robot_from_xml
-    from ..sim.trajectory import mjcf_sha256
+    from ..provenance import text_sha256
     from .common import note
 
     saved = traj.meta.get("robot")
@@ -204,9 +172,9 @@ def _robot_of(traj, path, given):
     if saved is not None and saved != robot.name:
         raise PaaError(f"{path} is a trajectory of robot {saved!r}, not of --robot {robot.name}"
                        + ("" if given else ": give --robot PATH.xml, the model it was simulated with"))
-    if traj.robot_xml is not None and mjcf_sha256(robot.xml) != traj.robot_sha256:
+    if traj.robot_xml is not None and text_sha256(robot.xml) != traj.robot_sha256:
         raise PaaError(f"{path} is a trajectory of robot {saved!r} as another model than --robot {given} (MJCF"
-                       f" sha256 {traj.robot_sha256[:12]}..., not {mjcf_sha256(robot.xml)[:12]}...): give the"
+                       f" sha256 {traj.robot_sha256[:12]}..., not {text_sha256(robot.xml)[:12]}...): give the"
                        " model it was simulated with, or no --robot to draw the one saved in the file")
     return robot
 

@@ -20,7 +20,7 @@ from numpy.typing import ArrayLike
 from ..control.region import BALANCE_TOL, succeeded
 from ..control.registry import ControllerSpec
 from ..errors import PaaError
-from ..limits import check_memory, check_steps, positive_finite
+from ..limits import check_memory, check_seed, check_steps, positive_finite
 from ..model.params import RobotParams
 from ..model.robot import Robot
 from ..model.states import MAX_INITIAL_ANGLE, MAX_INITIAL_SPEED, X0_HANGING, udd_error
@@ -236,8 +236,7 @@ def build_plan(robot: Robot, x0, t_final, controllers, dt=None, integrator=None,
     ids = np.arange(n, dtype=np.int64) if rollout_ids is None else np.asarray(rollout_ids, dtype=np.int64).reshape(-1)
     if ids.shape != (n,) or np.any(ids < 0):
         raise PaaError(f"rollout_ids must be {n} whole numbers >= 0, one per rollout, got shape {ids.shape}")
-    if not (isinstance(seed, (int, np.integer)) and not isinstance(seed, bool) and 0 <= seed < 2**63):
-        raise PaaError(f"seed must be a whole number in [0, 2^63), got {seed!r}")
+    check_seed(seed, "seed")
     return engine.Plan(models=models, model_index=model_index, x0=np.ascontiguousarray(x0), setup=setup, cert=cert,
                        pushes=pushes, rollout_ids=ids, seed=int(seed), dt=dt, n_steps=n_steps, every=int(every),
                        retire=bool(retire))

@@ -1,7 +1,6 @@
 """The trajectory record of a rollout and its summary; saved as NPZ, CSV and JSON."""
 from __future__ import annotations
 
-import hashlib
 import json
 import zipfile
 from dataclasses import dataclass, field
@@ -13,12 +12,10 @@ from ..control.region import BALANCE_TOL
 from ..errors import PaaError
 from ..io import json_writer, npz_writer, write_set
 from ..model.states import udd_error
+from ..provenance import text_sha256
 FIELDS = ("t", "q", "qd", "tau", "E_minus_Er", "V", "mode")
 
 
-def mjcf_sha256(xml: str) -> str:
-    """The fingerprint of a robot: the sha256 of its (flattened) MJCF text, hexadecimal."""
-    return hashlib.sha256(xml.encode("utf-8")).hexdigest()
 
 
 @dataclass
@@ -54,8 +51,8 @@ class Trajectory:
 
     @property
     def robot_sha256(self) -> str | None:
-        """The fingerprint of the robot (:func:`mjcf_sha256`), or None when the robot is unknown."""
-        return None if self.robot_xml is None else mjcf_sha256(self.robot_xml)
+        """The fingerprint of the robot (:func:`text_sha256`), or None when the robot is unknown."""
+        return None if self.robot_xml is None else text_sha256(self.robot_xml)
 
     @property
     def final_state(self):
@@ -144,6 +141,6 @@ class Trajectory:
         if np.any((arrays["mode"] != 0) & (arrays["mode"] != 1)):
             raise PaaError(f"corrupted trajectory file {path}: a controller mode is not 0 (swing-up) or 1 (balance)")
         arrays["mode"] = arrays["mode"].astype(np.int8)
-        if robot_xml is not None and mjcf_sha256(robot_xml) != sha:
+        if robot_xml is not None and text_sha256(robot_xml) != sha:
             raise PaaError(f"corrupted trajectory file {path}: its robot's MJCF text does not match its sha256")
         return cls(**arrays, switch_time=None if np.isnan(switch) else switch, meta=meta, robot_xml=robot_xml)

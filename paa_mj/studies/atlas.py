@@ -183,7 +183,8 @@ def atlas(robot: Robot, vary=("l1", "m1"), factor_range=DEFAULT_RANGE, grid=32, 
                  for i in range(len(payloads))]
         arrays[name] = np.concatenate(parts)
     arrays["theory_done"] = np.concatenate([np.full(len(payloads[i]), i in finished) for i in range(len(payloads))])
-    summary = {"robot": robot.name, "robot_sha256": text_sha256(robot.xml), "vary": list(vary), "factors": [f1.tolist(), f2.tolist()],
+    summary = {"robot": robot.name, "robot_sha256": text_sha256(robot.xml), "vary": list(vary),
+               "factors": [f1.tolist(), f2.tolist()],
                "range": list(factor_range), "grid": grid,
                "gain_rule": "kD = 1.05 kD_min, kP = 1.05 max(eta1, eta2), kV = kD x (kV/kD of the base robot)",
                "interrupted": interrupted, "simulated": bool(simulate)}

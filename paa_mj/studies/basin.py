@@ -96,7 +96,8 @@ def basin(robot: Robot, axes: tuple[int, int] = (0, 1), grid: int = 64, t_final:
         return float(np.mean(mask[completed])) if completed.any() else None
 
     summary = {
-        "robot": robot.name, "robot_sha256": text_sha256(robot.xml), "controller": spec.short_name, "axes": [COORDINATES[a] for a in axes], "grid": grid,
+        "robot": robot.name, "robot_sha256": text_sha256(robot.xml), "controller": spec.short_name,
+        "axes": [COORDINATES[a] for a in axes], "grid": grid,
         "cells": int(grid * grid), "t_final": t_final, "t_reached": result.t_reached,
         "interrupted": result.interrupted, "completed_fraction": float(np.mean(completed)),
         "success": SUCCESS_DEFINITION, "success_fraction": fraction(success),

@@ -139,7 +139,8 @@ def compare(robot: Robot, controllers=DEFAULT_CONTROLLERS, torque_limit=None, tr
         raise PaaError("the leaderboard needs a finite torque limit: give --torque-limit (the default, vcl's peak"
                        " torques from (65), is not finite here)")
     summary = {"robot": robot.name, "robot_sha256": text_sha256(robot.xml), "torque_limit": limit.tolist(),
-               "t_final": sizes["t_final"], "trials": sizes["trials"], "grid": sizes["grid"], "seed": seed, "success": SUCCESS_DEFINITION,
+               "t_final": sizes["t_final"], "trials": sizes["trials"], "grid": sizes["grid"], "seed": seed,
+               "success": SUCCESS_DEFINITION,
                "intervals": "95 % Wilson intervals over the independent draws of a random factor (random: true);"
                             " a swept deterministic factor's rate is the share of its levels that succeed, one run"
                             " each (random: false), without an interval",

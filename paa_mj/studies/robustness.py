@@ -40,7 +40,7 @@ import numpy as np
 from ..control.registry import ControllerSpec
 from ..errors import PaaError
 from ..provenance import text_sha256
-from ..limits import check_memory, check_steps
+from ..limits import check_memory, check_seed, check_steps
 from ..model.robot import Robot
 from ..model.states import X0_HANGING
 from ..sim.batch import kip_peak_torques
@@ -146,8 +146,7 @@ def robustness(robot: Robot, trials=64, t_final=30.0, seed=0, controller: Contro
     spec = ControllerSpec(controller) if isinstance(controller, str) else controller
     if not (isinstance(trials, (int, np.integer)) and 1 <= trials <= MAX_TRIALS):
         raise PaaError(f"--trials must be an integer in [1, {MAX_TRIALS}], got {trials}")
-    if not (isinstance(seed, (int, np.integer)) and not isinstance(seed, bool) and 0 <= seed < 2**63):
-        raise PaaError(f"--seed must be a whole number in [0, 2^63), got {seed!r}")
+    check_seed(seed, "--seed")
     if start not in STARTS:
         raise PaaError(f"--start must be one of {', '.join(STARTS)}, got {start!r}")
     factors = [f for f in factors if f]
@@ -220,7 +219,8 @@ def robustness(robot: Robot, trials=64, t_final=30.0, seed=0, controller: Contro
                        desc="robustness")
     completed = result.meta["completed"]
     success = result.success
-    summary = {"robot": robot.name, "robot_sha256": text_sha256(robot.xml), "controller": spec.short_name, "trials": trials, "t_final": t_final, "seed": seed,
+    summary = {"robot": robot.name, "robot_sha256": text_sha256(robot.xml), "controller": spec.short_name,
+               "trials": trials, "t_final": t_final, "seed": seed,
                "torque_limit": applied_limit(robot, base_limit),
                "start": start, "runs": total, "completed_fraction": float(np.mean(completed)),
                "success": SUCCESS_DEFINITION,

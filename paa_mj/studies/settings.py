@@ -41,7 +41,8 @@ COMPARE_FACTORS = {"noise": 0.01, "torque_noise": 0.03, "pushes": 0.1, "initial_
 #: The levels of each deterministic factor, swept (full size; --quick takes every second one).
 COMPARE_SWEEPS = {"model_error": tuple(float(v) for v in range(1, 11)),
                   "delay": tuple(float(v) for v in range(1, 11))}
-FACTOR_LABELS = {"model_error": "model error 1-10 %", "noise": "noise 0.01", "torque_noise": "torque noise 3 % of the limit",
+FACTOR_LABELS = {"model_error": "model error 1-10 %", "noise": "noise 0.01",
+                 "torque_noise": "torque noise 3 % of the limit",
                  "delay": "delay 1-10 ms", "pushes": "pushes 0.1 b1", "initial_state": "start +-0.1"}
 #: The order of the robustness columns.
 FACTOR_ORDER = ("model_error", "noise", "torque_noise", "delay", "pushes", "initial_state")

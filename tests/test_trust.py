@@ -36,7 +36,7 @@ CASES = [
     ("missing model file", ["simulate", "--robot", "{d}/none.xml"], "model file not found"),
     ("unreadable model file", ["check", "--robot", "{d}/binary.xml"], "cannot read model file"),
     ("malformed model file", ["theory", "--robot", "{d}/malformed.xml"], "malformed MJCF"),
-    ("model of the wrong shape", ["check", "--robot", "{d}/acrobot.xml"], "is not the 3-link gymnast"),
+    ("model of the wrong shape", ["check", "--robot", "{d}/acrobot.xml"], "is not a planar chain on the bar"),
     ("not a model", ["simulate", "--robot", "{d}/notes.txt"], "malformed MJCF"),
     ("unknown robot name", ["simulate", "--robot", "acrobot"], "unknown robot 'acrobot'"),
     ("non-physical parameters", ["make-model", "--m", "1", "1", "1", "--l", "1", "1", "0", "--out", "{d}/x.xml"], "must be a positive finite number, got 0"),

@@ -111,6 +111,14 @@ def positive_int(text):
     return value
 
 
+def links_count(text):
+    """An argparse type: a number of links, 2..64 (:data:`paa_mj.model.params.MAX_LINKS`)."""
+    value = _whole_number(text)
+    if not 2 <= value <= 64:
+        raise argparse.ArgumentTypeError(f"must be a whole number from 2 to 64, got {text}")
+    return value
+
+
 def folder(text):
     """An argparse type: an output folder, not empty."""
     if not text.strip():

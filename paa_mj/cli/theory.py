@@ -2,7 +2,8 @@
 from __future__ import annotations
 
 from ..errors import PaaError
-from .common import file_path, finite, gains_parent, positive, positive_int, print_json, robot_parent, seed
+from .common import (file_path, finite, gains_parent, links_count, non_negative, positive, positive_int, print_json,
+                     robot_parent, seed)
 
 
 def cmd_theory(args):
@@ -34,19 +35,39 @@ def cmd_check(args):
     return 0
 
 
+def _per_link(args, key, count, what):
+    """The values of ``--key``: ``count`` of them, or one for all where the option allows it."""
+    values = getattr(args, key)
+    if values is None:
+        return None
+    if len(values) == 1 and key in ("damping", "armature", "torque_limit"):
+        return values * count
+    if len(values) != count:
+        raise PaaError(f"--{key.replace('_', '-')} needs {count} values ({what}) for --links {args.links},"
+                       f" got {len(values)}")
+    return values
+
+
 def cmd_make_model(args):
     from ..io import write_text
     from ..model.mjcf import compile_mjcf, mjcf_from_params, params_from_model
     from ..model.params import RobotParams
 
-    if args.J is None:
-        if args.lc is not None:
+    n = args.links
+    per_link = {key: _per_link(args, key, n, "one per link") for key in ("m", "l", "lc", "J", "damping", "armature")}
+    limits = _per_link(args, "torque_limit", n - 1, "one per motor, joints 2..N")
+    for key in ("m", "l"):
+        if per_link[key] is None:
+            raise PaaError(f"give --{key}: {n} values, one per link")
+    extra = dict(g=args.gravity, name=args.name, damping=per_link["damping"], armature=per_link["armature"])
+    if per_link["J"] is None:
+        if per_link["lc"] is not None:
             raise PaaError("give --J with --lc (or neither, for uniform rods)")
-        params = RobotParams.uniform_rods(args.m, args.l, name=args.name)
+        params = RobotParams.uniform_rods(per_link["m"], per_link["l"], **extra)
     else:
-        if args.lc is None:
+        if per_link["lc"] is None:
             raise PaaError("give --lc with --J")
-        params = RobotParams(m=args.m, l=args.l, lc=args.lc, J=args.J, name=args.name)
+        params = RobotParams(m=per_link["m"], l=per_link["l"], lc=per_link["lc"], J=per_link["J"], **extra)
     gains = None
     if any(v is not None for v in (args.kD, args.kP, args.kV)):
         if None in (args.kD, args.kP, args.kV):
@@ -56,15 +77,21 @@ def cmd_make_model(args):
         from ..model.dynamics import AnalyticModel
 
         check_gains(AnalyticModel.from_params(params), **gains)  # every command would refuse the file later
-    xml = mjcf_from_params(params, name=args.name, title=args.title, gains=gains)
+
+    def write(gains):
+        return mjcf_from_params(params, name=args.name, title=args.title, gains=gains, torque_limits=limits)
+
+    xml = write(gains)
     params_from_model(compile_mjcf(xml, "generated model"), source="generated model")
     chosen = ""
     if gains is None:
         gains = _rule_gains(params)
         if gains is None:
-            chosen = "; no gains stored: the bounds (41), (59), (60) are not finite for this robot"
+            chosen = ("; no gains stored: Theorem 1's bounds (41), (59), (60) are defined for the paper's 3-link"
+                      " gymnast without damping" if not params.is_paper_shape else
+                      "; no gains stored: the bounds (41), (59), (60) are not finite for this robot")
         else:
-            xml = mjcf_from_params(params, name=args.name, title=args.title, gains=gains)
+            xml = write(gains)
             chosen = ("; stored gains kD = {kD:.6g}, kP = {kP:.6g}, kV = {kV:.6g}, 5 % above the bounds (41),"
                       " (59), (60)").format(**gains)
     write_text(args.out, xml)
@@ -80,6 +107,8 @@ def _rule_gains(params):
     from ..model.dynamics import AnalyticModel
     from ..theory.conditions import thresholds
 
+    if not params.is_paper_shape:
+        return None
     kd, e1, e2 = thresholds(AnalyticModel.from_params(params))
     gains = gain_rule(kd.value, e1.value, e2.value)
     return gains if all(np.isfinite(v) and v > 0 for v in gains.values()) else None
@@ -103,15 +132,25 @@ def register(sub, parser_class):
     p.set_defaults(func=cmd_check)
 
     p = sub.add_parser("make-model", parents=[gains_parent(stored="5 % above the bounds (41), (59), (60) of the new"
-                                                                   " robot")], help="write the MJCF of a gymnast with given parameters",
-                       description="Write the MJCF file of a 3-link gymnast (gravity 9.81 m/s^2) from its"
-                                   " parameters.")
-    p.add_argument("--m", type=positive, nargs=3, required=True, metavar=("M1", "M2", "M3"), help="masses [kg]")
-    p.add_argument("--l", type=positive, nargs=3, required=True, metavar=("L1", "L2", "L3"), help="lengths [m]")
-    p.add_argument("--lc", type=finite, nargs=3, metavar=("LC1", "LC2", "LC3"),
-                   help="joint to centre of mass [m] (default: l/2)")
-    p.add_argument("--J", type=positive, nargs=3, metavar=("J1", "J2", "J3"),
-                   help="inertia about the centre of mass [kg m^2] (default: m l^2/12)")
+                                                                   " robot, for a 3-link gymnast without damping")],
+                       help="write the MJCF of a chain on the bar (the gymnast by default) with given parameters",
+                       description="Write the MJCF file of a planar chain of N links hanging from the bar (joint 1"
+                                   " passive, a motor on each of joints 2..N; N = 3 is the gymnast, N = 2 an acrobot)"
+                                   " from its parameters, one value per link where they are per link.")
+    p.add_argument("--links", type=links_count, default=3, metavar="N", help="number of links N >= 2 (default 3)")
+    p.add_argument("--m", type=positive, nargs="+", metavar="M", help="masses [kg], N values")
+    p.add_argument("--l", type=positive, nargs="+", metavar="L", help="lengths [m], N values")
+    p.add_argument("--lc", type=finite, nargs="+", metavar="LC",
+                   help="joint to centre of mass [m], N values (default: l/2)")
+    p.add_argument("--J", type=positive, nargs="+", metavar="J",
+                   help="inertia about the centre of mass [kg m^2], N values (default: m l^2/12)")
+    p.add_argument("--damping", type=non_negative, nargs="+", metavar="D",
+                   help="viscous joint damping [N m s/rad], N values or one for all (default 0)")
+    p.add_argument("--armature", type=non_negative, nargs="+", metavar="A",
+                   help="joint armature (rotor inertia) [kg m^2], N values or one for all (default 0)")
+    p.add_argument("--gravity", type=positive, default=9.81, metavar="G", help="gravity [m/s^2] (default 9.81)")
+    p.add_argument("--torque-limit", type=positive, nargs="+", metavar="T",
+                   help="each motor's torque limit [N m] (its ctrlrange), N-1 values or one for all (default: none)")
     p.add_argument("--name", default="custom", help="the model's name")
     p.add_argument("--title", default="", help="one line for the file's header comment")
     p.add_argument("--out", type=file_path, required=True, metavar="FILE.xml", help="MJCF file to write")

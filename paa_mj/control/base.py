@@ -1,9 +1,10 @@
 """The controller interface: one small protocol for every controller, compiled or not.
 
-A controller maps states to the motor torques tau = [tau2, tau3] [N m]:
+A controller maps states to the motor torques tau = [tau2, ..., tau_n] [N m]
+(for the gymnast, [tau2, tau3]):
 
 - ``torque(q, qd, t)`` takes a batch of states, ``q`` and ``qd`` of shape
-  (..., 3) [rad, rad/s] and the time ``t`` [s], and returns shape (..., 2);
+  (..., n) [rad, rad/s] and the time ``t`` [s], and returns shape (..., n - 1);
 - ``reset()`` forgets any internal state before a new rollout;
 - ``mode`` (optional) is 0 while swinging up and 1 once the balance controller
   (67) has taken over; a rollout's *switch time* is when it first becomes 1.
@@ -27,10 +28,10 @@ from ..errors import PaaError
 
 
 #: Signature of a compiled controller, and of a compiled switching condition:
-#: ``kernel(q1, q2, q3, d1, d2, d3, t, params, memory, tau) -> int``. A controller writes
-#: [tau2, tau3] [N m] into ``tau``, may update ``memory`` and returns its mode (0 swing-up,
-#: 1 balance); a condition returns 1 where it holds and touches nothing.
-KERNEL_SIG = types.int64(*(types.float64,) * 7, types.float64[:], types.float64[:], types.float64[:])
+#: ``kernel(x, t, params, memory, tau) -> int`` with x = [q, qd] (2n) the state it sees. A controller
+#: writes the n - 1 motor torques [N m] into ``tau``, may update ``memory`` and returns its mode
+#: (0 swing-up, 1 balance); a condition returns 1 where it holds and touches nothing.
+KERNEL_SIG = types.int64(types.float64[:], types.float64, types.float64[:], types.float64[:], types.float64[:])
 KERNEL_TYPE = types.FunctionType(KERNEL_SIG)
 
 
@@ -50,10 +51,10 @@ class CompiledForm:
         Constant parameters (gains, robot constants, gain tables), float64.
     memory : ndarray (S,)
         The initial internal state, copied for each rollout.
-    balance_gain : ndarray (2, 6) or None
+    balance_gain : ndarray (n - 1, 2n) or None
         The linear state feedback tau = -K x that acts in mode 1, x the error from
-        UDD (67). The engine uses it to stop a rollout whose balance can no longer
-        fail (:mod:`paa_mj.sim.engine`); None: never stopped early.
+        the goal ((67) at UDD). The engine uses it to stop a rollout whose balance can no
+        longer fail (:mod:`paa_mj.sim.retirement`); None: never stopped early.
     """
 
     kernel: object
@@ -119,7 +120,7 @@ def _user_call(controller, what, call, *args):
 
 
 def torque_of(controller, q, qd, t):
-    """``controller.torque(q, qd, t)`` as a float array of shape (..., 2), or a one-line error.
+    """``controller.torque(q, qd, t)`` as a float array of shape (..., n - 1), or a one-line error.
 
     The controller gets copies of ``q`` and ``qd``: the engines pass views of their own state (the
     integrator's, the measured state), which a controller that writes into its inputs would
@@ -134,8 +135,9 @@ def torque_of(controller, q, qd, t):
     """
     q, qd = np.array(q, dtype=float), np.array(qd, dtype=float)
     shape = q.shape
+    expected = shape[:-1] + (shape[-1] - 1,)
     raw = _user_call(controller, "torque", controller.torque, q, qd, t)
-    if type(raw) is np.ndarray and raw.dtype == np.float64 and raw.shape == shape[:-1] + (2,):
+    if type(raw) is np.ndarray and raw.dtype == np.float64 and raw.shape == expected:
         return raw.copy()  # the common case, checked at once (this runs every step of a rollout)
     raw = _user_call(controller, "torque", np.asarray, raw)
     name = type(controller).__name__
@@ -144,10 +146,10 @@ def torque_of(controller, q, qd, t):
         raise PaaError(f"controller {name}.torque returned {raw.dtype} torques; it must return real numbers"
                        " (float) [N m]")
     tau = np.array(raw, dtype=float)
-    expected = shape[:-1] + (2,)
     if tau.shape != expected:
+        motors = "[tau2, tau3]" if shape[-1] == 3 else f"{shape[-1] - 1} motor torque{'s' if shape[-1] > 2 else ''}"
         raise PaaError(f"controller {name}.torque returned shape {tau.shape} for states of"
-                       f" shape {shape}; it must return {expected} ([tau2, tau3] per state)")
+                       f" shape {shape}; it must return {expected} ({motors} per state)")
     return tau
 
 

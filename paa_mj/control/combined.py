@@ -18,24 +18,34 @@ from __future__ import annotations
 import numpy as np
 
 from .base import CompiledForm, Controller, SwitchedForm, kernel, reset_controller, torque_of
+from ..model.states import Q_UDD
 from .region import in_switch_region, reading_condition, reading_margin, region_condition, switch_margin
 
 SWING_UP, BALANCE = 0, 1
 
 
 class RegionCondition:
-    """The paper's switching rule: the state is inside region (68)."""
+    """The paper's switching rule: the state is inside region (68) around the goal.
+
+    Parameters
+    ----------
+    goal : array_like (n,), optional
+        The goal angles q* [rad]; default UDD (8), the paper's.
+    """
 
     name = "region (68)"
 
+    def __init__(self, goal=Q_UDD):
+        self.goal = np.array(goal, dtype=float)
+
     def holds(self, q, qd, t):
-        return in_switch_region(q, qd)
+        return in_switch_region(q, qd, self.goal)
 
     def margin(self, q, qd, t):
-        return switch_margin(q, qd)
+        return switch_margin(q, qd, self.goal)
 
     def compiled(self):
-        return region_condition, np.zeros(0)
+        return region_condition, self.goal.copy()
 
 
 class ReadingCondition:
@@ -59,7 +69,7 @@ class ReadingCondition:
 
 
 @kernel
-def time_condition(q1, q2, q3, d1, d2, d3, t, params, memory, tau):
+def time_condition(x, t, params, memory, tau):
     """Compiled condition: 1 once t >= params[0]."""
     return 1 if t >= params[0] else 0
 

@@ -18,6 +18,17 @@ e = q_a - q_ar and Phi = I. Units: kD [J kg m^2], kP [J^2/rad^2], kV [J^2 s/rad^
 The torque formulas are registered with numba: the same expressions run on NumPy
 batches (``torque``) and in the compiled kernels (``compiled``). See
 ``docs/model.md``.
+
+Beyond the paper, the same law runs on any chain of the family and either goal
+(:func:`chain_energy_torque`): M, H, G of :mod:`paa_mj.model.chain`, B = [0; I],
+E_r = P(q*), and for (40) the virtual composite link of links 2..n,
+theta = atan2(sum_k b_k sin(phi_k - phi_2), sum_k b_k cos(phi_k - phi_2)) (k >= 2; for
+n = 3 this is (16), (17)), e = [q2 + theta - q2*, q3 - q3*, ..., qn - qn*], Psi = de/dq_a.
+For two links (40) is the energy-based acrobot law of Xin and Kaneda (theta = 0,
+Psi = 1). Joint damping D is put into H (the law compensates its effect on the
+accelerations), which leaves dV/dt = -kV |qd_a|^2 - (E - E_r) qd^T D qd: the last
+term is the energy the damping takes, not sign-definite, and zero without damping.
+The paper's closed forms run wherever the robot is its gymnast and the goal its UDD.
 """
 from __future__ import annotations
 
@@ -26,12 +37,15 @@ import math
 import numpy as np
 from numba.extending import register_jitable
 
+from numba import njit
+
+from ..model import chain
 from ..model import equations as eq
 from ..model.dynamics import AnalyticModel
-from ..model.states import Q_AR
+from ..model.states import Q_AR, goal_angles
 from ..model.vcl import Psi, psi, theta
 from .base import CompiledForm, Controller, kernel
-from .gains import check_gains
+from .gains import check_gain_range, check_gains
 
 _KD, _KP, _KV = len(eq.CONSTANTS), len(eq.CONSTANTS) + 1, len(eq.CONSTANTS) + 2
 
@@ -91,17 +105,129 @@ def conventional_torque(c, kD, kP, kV, q1, q2, q3, d1, d2, d3):
 
 
 @kernel
-def vcl_kernel(q1, q2, q3, d1, d2, d3, t, params, memory, tau):
+def vcl_kernel(x, t, params, memory, tau):
     """Compiled (40); ``params`` = [robot constants, kD, kP, kV]."""
-    tau[0], tau[1] = vcl_torque(params, params[_KD], params[_KP], params[_KV], q1, q2, q3, d1, d2, d3)
+    tau[0], tau[1] = vcl_torque(params, params[_KD], params[_KP], params[_KV], x[0], x[1], x[2], x[3], x[4], x[5])
     return 0
 
 
 @kernel
-def conventional_kernel(q1, q2, q3, d1, d2, d3, t, params, memory, tau):
+def conventional_kernel(x, t, params, memory, tau):
     """Compiled (12); ``params`` = [robot constants, kD, kP, kV]."""
-    tau[0], tau[1] = conventional_torque(params, params[_KD], params[_KP], params[_KV], q1, q2, q3, d1, d2, d3)
+    tau[0], tau[1] = conventional_torque(params, params[_KD], params[_KP], params[_KV], x[0], x[1], x[2], x[3], x[4],
+                                         x[5])
     return 0
+
+
+# --- the same law on any chain of the family, any goal ----------------------------------------------------
+# params = [n, uses_vcl, kD, kP, kV, E_r, A (n x n), b (n), damping (n), armature (n), q* (n)]
+_C_N, _C_VCL, _C_KD, _C_KP, _C_KV, _C_ER, _C_A = range(7)
+
+
+def chain_parameters(model: AnalyticModel, goal, kD, kP, kV, uses_vcl):
+    """The parameter vector of :func:`chain_energy_torque` for ``model`` and the goal named ``goal``."""
+    p = model.params
+    E_r = model.goal_energy(goal)
+    goal = goal_angles(goal, p.n_links)
+    return np.concatenate([[p.n_links, 1.0 if uses_vcl else 0.0, kD, kP, kV, E_r],
+                           model.inertia_constants.reshape(-1), model.gravity_constants, p.damping, p.armature, goal])
+
+
+@njit(cache=True)
+def _chain_unpack(params):
+    n = int(params[_C_N])
+    at = _C_A
+    A = params[at:at + n * n].copy().reshape((n, n))
+    at += n * n
+    return n, A, params[at:at + n], params[at + n:at + 2 * n], params[at + 2 * n:at + 3 * n], \
+        params[at + 3 * n:at + 4 * n]
+
+
+@njit(cache=True)
+def chain_error(params, q, e, rate):
+    """The error e of the actuated coordinates and Psi = de/dq_a into ``e`` (n - 1) and ``rate`` (n - 1, n - 1).
+
+    (40): e = [q2 + theta - q2*, q3 - q3*, ...] with theta the angle of the virtual composite link of links
+    2..n from link 2 (module docstring); (12): e = q_a - q_a*, Psi = I.
+    """
+    n, _, b, _, _, goal = _chain_unpack(params)
+    nu = n - 1
+    rate[:, :] = 0.0
+    for i in range(nu):
+        rate[i, i] = 1.0
+        e[i] = q[i + 1] - goal[i + 1]
+    if params[_C_VCL] == 0.0:
+        return
+    alpha = np.zeros(n)
+    for k in range(2, n):
+        alpha[k] = alpha[k - 1] + q[k]
+    s, c = 0.0, 0.0
+    for k in range(1, n):
+        s += b[k] * math.sin(alpha[k])
+        c += b[k] * math.cos(alpha[k])
+    e[0] += math.atan2(s, c)
+    norm = s * s + c * c
+    tail_cos, tail_sin = 0.0, 0.0
+    for j in range(n - 1, 1, -1):  # d theta / d q_j = (c sum_{k>=j} b_k cos alpha_k + s sum b_k sin alpha_k) / norm
+        tail_cos += b[j] * math.cos(alpha[j])
+        tail_sin += b[j] * math.sin(alpha[j])
+        rate[0, j - 1] = (c * tail_cos + s * tail_sin) / norm
+
+
+@njit(cache=True)
+def chain_energy_torque(params, x, tau):
+    """(40) (or (12)) on a chain of the family: tau = Lambda^-1 (kD B^T M^-1 (H + G + D qd) - kV qd_a - kP Psi^T e),
+    Lambda = (E - E_r) I + kD B^T M^-1 B, into ``tau`` (n - 1) [N m]."""
+    n, A, b, damping, armature, _ = _chain_unpack(params)
+    nu = n - 1
+    kD, kP, kV, E_r = params[_C_KD], params[_C_KP], params[_C_KV], params[_C_ER]
+    q, qd = x[:n], x[n:2 * n]
+    M = np.empty((n, n))
+    chain.mass_matrix_into(A, armature, q, M)
+    rhs = np.zeros((n, n))  # [H + G + D qd, B]
+    force = np.empty(n)
+    chain.bias_into(A, b, q, qd, force)
+    for i in range(n):
+        rhs[i, 0] = force[i] + damping[i] * qd[i]
+    for i in range(nu):
+        rhs[i + 1, i + 1] = 1.0
+    solved = np.empty((n, n))  # [M^-1 (H + G + D qd), M^-1 B]
+    chain.solve_into(M, rhs, solved)
+    de = chain.kinetic(M, qd) + chain.potential(b, q) - E_r
+    e, rate = np.empty(nu), np.empty((nu, nu))
+    chain_error(params, q, e, rate)
+    lam = np.empty((nu, nu))
+    r = np.empty((nu, 1))
+    for i in range(nu):
+        for j in range(nu):
+            lam[i, j] = kD * solved[i + 1, j + 1] + (de if i == j else 0.0)
+        pull = 0.0
+        for k in range(nu):
+            pull += rate[k, i] * e[k]
+        r[i, 0] = kD * solved[i + 1, 0] - kV * qd[i + 1] - kP * pull
+    out = np.empty((nu, 1))
+    chain.solve_into(lam, r, out)
+    for i in range(nu):
+        tau[i] = out[i, 0]
+
+
+@kernel
+def chain_energy_kernel(x, t, params, memory, tau):
+    """Compiled (40) or (12) on any chain and goal; ``params`` of :func:`chain_parameters`."""
+    chain_energy_torque(params, x, tau)
+    return 0
+
+
+@njit(cache=True)
+def _chain_torque_rows(params, x, out):
+    for r in range(x.shape[0]):
+        chain_energy_torque(params, x[r], out[r])
+
+
+@njit(cache=True)
+def _chain_error_rows(params, q, e, rate):
+    for r in range(q.shape[0]):
+        chain_error(params, q[r], e[r], rate[r])
 
 
 class EnergyVCLController(Controller):
@@ -123,11 +249,24 @@ class EnergyVCLController(Controller):
     name = "vcl-only"
     uses_vcl = True
 
-    def __init__(self, model: AnalyticModel, kD, kP, kV, check=True):
+    def __init__(self, model: AnalyticModel, kD, kP, kV, check=True, goal="folded"):
         self.model = model
         self.kD, self.kP, self.kV = float(kD), float(kP), float(kV)
-        if check:
+        self.goal_name = goal
+        self.goal = goal_angles(goal, model.n_links)
+        #: the paper's closed forms apply: its gymnast and its goal (UDD); else the chain's law
+        self.papers = model.paper_shape and goal == "folded"
+        self._chain = None if self.papers else chain_parameters(model, goal, self.kD, self.kP, self.kV,
+                                                                 self.uses_vcl)
+        if check and self.papers:
             check_gains(model, self.kD, self.kP, self.kV, stacklevel=4)
+        elif check:  # Theorem 1's bounds (41), (59), (60) are proved for the paper's case only
+            check_gain_range(self.kD, self.kP, self.kV)
+
+    @property
+    def E_r(self) -> float:
+        """The energy of the goal, P(q*) [J] ((9) at UDD)."""
+        return self.model.E_r if self.papers else float(self._chain[_C_ER])
 
     @property
     def gains(self) -> dict:
@@ -136,24 +275,36 @@ class EnergyVCLController(Controller):
     def _law(self):
         return vcl_torque
 
-    def vcl_error(self, q):
-        """e of (34) (this controller's error of the actuated coordinates), shape (..., 2) [rad]."""
+    def _chain_rows(self, q):
         q = np.asarray(q, float)
+        flat = np.ascontiguousarray(q.reshape(-1, q.shape[-1]))
+        nu = q.shape[-1] - 1
+        e, rate = np.empty((len(flat), nu)), np.empty((len(flat), nu, nu))
+        _chain_error_rows(self._chain, flat, e, rate)
+        return e.reshape(q.shape[:-1] + (nu,)), rate.reshape(q.shape[:-1] + (nu, nu))
+
+    def vcl_error(self, q):
+        """e of (34) (this controller's error of the actuated coordinates), shape (..., n - 1) [rad]."""
+        q = np.asarray(q, float)
+        if not self.papers:
+            return self._chain_rows(q)[0]
         if not self.uses_vcl:
             return np.stack([q[..., 1], q[..., 2]], -1) - Q_AR
         b2, b3 = self.model.b2, self.model.b3
         return np.stack([q[..., 1] + theta(b2, b3, q[..., 2]), q[..., 2]], -1) - Q_AR
 
     def error_rate_matrix(self, q):
-        """Phi with de/dt = Phi qd_a: Psi (21) for (40), the identity for (12); shape (..., 2, 2)."""
+        """Phi with de/dt = Phi qd_a: Psi (21) for (40), the identity for (12); shape (..., n - 1, n - 1)."""
         q = np.asarray(q, float)
+        if not self.papers:
+            return self._chain_rows(q)[1]
         if self.uses_vcl:
             return Psi(self.model.b2, self.model.b3, q[..., 2])
         return np.broadcast_to(np.eye(2), q.shape[:-1] + (2, 2))
 
     def energy_error(self, q, qd):
         """E - E_r [J]."""
-        return self.model.energy(q, qd) - self.model.E_r
+        return self.model.energy(q, qd) - self.E_r
 
     def lyapunov(self, q, qd):
         """V of (34) (or (12)) [J^2]."""
@@ -165,6 +316,12 @@ class EnergyVCLController(Controller):
 
     def torque(self, q, qd, t=0.0):
         q, qd = np.asarray(q, float), np.asarray(qd, float)
+        if not self.papers:
+            x = np.concatenate(np.broadcast_arrays(q, qd), axis=-1)
+            flat = np.ascontiguousarray(x.reshape(-1, x.shape[-1]))
+            out = np.empty((len(flat), q.shape[-1] - 1))
+            _chain_torque_rows(self._chain, flat, out)
+            return out.reshape(x.shape[:-1] + (q.shape[-1] - 1,))
         t2, t3 = self._law()(self.model.constants, self.kD, self.kP, self.kV, q[..., 0], q[..., 1], q[..., 2],
                              qd[..., 0], qd[..., 1], qd[..., 2])
         return np.stack([t2, t3], -1)
@@ -172,23 +329,29 @@ class EnergyVCLController(Controller):
     def lyapunov_rate(self, q, qd, tau=None):
         """dV/dt along (1) with torque ``tau`` (default: this controller's), from the chain rule.
 
-        dV/dt = (E - E_r) qd_a^T tau + kD qd_a^T qdd_a + kP e^T Phi qd_a; with this
-        controller's tau it equals -kV qd_a^T qd_a (36).
+        dV/dt = dE/dt (E - E_r) + kD qd_a^T qdd_a + kP e^T Phi qd_a, with dE/dt = qd_a^T tau - qd^T D qd;
+        with this controller's tau it equals -kV qd_a^T qd_a (36), less (E - E_r) qd^T D qd with damping.
         """
         q, qd = np.asarray(q, float), np.asarray(qd, float)
         tau = self.torque(q, qd) if tau is None else np.asarray(tau, float)
         qdd = self.model.acceleration(q, qd, tau)
         qd_a = qd[..., 1:]
         e_rate = np.einsum("...ij,...j->...i", self.error_rate_matrix(q), qd_a)
-        return (self.energy_error(q, qd) * np.sum(qd_a * tau, -1)
+        power = np.sum(qd_a * tau, -1) - np.sum(self.model.params.damping * qd * qd, -1)
+        return (self.energy_error(q, qd) * power
                 + self.kD * np.sum(qd_a * qdd[..., 1:], -1) + self.kP * np.sum(self.vcl_error(q) * e_rate, -1))
 
     def compiled(self) -> CompiledForm:
+        if not self.papers:
+            return CompiledForm(chain_energy_kernel, self._chain)
         law = vcl_kernel if self.uses_vcl else conventional_kernel
         return CompiledForm(law, np.concatenate([self.model.constants, [self.kD, self.kP, self.kV]]))
 
     def describe(self) -> dict:
-        return {"controller": self.name, "gains": self.gains}
+        out = {"controller": self.name, "gains": self.gains}
+        if self.goal_name != "folded":
+            out["goal"] = self.goal_name
+        return out
 
 
 class ConventionalController(EnergyVCLController):

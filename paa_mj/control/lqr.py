@@ -1,4 +1,4 @@
-"""The LQR balance controller (67) at UDD.
+"""The LQR balance controller (67) at UDD, or at any goal of the family.
 
 .. math::
 
@@ -6,7 +6,8 @@
 
 (angles wrapped to :math:`(-\\pi, \\pi]`)
 with K from the linearisation of (1) at UDD and the paper's weights
-Q = 1e4 I6, R = I2 (:func:`paa_mj.theory.linear.lqr_gain`).
+Q = 1e4 I6, R = I2 (:func:`paa_mj.theory.linear.lqr_gain`). For a chain of n links and a
+goal q*, x = [wrap(q - q*), qd], Q = 1e4 I(2n), R = I(n - 1).
 """
 from __future__ import annotations
 
@@ -15,55 +16,68 @@ from numba.extending import register_jitable
 
 from ..errors import PaaError
 from ..model.dynamics import AnalyticModel
-from ..model.states import udd_error_components
+from ..model.states import Q_UDD, goal_angles, wrap
 from ..theory.linear import lqr_gain
 from .base import CompiledForm, Controller, kernel
 
 
 @register_jitable
-def linear_feedback(k, q1, q2, q3, d1, d2, d3):
-    """tau = -K x of (67) with K flattened row by row into ``k`` (12 numbers)."""
-    x1, x2, x3 = udd_error_components(q1, q2, q3)
-    t2 = -(k[0] * x1 + k[1] * x2 + k[2] * x3 + k[3] * d1 + k[4] * d2 + k[5] * d3)
-    t3 = -(k[6] * x1 + k[7] * x2 + k[8] * x3 + k[9] * d1 + k[10] * d2 + k[11] * d3)
-    return t2, t3
+def linear_feedback(k, goal, x, tau):
+    """tau = -K e of (67) into ``tau``, e = [wrap(q - q*), qd] the error of x = [q, qd] from the goal q*, with K
+    flattened row by row into ``k`` ((n - 1) x 2n numbers). Runs compiled on one state, or in NumPy on a batch
+    laid out along the last axis (x of shape (2n, ...), tau (n - 1, ...)), the same sums in the same order."""
+    n = goal.size
+    width = 2 * n
+    for row in range(tau.shape[0]):
+        total = 0.0
+        for j in range(n):
+            total += k[width * row + j] * wrap(x[j] - goal[j])
+        for j in range(n):
+            total += k[width * row + n + j] * x[n + j]
+        tau[row] = -total
 
 
 @kernel
-def lqr_kernel(q1, q2, q3, d1, d2, d3, t, params, memory, tau):
-    """Compiled (67); ``params`` = K flattened; always in balance mode."""
-    tau[0], tau[1] = linear_feedback(params, q1, q2, q3, d1, d2, d3)
+def lqr_kernel(x, t, params, memory, tau):
+    """Compiled (67); ``params`` = [q* (n), K flattened]; always in balance mode."""
+    n = x.size // 2
+    linear_feedback(params[n:], params[:n], x, tau)
     return 1
 
 
 class LQRController(Controller):
-    """LQR balance controller (67): tau = -K x.
+    """LQR balance controller (67): tau = -K x, x the error from the goal.
 
     Parameters
     ----------
-    K : array_like, shape (2, 6)
-        State-feedback gain, normally :func:`paa_mj.theory.linear.lqr_gain`.
+    K : array_like, shape (n - 1, 2n)
+        State-feedback gain, normally :func:`paa_mj.theory.linear.lqr_gain` ((2, 6) for the gymnast).
+    goal : array_like (n,), optional
+        The goal angles q* [rad]; default UDD (8).
     """
 
     name = "lqr"
     mode = 1
 
-    def __init__(self, K):
+    def __init__(self, K, goal=Q_UDD):
         self.K = np.asarray(K, float)
-        if self.K.shape != (2, 6) or not np.all(np.isfinite(self.K)):
-            raise PaaError(f"LQR gain must be a finite 2 x 6 matrix, got shape {self.K.shape}")
+        self.goal = np.array(goal, dtype=float).reshape(-1)
+        n = self.goal.size
+        if self.K.shape != (n - 1, 2 * n) or not np.all(np.isfinite(self.K)):
+            raise PaaError(f"LQR gain must be a finite {n - 1} x {2 * n} matrix, got shape {self.K.shape}")
 
     @classmethod
-    def for_model(cls, model: AnalyticModel) -> "LQRController":
-        return cls(lqr_gain(model))
+    def for_model(cls, model: AnalyticModel, goal="folded") -> "LQRController":
+        return cls(lqr_gain(model, goal=goal), goal_angles(goal, model.n_links))
 
     def torque(self, q, qd, t=0.0):
-        q, qd = np.asarray(q, float), np.asarray(qd, float)
-        t2, t3 = linear_feedback(self.K.reshape(-1), q[..., 0], q[..., 1], q[..., 2], qd[..., 0], qd[..., 1], qd[..., 2])
-        return np.stack(np.broadcast_arrays(t2, t3), -1)
+        x = np.concatenate(np.broadcast_arrays(np.asarray(q, float), np.asarray(qd, float)), axis=-1)
+        tau = np.empty(x.shape[:-1] + (self.goal.size - 1,))
+        linear_feedback(self.K.reshape(-1), self.goal, np.moveaxis(x, -1, 0), np.moveaxis(tau, -1, 0))
+        return tau
 
     def compiled(self) -> CompiledForm:
-        return CompiledForm(lqr_kernel, self.K.reshape(-1), balance_gain=self.K)
+        return CompiledForm(lqr_kernel, np.concatenate([self.goal, self.K.reshape(-1)]), balance_gain=self.K)
 
     def describe(self) -> dict:
         return {"controller": self.name}

@@ -7,9 +7,8 @@ from .base import CompiledForm, Controller, kernel
 
 
 @kernel
-def passive_kernel(q1, q2, q3, d1, d2, d3, t, params, memory, tau):
-    tau[0] = 0.0
-    tau[1] = 0.0
+def passive_kernel(x, t, params, memory, tau):
+    tau[:] = 0.0
     return 0
 
 
@@ -19,7 +18,8 @@ class PassiveController(Controller):
     name = "passive"
 
     def torque(self, q, qd, t=0.0):
-        return np.zeros(np.shape(q)[:-1] + (2,))
+        shape = np.shape(q)
+        return np.zeros(shape[:-1] + (shape[-1] - 1,))
 
     def compiled(self) -> CompiledForm:
         return CompiledForm(passive_kernel, np.zeros(1))

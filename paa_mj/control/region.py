@@ -1,7 +1,8 @@
-"""The switching region (68) and the tolerances that judge a balance.
+"""The switching region (68) and the tolerances that judge a balance, around any goal of the family.
 
 Region (68): with x = [q1, q2 + pi, q3, d1, d2, d3] the error from UDD (angles
-wrapped to (-pi, pi]), every :math:`|x_i| < \\pi/6` and every :math:`|x_{i+3}| < 0.5` rad/s. The
+wrapped to (-pi, pi]), every :math:`|x_i| < \\pi/6` and every :math:`|x_{i+3}| < 0.5` rad/s
+(for a chain of n links and a goal q*, x = [wrap(q - q*), qd] and the same bounds). The
 paper switches from swing-up (40) to the LQR (67) the first time the state is
 inside. A run is *balanced* when its final state is within :data:`BALANCE_TOL`
 of UDD in every coordinate; it is a *success* (:data:`SUCCESS_DEFINITION`, the
@@ -15,7 +16,7 @@ import math
 import numpy as np
 from numba.extending import register_jitable
 
-from ..model.states import udd_error, udd_error_components
+from ..model.states import Q_UDD, goal_error, udd_error_components, wrap
 from .base import kernel
 
 #: Region (68): each angle error within pi/6 [rad] and each speed within 0.5 [rad/s].
@@ -68,26 +69,33 @@ def inside_region(q1, q2, q3, d1, d2, d3):
 
 
 @kernel
-def region_condition(q1, q2, q3, d1, d2, d3, t, params, memory, tau):
-    """Compiled condition: 1 inside region (68)."""
-    return 1 if inside_region(q1, q2, q3, d1, d2, d3) else 0
+def region_condition(x, t, params, memory, tau):
+    """Compiled condition: 1 inside region (68) around the goal q* = ``params`` (n angles), x = [q, qd]."""
+    n = params.size
+    for i in range(n):
+        if not (abs(wrap(x[i] - params[i])) < SWITCH_ANGLE and abs(x[n + i]) < SWITCH_SPEED):
+            return 0
+    return 1
 
 
-def in_switch_region(q, qd):
-    """Region (68) for NumPy batches: shape (...,) of bool."""
-    q, qd = np.asarray(q, float), np.asarray(qd, float)
-    return np.asarray(inside_region(q[..., 0], q[..., 1], q[..., 2], qd[..., 0], qd[..., 1], qd[..., 2]))
+def in_switch_region(q, qd, goal=Q_UDD):
+    """Region (68) around ``goal`` (default UDD) for NumPy batches: shape (...,) of bool."""
+    x = goal_error(q, qd, goal)
+    n = x.shape[-1] // 2
+    return np.all(np.abs(x[..., :n]) < SWITCH_ANGLE, axis=-1) & np.all(np.abs(x[..., n:]) < SWITCH_SPEED, axis=-1)
 
 
-def switch_margin(q, qd):
-    """A continuous function that is negative exactly inside region (68) (an ODE event)."""
-    q, qd = np.asarray(q, float), np.asarray(qd, float)
-    return region_margin(q[..., 0], q[..., 1], q[..., 2], qd[..., 0], qd[..., 1], qd[..., 2])
+def switch_margin(q, qd, goal=Q_UDD):
+    """A continuous function that is negative exactly inside region (68) around ``goal`` (an ODE event)."""
+    x = goal_error(q, qd, goal)
+    n = x.shape[-1] // 2
+    return np.maximum(np.max(np.abs(x[..., :n]), axis=-1) / SWITCH_ANGLE,
+                      np.max(np.abs(x[..., n:]), axis=-1) / SWITCH_SPEED) - 1.0
 
 
-def distance_from_udd(q, qd):
-    """:math:`\\max_i |x_i|` with x the error from UDD (angles wrapped) [rad, rad/s]; shape (...,)."""
-    return np.max(np.abs(udd_error(q, qd)), axis=-1)
+def distance_from_udd(q, qd, goal=Q_UDD):
+    """:math:`\\max_i |x_i|` with x the error from UDD, or from ``goal`` (angles wrapped) [rad, rad/s]; shape (...,)."""
+    return np.max(np.abs(goal_error(q, qd, goal)), axis=-1)
 
 
 # --- a candidate reading of the paper's switch, for the report only ------------------------------------
@@ -116,6 +124,6 @@ def reading_margin(q1, q2, q3, d1, d2, d3):
 
 
 @kernel
-def reading_condition(q1, q2, q3, d1, d2, d3, t, params, memory, tau):
-    """Compiled: 1 inside the candidate reading's region."""
-    return 1 if reading_margin(q1, q2, q3, d1, d2, d3) < 0.0 else 0
+def reading_condition(x, t, params, memory, tau):
+    """Compiled: 1 inside the candidate reading's region (the gymnast's state x = [q, qd], 6 numbers)."""
+    return 1 if reading_margin(x[0], x[1], x[2], x[3], x[4], x[5]) < 0.0 else 0

@@ -36,6 +36,7 @@ import numpy as np
 
 from ..errors import PaaError
 from ..model.params import RobotParams
+from ..model.states import GOALS, goal_angles
 from .base import Controller
 from .catalog import DESCRIPTIONS, GAIN_CONTROLLERS, OPTIONS
 from .combined import CombinedController, RegionCondition
@@ -73,46 +74,61 @@ def _kip_bound(robot, limit):
     return HEADROOM * limits
 
 
-def build_trajopt(robot, gains=None, check=True, limit=None, duration=None, intervals=INTERVALS):
+def _papers_kip(robot, goal, name):
+    if robot.params.n_links != 3 or goal != "folded":
+        raise PaaError(f"{name} plans the gymnast's kip to UDD (three links, the folded goal); this robot has"
+                       f" {robot.params.n_links} links and the goal is {goal}")
+
+
+def build_trajopt(robot, gains=None, check=True, limit=None, duration=None, intervals=INTERVALS, goal="folded"):
     """The minimum-time kip, tracked by TVLQR, then (67)."""
+    _papers_kip(robot, goal, "trajopt")
     kip = solve_kip(robot.analytic, _kip_bound(robot, limit), "min-time", duration=duration, intervals=intervals)
     return kip_controller(robot.analytic, kip, name="trajopt")
 
 
-def build_trajopt_effort(robot, gains=None, check=True, limit=None, duration=EFFORT_DURATION, intervals=INTERVALS):
+def build_trajopt_effort(robot, gains=None, check=True, limit=None, duration=EFFORT_DURATION, intervals=INTERVALS,
+                        goal="folded"):
     """The kip of least effort over ``duration`` seconds, tracked by TVLQR, then (67)."""
+    _papers_kip(robot, goal, "trajopt-effort")
     kip = solve_kip(robot.analytic, _kip_bound(robot, limit), "min-effort", duration=duration, intervals=intervals)
     return kip_controller(robot.analytic, kip, name="trajopt-effort")
 
 
-def build_vcl(robot, gains=None, check=True):
+def _switched(robot, swing, goal, name):
+    """``swing`` until region (68) around the goal, then the LQR (67) at the goal."""
+    return CombinedController(swing, LQRController.for_model(robot.analytic, goal),
+                              RegionCondition(goal_angles(goal, robot.params.n_links)), name=name)
+
+
+def build_vcl(robot, gains=None, check=True, goal="folded"):
     """The paper's controller: (40) + (67) switched by (68)."""
-    swing = EnergyVCLController(robot.analytic, **_gains(robot, gains), check=check)
-    return CombinedController(swing, LQRController.for_model(robot.analytic), RegionCondition(), name="vcl")
+    return _switched(robot, EnergyVCLController(robot.analytic, **_gains(robot, gains), check=check, goal=goal),
+                     goal, "vcl")
 
 
-def build_vcl_only(robot, gains=None, check=True):
+def build_vcl_only(robot, gains=None, check=True, goal="folded"):
     """Controller (40) alone, for the whole run."""
-    return EnergyVCLController(robot.analytic, **_gains(robot, gains), check=check)
+    return EnergyVCLController(robot.analytic, **_gains(robot, gains), check=check, goal=goal)
 
 
-def build_vc(robot, gains=None, check=True):
+def build_vc(robot, gains=None, check=True, goal="folded"):
     """The conventional candidate (12) + (67) switched by (68)."""
-    swing = ConventionalController(robot.analytic, **_gains(robot, gains), check=check)
-    return CombinedController(swing, LQRController.for_model(robot.analytic), RegionCondition(), name="vc")
+    return _switched(robot, ConventionalController(robot.analytic, **_gains(robot, gains), check=check, goal=goal),
+                     goal, "vc")
 
 
-def build_vc_only(robot, gains=None, check=True):
+def build_vc_only(robot, gains=None, check=True, goal="folded"):
     """The conventional candidate (12) alone."""
-    return ConventionalController(robot.analytic, **_gains(robot, gains), check=check)
+    return ConventionalController(robot.analytic, **_gains(robot, gains), check=check, goal=goal)
 
 
-def build_lqr(robot, gains=None, check=True):
+def build_lqr(robot, gains=None, check=True, goal="folded"):
     """The LQR (67) alone, from wherever the robot starts."""
-    return LQRController.for_model(robot.analytic)
+    return LQRController.for_model(robot.analytic, goal)
 
 
-def build_passive(robot, gains=None, check=True):
+def build_passive(robot, gains=None, check=True, goal="folded"):
     """Zero torque."""
     return PassiveController()
 
@@ -124,7 +140,7 @@ BUILTIN = {name: (builder, DESCRIPTIONS[name]) for name, builder in (
 
 
 def register(name: str, builder, description: str):
-    """Add a built-in controller: ``builder(robot, gains=None, check=True)`` returns it."""
+    """Add a built-in controller: ``builder(robot, gains=None, check=True, goal="folded")`` returns it."""
     BUILTIN[name] = (builder, description)
 
 
@@ -175,6 +191,10 @@ class ControllerSpec:
         the plant); None: the plant's own.
     check : bool
         Check the gains against the theory when building.
+    options : tuple of (name, value)
+        The controller's own options (:data:`~paa_mj.control.catalog.OPTIONS`).
+    goal : {"folded", "stretched"}
+        The goal a built-in controller aims at; a user's class gets it as ``goal=`` when its constructor takes it.
     """
 
     name: str = "vcl"
@@ -182,11 +202,14 @@ class ControllerSpec:
     believed: RobotParams | None = None
     check: bool = True
     options: tuple = ()
+    goal: str = "folded"
 
     def __post_init__(self):
         if not isinstance(self.name, str):
             raise PaaError(f"a controller is named by a string (one of {', '.join(BUILTIN)} or"
                            f" path/to/file.py:ClassName), got {self.name!r}")
+        if self.goal not in GOALS:
+            raise PaaError(f"unknown goal {self.goal!r}: use one of {', '.join(GOALS)}")
         if not isinstance(self.check, (bool, np.bool_)):
             raise PaaError(f"check must be True or False, got {self.check!r}")
         if self.believed is not None and not isinstance(self.believed, RobotParams):
@@ -238,7 +261,7 @@ class ControllerSpec:
         if is_user_controller(self.name):
             cls = load_user_class(self.name)
             try:
-                controller = cls(_private_copy(believed))
+                controller = cls(_private_copy(believed), **({"goal": self.goal} if _takes_goal(cls) else {}))
             except (PaaError, KeyboardInterrupt):
                 raise
             except (Exception, SystemExit) as err:  # sys.exit() in __init__ must not end the command as a success
@@ -248,7 +271,16 @@ class ControllerSpec:
                 raise PaaError(f"controller {self.short_name} has no method torque(q, qd, t)")
             return controller
         gains = None if self.gains is None else dict(zip(("kD", "kP", "kV"), self.gains))
-        return BUILTIN[self.name][0](believed, gains=gains, check=self.check, **dict(self.options))
+        return BUILTIN[self.name][0](believed, gains=gains, check=self.check, goal=self.goal, **dict(self.options))
+
+
+def _takes_goal(cls) -> bool:
+    import inspect
+
+    try:
+        return "goal" in inspect.signature(cls).parameters
+    except (TypeError, ValueError):
+        return False
 
 
 def _three_gains(gains) -> tuple:

@@ -65,9 +65,9 @@ def tvlqr_torque(params, t, q1, q2, q3, d1, d2, d3):
 
 
 @kernel
-def tvlqr_kernel(q1, q2, q3, d1, d2, d3, t, params, memory, tau):
-    """Compiled tracking (mode 0: following the stored trajectory)."""
-    tau[0], tau[1] = tvlqr_torque(params, t, q1, q2, q3, d1, d2, d3)
+def tvlqr_kernel(x, t, params, memory, tau):
+    """Compiled tracking (mode 0: following the stored trajectory); the gymnast's x = [q, qd] (6 numbers)."""
+    tau[0], tau[1] = tvlqr_torque(params, t, x[0], x[1], x[2], x[3], x[4], x[5])
     return 0
 
 

@@ -3,10 +3,13 @@
 At random states (angles in [-2 pi, 2 pi], speeds up to 10 rad/s, random
 torques) compare, after ``mj_forward``,
 
-* the full inertia matrix (``mj_fullM``) with M(q) of (2),
+* the full inertia matrix (``mj_fullM``) with M(q) ((2) for the gymnast, armature included),
 * ``qfrc_bias`` with H(q, qd) + G(q),
-* ``qacc`` with M^-1 (B tau - H - G) of (1),
+* ``qacc`` with M^-1 (B tau - H - G - D qd) of (1) (D the joints' damping, in ``qfrc_passive``),
 * ``energy`` (potential + kinetic) with E of (6).
+
+Any chain of the family is compared: the analytic model is the paper's closed
+form for the gymnast and the general chain's otherwise.
 
 Errors are relative to the size of the analytic quantity (at least 1), the
 worst over all samples.
@@ -19,7 +22,7 @@ import mujoco
 import numpy as np
 
 from .dynamics import AnalyticModel
-from .mjcf import params_from_model
+from .mjcf import params_from_model, torque_limits_from_model
 
 
 @dataclass(frozen=True)
@@ -38,17 +41,19 @@ class CrossCheck:
         return max(self.max_rel_err_M, self.max_rel_err_bias, self.max_rel_err_qacc, self.max_rel_err_energy)
 
 
-def random_states(n, seed=0, max_angle=2 * np.pi, max_speed=10.0, max_torque=None, analytic=None):
+def random_states(n, seed=0, max_angle=2 * np.pi, max_speed=10.0, max_torque=None, analytic=None, links=None):
     """Random (q, qd, tau): angles in [-max_angle, max_angle], speeds up to ``max_speed`` [rad/s].
 
     Torques are drawn up to ``max_torque`` [N m]; by default 2 b1 / 1 rad, the scale of gravity torques.
+    ``links`` (default: the analytic model's, else 3) sets the shapes (n, links) and (n, links - 1).
     """
+    links = links or (analytic.n_links if analytic is not None else 3)
     rng = np.random.default_rng(seed)
-    q = rng.uniform(-max_angle, max_angle, (n, 3))
-    qd = rng.uniform(-max_speed, max_speed, (n, 3))
+    q = rng.uniform(-max_angle, max_angle, (n, links))
+    qd = rng.uniform(-max_speed, max_speed, (n, links))
     if max_torque is None:
-        max_torque = 2 * analytic.b1 if analytic is not None else 100.0
-    tau = rng.uniform(-max_torque, max_torque, (n, 2))
+        max_torque = 2 * analytic.gravity_constants[0] if analytic is not None else 100.0
+    tau = rng.uniform(-max_torque, max_torque, (n, links - 1))
     return q, qd, tau
 
 
@@ -60,9 +65,9 @@ def _rel_err(engine, analytic, axes):
 def engine_quantities(model: mujoco.MjModel, q, qd, tau):
     """MuJoCo's M, qfrc_bias, qacc and energy at each state, after ``mj_forward``."""
     data = mujoco.MjData(model)
-    n = len(q)
-    M = np.zeros((n, 3, 3))
-    bias, qacc, energy = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(n)
+    n, nv = len(q), model.nv
+    M = np.zeros((n, nv, nv))
+    bias, qacc, energy = np.zeros((n, nv)), np.zeros((n, nv)), np.zeros(n)
     for i in range(n):
         data.qpos[:], data.qvel[:], data.ctrl[:] = q[i], qd[i], tau[i]
         mujoco.mj_forward(model, data)
@@ -81,6 +86,8 @@ def cross_check(model: mujoco.MjModel, samples: int = 1000, seed: int = 0) -> Cr
     model = model.__copy__()
     model.opt.enableflags |= int(mujoco.mjtEnableBit.mjENBL_ENERGY)
     q, qd, tau = random_states(samples, seed, analytic=am)
+    limits = torque_limits_from_model(model)
+    tau = np.clip(tau, -limits, limits)  # MuJoCo clamps ctrl to the motors' ranges
     M, bias, qacc, energy = engine_quantities(model, q, qd, tau)
     return CrossCheck(
         samples=samples, seed=seed,

@@ -1,20 +1,21 @@
-"""The MJCF file of the gymnast: written from parameters, read, validated and read back.
+"""The MJCF file of a chain on the bar: written from parameters, read, validated and read back.
 
-The MuJoCo model is the single source of truth. ``gymnast.xml`` (Table 1 of the
-paper) and ``example2.xml`` (Table 2), beside this module, are written by
-:func:`mjcf_from_params`; any other parameter set gives a model of the same
-shape, and any model of that shape is read back into :class:`RobotParams` by
-:func:`params_from_model` from the *compiled* ``MjModel`` (masses, inertias,
-body and COM positions), so the analytic model is always the one MuJoCo runs.
+The MuJoCo model is the single source of truth. The named robots in ``models/``
+(``gymnast.xml``: Table 1 of the paper, ``example2.xml``: Table 2, ``acrobot.xml``,
+``chain4.xml``) are written by :func:`mjcf_from_params`; any other parameter set
+gives a model of the same shape, and any model of that shape is read back into
+:class:`RobotParams` by :func:`params_from_model` from the *compiled* ``MjModel``
+(masses, inertias, body and COM positions, damping, armature), so the analytic
+model is always the one MuJoCo runs.
 
-The shape (``docs/model.md``): three bodies in a chain hanging from the world at
+The shape (``docs/model.md``): n >= 2 bodies in a chain hanging from the world at
 the bar, one hinge per body at its origin, all hinge axes parallel and
-horizontal, every link pointing straight up at q = 0, gravity 9.81 m/s^2
-straight down, a ``<motor>`` with gear 1 on joints 2 (shoulders) and 3 (hips),
-joint 1 (hands) passive. Anything MuJoCo would add to that model and the
-analytic model of the paper lacks (joint ranges, damping, armature, friction
-loss, springs, gravity compensation, a medium, contacts, tendons, equality
-constraints, other actuators) is refused by name. Actuator limits
+horizontal, every link pointing straight up at q = 0, gravity straight down, a
+``<motor>`` with gear 1 on each of joints 2..n in order (the gymnast's shoulders
+and hips), joint 1 (the hands) passive. Joint damping and armature are in the
+analytic model. Anything else MuJoCo would add and the analytic model lacks
+(joint ranges, friction loss, springs, gravity compensation, a medium, contacts,
+tendons, equality constraints, other actuators) is refused by name. Actuator limits
 (``ctrlrange``, ``forcerange``, ``actuatorfrcrange``) are a real feature: they
 are read back as the robot's torque limits (:func:`torque_limits_from_model`),
 which every rollout then applies.
@@ -30,30 +31,58 @@ import mujoco
 import numpy as np
 
 from ..errors import PaaError
-from .params import RobotParams
+from .params import MAX_LINKS, RobotParams
 
-#: Gravity of the paper's world [m/s^2], straight down (-z).
+#: Gravity of the paper's world [m/s^2], straight down (-z); a model may set its own.
 GRAVITY = 9.81
 #: Largest physics time step accepted from a model file [s].
 MAX_TIMESTEP = 0.1
-MODEL_DIR = Path(__file__).resolve().parent
 
-_TEMPLATE = """\
+
+def _model_dir() -> Path:
+    """The folder of the named robots: ``models/`` of the repository, installed as the package ``paa_mj.models``."""
+    from importlib.resources import files
+
+    try:
+        return Path(str(files("paa_mj.models")))
+    except ModuleNotFoundError:  # the package run from a clone that is not installed (PYTHONPATH)
+        return Path(__file__).resolve().parents[2] / "models"
+
+
+MODEL_DIR = _model_dir()
+
+#: Names in the MJCF of a chain of n links: (bodies, joints, geoms and their materials, motors, the tip site).
+_GYMNAST_NAMES = (("link1", "link2", "link3"), ("hands", "shoulders", "hips"), ("arms", "trunk", "legs"),
+                  ("shoulder", "hip"), "feet")
+_ACROBOT_NAMES = (("link1", "link2"), ("shoulder", "elbow"), ("upper_arm", "lower_arm"), ("elbow",), "tip")
+_COLOURS = {"arms": "0.85 0.33 0.2 1", "trunk": "0.2 0.45 0.8 1", "legs": "0.25 0.65 0.3 1",
+            "upper_arm": "0.85 0.33 0.2 1", "lower_arm": "0.2 0.45 0.8 1"}
+_PALETTE = ("0.85 0.33 0.2 1", "0.2 0.45 0.8 1", "0.25 0.65 0.3 1", "0.8 0.65 0.15 1", "0.55 0.3 0.7 1",
+            "0.15 0.6 0.65 1")
+
+
+def chain_names(n):
+    """The MJCF names of an n-link chain: the gymnast's for 3 links, an acrobot's for 2, numbered beyond."""
+    if n == 3:
+        return _GYMNAST_NAMES
+    if n == 2:
+        return _ACROBOT_NAMES
+    links = tuple(f"link{i + 1}" for i in range(n))
+    return links, tuple(f"joint{i + 1}" for i in range(n)), links, tuple(f"motor{i + 2}" for i in range(n - 1)), "tip"
+
+
+_HEADER = """\
 <mujoco model={name}>
   <!--
-    Three-link gymnast on a high bar (Liu & Xin 2015; see docs/model.md of paa_mj).
+    {what}
     {title}
-    Joint 1 (hands on the bar) is passive; joints 2 (shoulders) and 3 (hips) carry motors.
+    {joints}
     q = 0 is every link straight up; the bar is at the world origin so that MuJoCo's
     potential energy equals the paper's P(q) of (7).
     Masses and inertias come from <inertial> alone: geoms are visual only.
-    m  = {m}  kg
-    l  = {l}  m
-    lc = {lc}  m
-    J  = {J}  kg m^2
-  -->
+{values}  -->
   <compiler angle="radian" autolimits="true"/>
-  <option timestep="0.001" integrator="RK4" gravity="0 0 -{g}">
+  <option timestep="{timestep}" integrator="RK4" gravity="0 0 -{g}">
     <flag energy="enable" contact="disable"/>
   </option>
 
@@ -68,10 +97,7 @@ _TEMPLATE = """\
     <texture name="grid" type="2d" builtin="checker" rgb1="0.75 0.75 0.72" rgb2="0.62 0.62 0.6" width="256" height="256"/>
     <material name="floor" texture="grid" texrepeat="{texrepeat} {texrepeat}" reflectance="0.1"/>
     <material name="steel" rgba="0.75 0.75 0.8 1" specular="0.8" shininess="0.8"/>
-    <material name="arms" rgba="0.85 0.33 0.2 1"/>
-    <material name="trunk" rgba="0.2 0.45 0.8 1"/>
-    <material name="legs" rgba="0.25 0.65 0.3 1"/>
-  </asset>
+{materials}  </asset>
 
   <worldbody>
     <light name="key" pos="{light_x} -{light_y} {light_z}" dir="-0.3 0.6 -1" directional="true" castshadow="true"/>
@@ -81,28 +107,10 @@ _TEMPLATE = """\
     <geom name="post_right" type="cylinder" fromto="0 {bar_half} 0 0 {bar_half} -{floor}" size="{post_radius}" material="steel" contype="0" conaffinity="0" group="0"/>
     <camera name="side" pos="{cam_x} -{cam_y} {cam_z}" xyaxes="{cam_cos} {cam_sin} 0 0 0 1" fovy="45"/>
 
-    <body name="link1">
-      <joint name="hands" type="hinge" axis="0 1 0"/>
-      <inertial pos="0 0 {lc1}" mass="{m1}" diaginertia="{J1} {J1} {Jz1}"/>
-      <geom name="arms" type="capsule" fromto="0 0 0 0 0 {l1}" size="{r1}" material="arms" contype="0" conaffinity="0" group="1"/>
-      <body name="link2" pos="0 0 {l1}">
-        <joint name="shoulders" type="hinge" axis="0 1 0"/>
-        <inertial pos="0 0 {lc2}" mass="{m2}" diaginertia="{J2} {J2} {Jz2}"/>
-        <geom name="trunk" type="capsule" fromto="0 0 0 0 0 {l2}" size="{r2}" material="trunk" contype="0" conaffinity="0" group="1"/>
-        <body name="link3" pos="0 0 {l2}">
-          <joint name="hips" type="hinge" axis="0 1 0"/>
-          <inertial pos="0 0 {lc3}" mass="{m3}" diaginertia="{J3} {J3} {Jz3}"/>
-          <geom name="legs" type="capsule" fromto="0 0 0 0 0 {l3}" size="{r3}" material="legs" contype="0" conaffinity="0" group="1"/>
-          <site name="feet" pos="0 0 {l3}" size="{site_size}" rgba="1 1 0 1" group="2"/>
-        </body>
-      </body>
-    </body>
-  </worldbody>
+{bodies}  </worldbody>
 
   <actuator>
-    <motor name="shoulder" joint="shoulders" gear="1"/>
-    <motor name="hip" joint="hips" gear="1"/>
-  </actuator>
+{motors}  </actuator>
 {custom}</mujoco>
 """
 
@@ -126,13 +134,46 @@ def comment_text(text: str) -> str:
     return text.rstrip("-")
 
 
-def mjcf_from_params(params: RobotParams, name: str = "gymnast", title: str = "", gains=None) -> str:
-    """Return the MJCF text of the gymnast with the given parameters.
+def _bodies(params, names, radius, site_size):
+    """The nested <body> elements of the chain, link 1 hanging from the bar at the world origin."""
+    bodies, joints, geoms, _, tip = names
+    n = params.n_links
+    lines = []
+    for i in range(n):
+        pad = "    " + "  " * i
+        offset = "" if i == 0 else f' pos="0 0 {_num(params.l[i - 1])}"'
+        extra = "".join(f' {key}="{_num(getattr(params, key)[i])}"' for key in ("damping", "armature")
+                        if getattr(params, key)[i] != 0)
+        lines += [f'{pad}<body name="{bodies[i]}"{offset}>',
+                  f'{pad}  <joint name="{joints[i]}" type="hinge" axis="0 1 0"{extra}/>',
+                  f'{pad}  <inertial pos="0 0 {_num(params.lc[i])}" mass="{_num(params.m[i])}"'
+                  f' diaginertia="{_num(params.J[i])} {_num(params.J[i])} {_num(params.J[i] / 100)}"/>',
+                  f'{pad}  <geom name="{geoms[i]}" type="capsule" fromto="0 0 0 0 0 {_num(params.l[i])}"'
+                  f' size="{_num(round(radius, 4))}" material="{geoms[i]}" contype="0" conaffinity="0" group="1"/>']
+    pad = "    " + "  " * n
+    lines.append(f'{pad}<site name="{tip}" pos="0 0 {_num(params.l[-1])}" size="{site_size}" rgba="1 1 0 1" group="2"/>')
+    lines += ["    " + "  " * i + "</body>" for i in reversed(range(n))]
+    return "".join(line + "\n" for line in lines)
+
+
+def _motors(names, torque_limits):
+    joints, motors = names[1], names[3]
+    lines = []
+    for k, motor in enumerate(motors):
+        limit = None if torque_limits is None else float(np.broadcast_to(torque_limits, (len(motors),))[k])
+        bound = "" if limit is None or not np.isfinite(limit) else f' ctrlrange="{_num(-limit)} {_num(limit)}"'
+        lines.append(f'    <motor name="{motor}" joint="{joints[k + 1]}" gear="1"{bound}/>')
+    return "".join(line + "\n" for line in lines)
+
+
+def mjcf_from_params(params: RobotParams, name: str = "gymnast", title: str = "", gains=None, torque_limits=None,
+                     timestep=0.001) -> str:
+    """Return the MJCF text of the chain with the given parameters (the gymnast for three links).
 
     Parameters
     ----------
     params : RobotParams
-        Link masses, lengths, COM distances and inertias.
+        Link masses, lengths, COM distances and inertias, joint damping and armature.
     name : str
         The MJCF ``model`` attribute (escaped).
     title : str
@@ -141,20 +182,47 @@ def mjcf_from_params(params: RobotParams, name: str = "gymnast", title: str = ""
     gains : dict, optional
         Default gains ``{"kD", "kP", "kV"}`` of controller (40), stored as a
         ``<custom><numeric name="paa_gains">`` so they travel with the model.
+    torque_limits : float or array_like (n - 1,), optional
+        Each motor's torque limit [N m], written as its ``ctrlrange``; none (or +inf): unlimited.
+    timestep : float
+        The physics time step [s].
     """
     params.validate()
+    n = params.n_links
     for what, text in (("name", str(name)), ("title", str(title))):
         if not text.isprintable():
             raise PaaError(f"the model's {what} {text!r} has control characters (a new line, a tab...): give one line")
+    if not (np.isfinite(timestep) and 0 < timestep <= MAX_TIMESTEP):
+        raise PaaError(f"timestep = {timestep:g} s must lie in (0, {MAX_TIMESTEP:g}]")
+    if torque_limits is not None:
+        limits = np.asarray(torque_limits, float)
+        if limits.size not in (1, n - 1) or np.any(np.isnan(limits)) or np.any(limits <= 0):
+            raise PaaError(f"torque limits must be one positive number or one per motor ({n - 1}),"
+                           f" got {limits.reshape(-1).tolist()}")
+    names = chain_names(n)
     total = float(np.sum(params.l))
-    radius = [0.022 * total] * 3
     # The side camera looks at the bar 20 degrees off the normal of the plane of motion (so the
-    # posts do not hide the hanging gymnast), from where the whole circle of the feet fits.
+    # posts do not hide the hanging robot), from where the whole circle of its tip fits.
     cam_angle, cam_dist = np.radians(20.0), 2.7 * total
+    values = [f"    {key:<2} = {' '.join(_num(x) for x in getattr(params, key))}  {unit}\n"
+              for key, unit in (("m", "kg"), ("l", "m"), ("lc", "m"), ("J", "kg m^2"))]
+    values += [f"    {key} = {' '.join(_num(x) for x in getattr(params, key))}  {unit}\n"
+               for key, unit in (("damping", "N m s/rad"), ("armature", "kg m^2")) if np.any(getattr(params, key))]
+    if n == 3:
+        what = "Three-link gymnast on a high bar (Liu & Xin 2015; see docs/model.md of paa_mj)."
+        joints = "Joint 1 (hands on the bar) is passive; joints 2 (shoulders) and 3 (hips) carry motors."
+    else:
+        what = f"Planar {n}-link chain hanging from a bar (the gymnast's family; see docs/model.md of paa_mj)."
+        joints = f"Joint 1 ({names[1][0]}, on the bar) is passive; joint{'s 2..' if n > 2 else ' '}{n}" \
+                 f" ({', '.join(names[1][1:])}) carr{'y motors' if n > 2 else 'ies a motor'}."
+    materials = "".join(f'    <material name="{geom}" rgba="{_COLOURS.get(geom, _PALETTE[i % len(_PALETTE)])}"/>\n'
+                        for i, geom in enumerate(names[2]))
     subs = dict(
-        name=quoteattr(str(name)), title=comment_text(title) or "Parameters given by the user.", g=_num(params.g),
-        m=" ".join(_num(x) for x in params.m), l=" ".join(_num(x) for x in params.l),
-        lc=" ".join(_num(x) for x in params.lc), J=" ".join(_num(x) for x in params.J),
+        name=quoteattr(str(name)), what=what, joints=joints, values="".join(values),
+        title=comment_text(title) or "Parameters given by the user.", g=_num(params.g),
+        timestep=repr(float(timestep)) if timestep != 0.001 else "0.001",
+        materials=materials, bodies=_bodies(params, names, 0.022 * total, _num(round(0.02 * total, 4))),
+        motors=_motors(names, torque_limits),
         floor=_num(round(1.12 * total, 3)), floor_size=_num(round(3 * total, 3)),
         texrepeat=_num(max(2, round(3 * total))),
         bar_half=_num(round(0.45 * total, 3)), bar_radius=_num(round(0.012 * total, 4)),
@@ -163,19 +231,9 @@ def mjcf_from_params(params: RobotParams, name: str = "gymnast", title: str = ""
         cam_z=_num(round(-0.05 * total, 3)),
         cam_cos=_num(round(np.cos(cam_angle), 6)), cam_sin=_num(round(np.sin(cam_angle), 6)),
         light_x=_num(round(total, 3)), light_y=_num(round(2 * total, 3)), light_z=_num(round(3 * total, 3)),
-        site_size=_num(round(0.02 * total, 4)),
         custom=_GAINS_TEMPLATE.format(**{k: _num(gains[k]) for k in ("kD", "kP", "kV")}) if gains else "",
     )
-    for i in range(3):
-        subs[f"m{i + 1}"] = _num(params.m[i])
-        subs[f"l{i + 1}"] = _num(params.l[i])
-        subs[f"lc{i + 1}"] = _num(params.lc[i])
-        subs[f"J{i + 1}"] = _num(params.J[i])
-        # The inertia about the link's own axis plays no part in planar motion; a
-        # small positive value keeps the inertia tensor physical.
-        subs[f"Jz{i + 1}"] = _num(params.J[i] / 100)
-        subs[f"r{i + 1}"] = _num(round(radius[i], 4))
-    return _TEMPLATE.format(**subs)
+    return _HEADER.format(**subs)
 
 
 # --- reading files -----------------------------------------------------------------
@@ -270,7 +328,7 @@ def compile_mjcf(xml: str, source: str = "<string>") -> mujoco.MjModel:
 # --- reading the compiled model back ---------------------------------------------------
 
 def _shape_error(source, what):
-    return PaaError(f"{source} is not the 3-link gymnast: {what}")
+    return PaaError(f"{source} is not a planar chain on the bar (the gymnast's family): {what}")
 
 
 def _feature_error(source, what):
@@ -291,8 +349,8 @@ def _check_options(model, source):
     if not (np.isfinite(step) and 0 < step <= MAX_TIMESTEP):
         raise PaaError(f"non-physical parameters in {source}: timestep = {step:g} s must lie in (0, {MAX_TIMESTEP:g}]")
     gravity = np.asarray(model.opt.gravity, float)
-    if not np.all(np.isfinite(gravity)) or np.max(np.abs(gravity - [0.0, 0.0, -GRAVITY])) > 1e-9:
-        raise _feature_error(source, f"gravity {gravity.tolist()} m/s^2 (the model needs {GRAVITY:g} straight down)")
+    if not np.all(np.isfinite(gravity)) or np.max(np.abs(gravity[:2])) > 1e-12 or not gravity[2] < 0:
+        raise _feature_error(source, f"gravity {gravity.tolist()} m/s^2 (the model needs gravity straight down, -z)")
     if model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_GRAVITY:
         raise _feature_error(source, "gravity disabled")
     if model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_ACTUATION:
@@ -310,11 +368,14 @@ def _check_options(model, source):
 
 
 def _check_joints(model, source):
-    if model.nbody != 4 or list(model.body_parentid[1:]) != [0, 1, 2]:
-        raise _shape_error(source, f"needs a chain of 3 bodies under the world, found {model.nbody - 1} bodies")
-    if model.njnt != 3 or model.nv != 3 or np.any(model.jnt_type != mujoco.mjtJoint.mjJNT_HINGE):
-        raise _shape_error(source, f"needs exactly 3 hinge joints, found {model.njnt} joints with {model.nv} DoF")
-    if list(model.jnt_bodyid) != [1, 2, 3]:
+    n = model.nbody - 1
+    if not 2 <= n <= MAX_LINKS or list(model.body_parentid[1:]) != list(range(n)):
+        raise _shape_error(source, f"needs a chain of 2 to {MAX_LINKS} bodies under the world, each the child of the"
+                                   f" one before, found {n} bod{'y' if n == 1 else 'ies'}")
+    if model.njnt != n or model.nv != n or np.any(model.jnt_type != mujoco.mjtJoint.mjJNT_HINGE):
+        raise _shape_error(source, f"needs one hinge joint per link ({n}), found {model.njnt} joints with"
+                                   f" {model.nv} DoF")
+    if list(model.jnt_bodyid) != list(range(1, n + 1)):
         raise _shape_error(source, "needs one hinge on each link")
     if np.any(np.abs(model.jnt_pos) > 1e-12):
         raise _shape_error(source, "each hinge must sit at its body's origin")
@@ -327,31 +388,37 @@ def _check_joints(model, source):
     if np.any(model.qpos0 != 0):
         raise _feature_error(source, f"joint reference angles (ref {np.asarray(model.qpos0).tolist()} rad; q = 0 must"
                                      " be every link straight up)")
-    for body in (1, 2, 3):
+    for body in range(1, n + 1):
         if not np.allclose(model.body_quat[body], [1, 0, 0, 0], atol=1e-12):
             raise _shape_error(source, "link bodies must not be rotated (q = 0 is every link straight up)")
     axis = model.jnt_axis[0] / np.linalg.norm(model.jnt_axis[0])
     if not np.allclose(model.jnt_axis, axis, atol=1e-9):
-        raise _shape_error(source, "the three hinge axes must be the same")
+        raise _shape_error(source, "the hinge axes must be the same")
     if abs(axis[2]) > 1e-9:
         raise _shape_error(source, "hinge axes must be horizontal (perpendicular to gravity)")
     if np.any(model.jnt_limited):
         raise _feature_error(source, f"joint ranges (limited joints {[int(j) + 1 for j in np.flatnonzero(model.jnt_limited)]})")
-    for what, values in (("joint damping", model.dof_damping), ("armature", model.dof_armature),
-                         ("friction loss", model.dof_frictionloss), ("joint stiffness", model.jnt_stiffness)):
+    # viscous damping and armature are in the analytic model; these are not
+    for what, values in (("friction loss", model.dof_frictionloss), ("joint stiffness", model.jnt_stiffness)):
         if np.any(values != 0):
             raise _feature_error(source, f"{what} {np.asarray(values).tolist()}")
+    for what, values in (("joint damping", model.dof_damping), ("armature", model.dof_armature)):
+        if not np.all(np.isfinite(values) & (values >= 0)):
+            raise PaaError(f"non-physical parameters in {source}: {what} {np.asarray(values).tolist()} must be finite"
+                           " and >= 0")
     contacts_on = not (model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_CONTACT)
     colliding = (model.geom_contype | model.geom_conaffinity) != 0
-    if contacts_on and np.any(colliding[np.isin(model.geom_bodyid, [1, 2, 3])]):
+    if contacts_on and np.any(colliding[model.geom_bodyid > 0]):
         raise _feature_error(source, "contacts (link geoms that collide; set contype = conaffinity = 0"
                                      " or disable contacts)")
     return axis
 
 
 def _check_actuators(model, source):
-    if model.nu != 2:
-        raise _feature_error(source, f"{model.nu} actuators (the model has 2 motors: shoulder, hip)")
+    n = model.njnt
+    if model.nu != n - 1:
+        raise _feature_error(source, f"{model.nu} actuators (a chain of {n} links has {n - 1} motor"
+                                     f"{'s' if n > 2 else ''}, on joint{'s 2..' if n > 2 else ' '}{n})")
     driven = []
     for act in range(model.nu):
         if model.actuator_trntype[act] != mujoco.mjtTrn.mjTRN_JOINT:
@@ -372,8 +439,9 @@ def _check_actuators(model, source):
         if not is_motor:
             raise _feature_error(source, f"actuator {act} is not a <motor> (gain 1, no bias, no dynamics)")
         driven.append(int(model.actuator_trnid[act, 0]))
-    if driven != [1, 2]:
-        raise _shape_error(source, f"motors must drive joints 2 and 3 in that order (joint 1 passive), found joints {[d + 1 for d in driven]}")
+    if driven != list(range(1, n)):
+        raise _shape_error(source, f"motors must drive joints 2..{n} in that order (joint 1 passive), found joints"
+                                   f" {[d + 1 for d in driven]}")
 
 
 def _symmetric_limit(low, high, what, source):
@@ -392,14 +460,14 @@ def _check_unused_range(limited, values, what, source):
 
 
 def torque_limits_from_model(model: mujoco.MjModel, source: str = "model") -> np.ndarray:
-    """The torque limit of each motor [N m], shape (2,), +inf where none.
+    """The torque limit of each motor [N m], shape (n - 1,), +inf where none.
 
     The smallest of the actuator's ``ctrlrange`` (gear 1, so torque = control),
     its ``forcerange`` and the driven joint's ``actuatorfrcrange``; each must be
     symmetric about 0.
     """
-    limits = np.full(2, np.inf)
-    for act in range(min(model.nu, 2)):
+    limits = np.full(max(model.njnt - 1, 0), np.inf)
+    for act in range(min(model.nu, limits.size)):
         joint = int(model.actuator_trnid[act, 0])
         _check_unused_range(model.actuator_ctrllimited[act], model.actuator_ctrlrange[act], f"actuator {act} ctrlrange",
                             source)
@@ -421,54 +489,59 @@ def torque_limits_from_model(model: mujoco.MjModel, source: str = "model") -> np
 
 
 def params_from_model(model: mujoco.MjModel, source: str = "model") -> RobotParams:
-    """Read the paper's parameters back from a compiled gymnast model.
+    """Read a chain's parameters back from its compiled model (the gymnast's are the paper's).
 
     Reads masses (``body_mass``), COM distances (the norm of ``body_ipos``, or 0 where the
     compiler merged the inertial frame into the body frame), link lengths
-    (child body offsets; link 3 from its ``feet`` site, or the farthest geom
-    or site of link 3 when that site is missing), inertias about the hinge axis
-    through the COM (``body_inertia`` rotated by ``body_iquat``) and gravity.
+    (child body offsets; the last link's from its tip site, ``feet`` or ``tip``, or the
+    farthest geom or site of that link when there is none), inertias about the hinge axis
+    through the COM (``body_inertia`` rotated by ``body_iquat``), joint damping and
+    armature (``dof_damping``, ``dof_armature``) and gravity.
 
     Raises
     ------
     PaaError
-        If the model is not of the gymnast's shape, has a feature the paper's
+        If the model is not a chain of the family, has a feature the analytic
         model lacks (module docstring), or its parameters are not physical.
     """
     _check_options(model, source)
     axis = _check_joints(model, source)
     _check_actuators(model, source)
     torque_limits_from_model(model, source)
+    n = model.nbody - 1
     up = np.array([0.0, 0.0, 1.0])
-    m = model.body_mass[1:4].copy()
-    lc = np.linalg.norm(model.body_ipos[1:4], axis=1)
+    m = model.body_mass[1:].copy()
+    lc = np.linalg.norm(model.body_ipos[1:], axis=1)
     # MuJoCo's compiler snaps an inertial frame within ~1e-6 of the body frame onto it
     # (body_sameframe = 1) and then simulates the COM at the joint: read what it runs.
-    lc[model.body_sameframe[1:4] == mujoco.mjtSameFrame.mjSAMEFRAME_BODY] = 0.0
-    lengths = [float(np.linalg.norm(model.body_pos[2])), float(np.linalg.norm(model.body_pos[3]))]
-    for i, offset in enumerate((model.body_pos[2], model.body_pos[3])):
-        if not (lengths[i] > 0) or np.linalg.norm(offset / lengths[i] - up) > 1e-9:
+    lc[model.body_sameframe[1:] == mujoco.mjtSameFrame.mjSAMEFRAME_BODY] = 0.0
+    lengths = [float(np.linalg.norm(model.body_pos[i])) for i in range(2, n + 1)]
+    for i, length in enumerate(lengths):
+        if not (length > 0) or np.linalg.norm(model.body_pos[i + 2] / length - up) > 1e-9:
             raise _shape_error(source, f"link {i + 1} must point straight up at q = 0 (next joint on the +z axis)")
-    for i in range(3):
+    for i in range(n):
         if lc[i] > 0 and np.linalg.norm(model.body_ipos[i + 1] / lc[i] - up) > 1e-9:
             raise _shape_error(source, f"link {i + 1}'s centre of mass must lie on the link, between its joints")
-    lengths.append(_link3_length(model, up, source))
-    J = np.array([_axis_inertia(model, b, axis) for b in (1, 2, 3)])
+    lengths.append(_last_link_length(model, up, source))
+    J = np.array([_axis_inertia(model, b, axis) for b in range(1, n + 1)])
     name = model.names.split(b"\0", 1)[0].decode() or "model"
     try:
-        return RobotParams(m=m, l=np.array(lengths), lc=lc, J=J, g=float(np.linalg.norm(model.opt.gravity)), name=name)
+        return RobotParams(m=m, l=np.array(lengths), lc=lc, J=J, g=float(np.linalg.norm(model.opt.gravity)), name=name,
+                           damping=model.dof_damping.copy(), armature=model.dof_armature.copy())
     except PaaError as err:
         raise PaaError(f"{err} (in {source})") from None
 
 
-def _link3_length(model, up, source):
-    feet = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, "feet")
-    if feet >= 0 and model.site_bodyid[feet] == 3:
-        return float(model.site_pos[feet] @ up)
-    reach = [model.site_pos[s] @ up for s in range(model.nsite) if model.site_bodyid[s] == 3]
-    reach += [model.geom_pos[g] @ up + model.geom_rbound[g] for g in range(model.ngeom) if model.geom_bodyid[g] == 3]
+def _last_link_length(model, up, source):
+    last = model.nbody - 1
+    for tip_name in ("feet", "tip"):
+        tip = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, tip_name)
+        if tip >= 0 and model.site_bodyid[tip] == last:
+            return float(model.site_pos[tip] @ up)
+    reach = [model.site_pos[s] @ up for s in range(model.nsite) if model.site_bodyid[s] == last]
+    reach += [model.geom_pos[g] @ up + model.geom_rbound[g] for g in range(model.ngeom) if model.geom_bodyid[g] == last]
     if not reach:
-        raise _shape_error(source, "link 3 needs a 'feet' site (or a geom) to give its length")
+        raise _shape_error(source, f"link {last} needs a 'feet' or 'tip' site (or a geom) to give its length")
     return float(max(reach))
 
 

@@ -1,11 +1,13 @@
-"""Physical parameters of the three-link gymnast (``docs/model.md``, section 1).
+"""Physical parameters of a planar chain on the bar: the gymnast and its family (``docs/model.md``).
 
-A :class:`RobotParams` holds, for each link i, its mass ``m_i`` [kg], length
-``l_i`` [m], distance ``lc_i`` [m] from joint i to its centre of mass and moment
-of inertia ``J_i`` [kg m^2] about the centre of mass, plus gravity ``g`` [m/s^2].
-The named robots of the paper live in ``paa_mj/model/*.xml``; parameters are read
-back from the compiled MuJoCo model (:func:`paa_mj.model.mjcf.params_from_model`)
-so the analytic model is always the one MuJoCo runs.
+A :class:`RobotParams` holds, for each of its n >= 2 links i, its mass ``m_i`` [kg],
+length ``l_i`` [m], distance ``lc_i`` [m] from joint i to its centre of mass, moment
+of inertia ``J_i`` [kg m^2] about the centre of mass, the viscous damping ``d_i``
+[N m s/rad] and the armature ``a_i`` [kg m^2] of joint i, plus gravity ``g``
+[m/s^2]. The paper's gymnast is n = 3 without damping or armature (Table 1). The
+named robots live in ``models/*.xml``; parameters are read back from the compiled
+MuJoCo model (:func:`paa_mj.model.mjcf.params_from_model`) so the analytic model
+is always the one MuJoCo runs.
 """
 from __future__ import annotations
 
@@ -18,32 +20,46 @@ from ..errors import PaaError
 #: Plausible ranges of the parameters: outside them a model is refused as absurd (its
 #: energies would overflow or vanish below rounding).
 PLAUSIBLE = {"m": (1e-6, 1e6), "l": (1e-4, 1e3), "J": (1e-10, 1e9)}
+#: The most links of a chain (a limit of sense, not of the formulas: the cost of a step grows as n^3).
+MAX_LINKS = 64
+#: Per-link parameters, in their order; damping and armature may be left out (zero).
+PER_LINK = ("m", "l", "lc", "J", "damping", "armature")
 
 
-def _vec3(name, value):
-    arr = np.asarray(value, dtype=float).reshape(-1)
-    if arr.shape != (3,):
-        raise PaaError(f"{name} needs 3 values (one per link), got {arr.size}")
+def _per_link(name, value, n=None):
+    arr = np.array(value, dtype=float).reshape(-1)
+    if n is None:
+        if not 2 <= arr.size <= MAX_LINKS:
+            raise PaaError(f"{name} needs one value per link, for 2 to {MAX_LINKS} links, got {arr.size}")
+    elif arr.size == 1 and name in ("damping", "armature"):
+        arr = np.full(n, float(arr[0]))
+    elif arr.size != n:
+        raise PaaError(f"{name} needs {n} values (one per link), got {arr.size}")
     return arr
 
 
 @dataclass(frozen=True, eq=False)
 class RobotParams:
-    """Masses, lengths, COM distances and inertias of the three links.
+    """Masses, lengths, COM distances, inertias, joint damping and armature of the n links.
 
     Parameters
     ----------
-    m, l, lc, J : array_like, shape (3,)
+    m, l, lc, J : array_like, shape (n,), 2 <= n <= :data:`MAX_LINKS`
         Link masses [kg], lengths [m], joint-to-COM distances [m] and
         moments of inertia about the COM [kg m^2].
     g : float
         Gravitational acceleration [m/s^2], positive.
+    damping : array_like, shape (n,) or scalar, optional
+        Viscous damping of each joint [N m s/rad] (MuJoCo's joint ``damping``), >= 0; default 0.
+    armature : array_like, shape (n,) or scalar, optional
+        Rotor inertia added to each joint [kg m^2] (MuJoCo's ``armature``), >= 0; default 0.
 
     Raises
     ------
     PaaError
         For non-physical values: m <= 0, J <= 0, l <= 0, lc outside [0, l],
-        g <= 0, anything non-finite, or values outside :data:`PLAUSIBLE`.
+        damping or armature < 0, g <= 0, anything non-finite, values outside
+        :data:`PLAUSIBLE`, or arrays of different lengths.
     """
 
     m: np.ndarray
@@ -52,15 +68,29 @@ class RobotParams:
     J: np.ndarray
     g: float = 9.81
     name: str = field(default="custom", compare=False)
+    damping: np.ndarray | None = None
+    armature: np.ndarray | None = None
 
     def __post_init__(self):
-        for key in ("m", "l", "lc", "J"):
-            object.__setattr__(self, key, _vec3(key, getattr(self, key)))
+        n = _per_link("m", self.m).size
+        for key in PER_LINK:
+            value = getattr(self, key)
+            object.__setattr__(self, key, np.zeros(n) if value is None else _per_link(key, value, n))
         object.__setattr__(self, "g", float(self.g))
         self.validate()
 
+    @property
+    def n_links(self) -> int:
+        """The number of links n (and of joints; joints 2..n carry motors)."""
+        return int(self.m.size)
+
+    @property
+    def is_paper_shape(self) -> bool:
+        """Three links without damping or armature: the model (1)-(7) of the paper holds as written."""
+        return self.n_links == 3 and not np.any(self.damping) and not np.any(self.armature)
+
     def validate(self):
-        for key in ("m", "l", "lc", "J"):
+        for key in PER_LINK:
             if not np.all(np.isfinite(getattr(self, key))):
                 raise PaaError(f"non-physical parameters: {key} = {getattr(self, key).tolist()} is not finite")
         for key in ("m", "l", "J"):
@@ -81,18 +111,26 @@ class RobotParams:
             i = bad[0]
             raise PaaError(
                 f"non-physical parameters: lc{i + 1} = {self.lc[i]:g} must lie in [0, l{i + 1}] = [0, {self.l[i]:g}]")
+        for key in ("damping", "armature"):
+            values = getattr(self, key)
+            bad = np.flatnonzero(values < 0)
+            if bad.size:
+                i = bad[0]
+                raise PaaError(f"non-physical parameters: {key}{i + 1} = {values[i]:g} must be >= 0")
         if not (np.isfinite(self.g) and self.g > 0):
             raise PaaError(f"non-physical parameters: g = {self.g:g} must be > 0")
 
     @classmethod
-    def uniform_rods(cls, m, l, g=9.81, name="custom"):
+    def uniform_rods(cls, m, l, g=9.81, name="custom", damping=None, armature=None):
         """Slender uniform rods: lc = l / 2 and J = m l^2 / 12 (as Table 2 of the paper)."""
-        m, l = _vec3("m", m), _vec3("l", l)
-        return cls(m=m, l=l, lc=l / 2, J=m * l**2 / 12, g=g, name=name)
+        m = _per_link("m", m)
+        l = _per_link("l", l, m.size)
+        return cls(m=m, l=l, lc=l / 2, J=m * l**2 / 12, g=g, name=name, damping=damping, armature=armature)
 
     def key(self) -> tuple:
-        """The parameters as one hashable tuple (m, l, lc, J, g)."""
-        return tuple(np.concatenate([self.m, self.l, self.lc, self.J, [self.g]]).tolist())
+        """The parameters as one hashable tuple (m, l, lc, J, g, then damping and armature where any is set)."""
+        extra = [self.damping, self.armature] if np.any(self.damping) or np.any(self.armature) else []
+        return tuple(np.concatenate([self.m, self.l, self.lc, self.J, [self.g], *extra]).tolist())
 
     def __eq__(self, other):
         return isinstance(other, RobotParams) and self.key() == other.key()
@@ -101,15 +139,19 @@ class RobotParams:
         return hash(self.key())
 
     def as_dict(self):
-        return {"m": self.m.tolist(), "l": self.l.tolist(), "lc": self.lc.tolist(),
-                "J": self.J.tolist(), "g": self.g}
+        """The parameters for JSON; damping and armature appear where any is set."""
+        out = {"m": self.m.tolist(), "l": self.l.tolist(), "lc": self.lc.tolist(), "J": self.J.tolist(), "g": self.g}
+        for key in ("damping", "armature"):
+            if np.any(getattr(self, key)):
+                out[key] = getattr(self, key).tolist()
+        return out
 
     def scaled(self, mass_factor=1.0, length_factor=1.0):
         """Return a copy with masses (and inertias) and lengths scaled, for model-error studies.
 
-        Inertias scale as m l^2, so a rod stays a rod.
+        Inertias scale as m l^2, so a rod stays a rod; damping and armature are kept.
         """
         return RobotParams(m=self.m * mass_factor, l=self.l * length_factor,
                            lc=self.lc * length_factor,
                            J=self.J * mass_factor * length_factor**2, g=self.g,
-                           name=f"{self.name}*")
+                           name=f"{self.name}*", damping=self.damping, armature=self.armature)

@@ -1,9 +1,10 @@
 """A loaded robot: the MuJoCo model, its parameters read back, the analytic model and its limits.
 
-:func:`load_robot` takes a named robot of the paper (``gymnast`` is Table 1,
-``example2`` Table 2, both in ``paa_mj/model/*.xml``) or a path to an MJCF
-file of the same shape, and returns a :class:`Robot`: what every controller,
-rollout and study of the package is built from.
+:func:`load_robot` takes a named robot (``gymnast`` is Table 1 of the paper,
+``example2`` Table 2, ``acrobot`` Drake's acrobot, ``chain4`` a four-link chain,
+all in ``models/``) or a path to the MJCF file of any planar chain on the bar,
+and returns a :class:`Robot`: what every controller, rollout and study of the
+package is built from.
 """
 from __future__ import annotations
 
@@ -20,7 +21,7 @@ from .mjcf import (MODEL_DIR, compile_mjcf, default_gains, flatten_mjcf, mjcf_fr
                    read_text, torque_limits_from_model)
 from .params import RobotParams
 
-NAMED_ROBOTS = ("gymnast", "example2")
+NAMED_ROBOTS = ("gymnast", "example2", "acrobot", "chain4")
 
 
 @dataclass(frozen=True, eq=False)
@@ -38,7 +39,7 @@ class Robot:
         The paper's model (1)-(7) with ``params``.
     gains : dict or None
         Default gains ``{"kD", "kP", "kV"}`` of controller (40) stored in the model file.
-    torque_limits : ndarray (2,)
+    torque_limits : ndarray (n - 1,)
         The motors' torque limits [N m] from the model's actuator ranges (+inf: none).
     xml : str
         The MJCF text the model was compiled from (what a Dask worker rebuilds it from).
@@ -98,7 +99,7 @@ def robot_path(robot: str | os.PathLike) -> Path:
 
 
 def load_model(robot: str | os.PathLike) -> mujoco.MjModel:
-    """Compile a named robot or an MJCF file, checking that it is the gymnast (see :func:`load_robot`)."""
+    """Compile a named robot or an MJCF file, checking that it is a chain of the family (see :func:`load_robot`)."""
     return load_robot(robot).model
 
 
@@ -111,8 +112,8 @@ def load_robot(robot: str | os.PathLike) -> Robot:
     ------
     PaaError
         Unknown name, a missing, unreadable or irregular file (a FIFO, a folder),
-        malformed XML, a model that is not the gymnast, a feature the paper's model
-        lacks, or parameters that are not physical; always one line.
+        malformed XML, a model that is not a chain of the family, a feature the
+        analytic model lacks, or parameters that are not physical; always one line.
     """
     path = robot_path(robot)
     text = read_text(path)

@@ -1,11 +1,16 @@
-"""The named states of the gymnast and the error from the goal, with angles wrapped.
+"""The named states of the gymnast and its family, the goals, and the error from a goal, with angles wrapped.
 
 - (65): hanging straight down at rest, q = (-pi, 0, 0), qd = 0, where every kip starts;
 - (8): the folded up-down-down equilibrium (UDD), q = (0, -pi, 0), the goal;
 - (11): q_ar = [-pi, 0], the goal of the actuated coordinates;
 - the down-up-up point (DUU), q = (-pi, -pi, 0), the other limit of Theorem 1.
 
-:func:`wrap` and the components of :func:`udd_error_components` run on scalars
+For a chain of n links (:data:`GOALS`): the *folded* goal is the paper's, link 1 up and
+the others hanging down, q* = (0, -pi, 0, ..., 0) (for two links the up-down point of
+Lemma 1); the *stretched* goal is every link up, q* = 0 (the classic acrobot swing-up).
+Every run starts hanging at rest, q = (-pi, 0, ..., 0).
+
+:func:`wrap`, :func:`udd_error_components` and :func:`goal_error_into` run on scalars
 or arrays and inside numba kernels (one definition, as in
 :mod:`paa_mj.model.equations`).
 """
@@ -36,6 +41,43 @@ TWO_PI = 2.0 * math.pi
 def wrap(a):
     """Angles wrapped to (-pi, pi] [rad]."""
     return PI - (PI - a) % TWO_PI
+
+
+#: The goals of the family: the paper's folded posture and the fully stretched one.
+GOALS = ("folded", "stretched")
+
+
+def goal_angles(goal: str, n_links: int) -> np.ndarray:
+    """q* of a goal for a chain of ``n_links`` links [rad] (module docstring)."""
+    if goal not in GOALS:
+        from ..errors import PaaError
+
+        raise PaaError(f"unknown goal {goal!r}: use one of {', '.join(GOALS)}")
+    angles = np.zeros(n_links)
+    if goal == "folded":
+        angles[1] = -np.pi
+    return angles
+
+
+def hanging_state(n_links: int) -> np.ndarray:
+    """Hanging straight down at rest, (65) for the gymnast: q = (-pi, 0, ..., 0), qd = 0."""
+    x = np.zeros(2 * n_links)
+    x[0] = -np.pi
+    return x
+
+
+@register_jitable
+def goal_error_into(q, goal, out):
+    """out[i] = q[i] - q*[i] wrapped to (-pi, pi], for i < n (the angle part of the error from the goal)."""
+    for i in range(goal.size):
+        out[i] = wrap(q[i] - goal[i])
+
+
+def goal_error(q, qd, goal):
+    """State error from the goal, [wrap(q - q*), qd], shape (..., 2n); (67)'s x for the gymnast's folded goal."""
+    q, qd = np.asarray(q, float), np.asarray(qd, float)
+    angles = wrap(q - np.asarray(goal, float))
+    return np.concatenate(np.broadcast_arrays(angles, qd), axis=-1)
 
 
 @register_jitable

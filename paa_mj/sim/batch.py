@@ -23,12 +23,13 @@ from ..errors import PaaError
 from ..limits import check_memory, check_seed, check_steps, positive_finite
 from ..model.params import RobotParams
 from ..model.robot import Robot
-from ..model.states import MAX_INITIAL_ANGLE, MAX_INITIAL_SPEED, X0_HANGING, udd_error
+from ..model.states import MAX_INITIAL_ANGLE, MAX_INITIAL_SPEED, goal_angles, goal_error, hanging_state
 from . import engine
-from .engine import (DIVERGED, F_D1, F_INT_TAU2, F_Q1, F_SMOOTH, F_SPEED, F_TAU2, F_TAU3, F_WORK, I_LEFT_GOAL,
-                     I_OUTSIDE, I_REGION, I_STATUS, I_STEP, I_SWITCH, N_PUSH, N_SETUP, RETIRED, FINISHED,
-                     S_DELAY, S_LEVEL, S_LIMIT2, S_NOISE_Q, S_PUSH_END, S_TAU_NOISE, STATUS_TEXT)
+from .engine import (DIVERGED, F_INT_TAU2, F_SMOOTH, F_SPEED, F_WORK, I_LEFT_GOAL, I_OUTSIDE, I_REGION, I_STATUS,
+                     I_STEP, I_SWITCH, RETIRED, FINISHED, S_DELAY, S_LEVEL, S_NOISE_Q, S_PUSH_END, S_TAU_NOISE,
+                     STATUS_TEXT, fstate_layout, push_width, setup_layout)
 from .integrators import mujoco_model_for
+from .retirement import certificate_size, retirement_certificate
 
 #: Per-rollout outcome arrays of a :class:`BatchResult`, in the order they are saved.
 OUTCOMES = ("x0", "switch_time", "balanced", "final_state", "E_minus_Er_final", "V_final", "max_abs_tau", "diverged",
@@ -42,10 +43,10 @@ class BatchResult:
     Attributes
     ----------
     switch_time : first switch to the balance controller (mode 1) [s], NaN if never.
-    balanced : final state within :data:`~paa_mj.control.region.BALANCE_TOL` of UDD, not diverged.
+    balanced : final state within :data:`~paa_mj.control.region.BALANCE_TOL` of the goal (UDD), not diverged.
     final_state : the last good state [q, qd]; for a retired rollout, its state at retirement.
     E_minus_Er_final, V_final : E - E_r [J] and V of (34) [J^2] there (V: NaN without an energy controller).
-    max_abs_tau : peak :math:`|\\tau_2|, |\\tau_3|` [N m].
+    max_abs_tau : peak :math:`|\\tau_2|, \\dots, |\\tau_n|` [N m] (for the gymnast :math:`|\\tau_2|, |\\tau_3|`).
     diverged : stopped for a non-finite or runaway state, a non-finite torque or a MuJoCo warning.
     success : :data:`~paa_mj.control.region.SUCCESS_DEFINITION`: no divergence and the true state inside region (68)
         over the last second (the one success test of every study; the controller's mode plays no part).
@@ -105,29 +106,35 @@ def _rows(value, n, width, name, default):
     return np.ascontiguousarray(arr)
 
 
-def _as_floats(x0, what):
+def _state_names(n_links):
+    return " ".join([f"q{i + 1}" for i in range(n_links)] + [f"d{i + 1}" for i in range(n_links)])
+
+
+def _as_floats(x0, what, n_links):
     try:
         return np.asarray(x0, dtype=float)
     except (TypeError, ValueError):
-        raise PaaError(f"{what} must be numbers (q1 q2 q3 d1 d2 d3), got {x0!r:.60}") from None
+        raise PaaError(f"{what} must be numbers ({_state_names(n_links)}), got {x0!r:.60}") from None
 
 
-def check_initial_states(x0) -> np.ndarray:
-    """x0 as a finite (N, 6) array, or a one-line error."""
-    x0 = np.atleast_2d(_as_floats(x0, "initial states"))
-    if x0.ndim != 2 or x0.shape[1] != 6 or len(x0) == 0:
-        raise PaaError(f"initial states must be an (N, 6) array of q1 q2 q3 d1 d2 d3, got shape {x0.shape}")
+def check_initial_states(x0, n_links=3) -> np.ndarray:
+    """x0 as a finite (N, 2n) array for a chain of ``n_links`` links, or a one-line error."""
+    x0 = np.atleast_2d(_as_floats(x0, "initial states", n_links))
+    width = 2 * n_links
+    if x0.ndim != 2 or x0.shape[1] != width or len(x0) == 0:
+        raise PaaError(f"initial states must be an (N, {width}) array of {_state_names(n_links)}, got shape"
+                       f" {x0.shape}")
     if not np.all(np.isfinite(x0)):
         raise PaaError("initial states must be finite")
     _check_initial_magnitudes(x0)
     return x0
 
 
-def check_initial_state(x0) -> np.ndarray:
-    """One initial state as a finite (1, 6) array, or a one-line error."""
-    x0 = _as_floats(x0, "initial state").reshape(-1)
-    if x0.size != 6:
-        raise PaaError(f"initial state needs 6 numbers (q1 q2 q3 d1 d2 d3), got {x0.size}")
+def check_initial_state(x0, n_links=3) -> np.ndarray:
+    """One initial state as a finite (1, 2n) array for a chain of ``n_links`` links, or a one-line error."""
+    x0 = _as_floats(x0, "initial state", n_links).reshape(-1)
+    if x0.size != 2 * n_links:
+        raise PaaError(f"initial state needs {2 * n_links} numbers ({_state_names(n_links)}), got {x0.size}")
     if not np.all(np.isfinite(x0)):
         raise PaaError(f"initial state must be finite, got {x0.tolist()}")
     _check_initial_magnitudes(x0[None])
@@ -135,11 +142,12 @@ def check_initial_state(x0) -> np.ndarray:
 
 
 def _check_initial_magnitudes(x0):
-    farthest = float(np.max(np.abs(x0[:, :3])))
+    n = x0.shape[1] // 2
+    farthest = float(np.max(np.abs(x0[:, :n])))
     if farthest > MAX_INITIAL_ANGLE:
         raise PaaError(f"initial angle {farthest:g} rad is beyond {MAX_INITIAL_ANGLE:g} rad: give it wrapped to"
                        " (-pi, pi]")
-    fastest = float(np.max(np.abs(x0[:, 3:])))
+    fastest = float(np.max(np.abs(x0[:, n:])))
     if fastest > MAX_INITIAL_SPEED:
         raise PaaError(f"initial joint speed {fastest:g} rad/s is above {MAX_INITIAL_SPEED:g} rad/s, faster than any"
                        " gymnast or robot of this model turns")
@@ -173,8 +181,9 @@ def sample_interval(sample_dt, dt, t_final):
     return int(round(steps))
 
 
-def controllers_for(robot: Robot, controller, n) -> list:
-    """One controller object per rollout from a name, a spec, a controller or a list of those."""
+def controllers_for(robot: Robot, controller, n, goal="folded") -> list:
+    """One controller object per rollout from a name, a spec, a controller or a list of those (names are built
+    for ``goal``)."""
     items = controller if isinstance(controller, (list, tuple)) else [controller] * n
     if len(items) != n:
         raise PaaError(f"need one controller per rollout ({n}), got {len(items)}")
@@ -182,7 +191,7 @@ def controllers_for(robot: Robot, controller, n) -> list:
     for item in items:
         key = item if isinstance(item, (str, ControllerSpec)) else id(item)
         if key not in built:
-            spec = ControllerSpec(item) if isinstance(item, str) else item
+            spec = ControllerSpec(item, goal=goal) if isinstance(item, str) else item
             built[key] = spec.build(robot) if isinstance(spec, ControllerSpec) else spec
         out.append(built[key])
     return out
@@ -190,9 +199,12 @@ def controllers_for(robot: Robot, controller, n) -> list:
 
 def build_plan(robot: Robot, x0, t_final, controllers, dt=None, integrator=None, plants=None, torque_limit=None,
                noise_std=None, torque_noise=None, delay_steps=None, pushes=None, seed=0, rollout_ids=None, every=0,
-               retire=True) -> engine.Plan:
+               retire=True, goal="folded") -> engine.Plan:
     """An engine plan for these rollouts (checked; see :func:`simulate_batch`)."""
     n = len(x0)
+    links = robot.params.n_links
+    nu = links - 1
+    s_limits, s_goal, width = setup_layout(links)
     base = mujoco_model_for(robot, dt, integrator)
     dt = float(base.opt.timestep)
     n_steps = steps_for(t_final, dt)
@@ -200,11 +212,12 @@ def build_plan(robot: Robot, x0, t_final, controllers, dt=None, integrator=None,
     if every:
         check_memory(n * (n_steps // every + 2) * 80.0, "recorded samples", "--t-final or raise --sample-dt")
     models, model_index, plant_robots = _plants(robot, base, plants, n)
-    setup = np.zeros((n, N_SETUP))
-    limits = _rows(torque_limit, n, 2, "torque limit", np.inf)
+    setup = np.zeros((n, width))
+    limits = _rows(torque_limit, n, nu, "torque limit", np.inf)
     if np.any(~(limits > 0)):
         raise PaaError("torque limits must be > 0")
-    setup[:, S_LIMIT2:S_LIMIT2 + 2] = np.minimum(limits, robot.torque_limits)
+    setup[:, s_limits:s_limits + nu] = np.minimum(limits, robot.torque_limits)
+    setup[:, s_goal:s_goal + links] = goal_angles(goal, links)
     noise = _rows(noise_std, n, 2, "measurement noise", 0.0)
     tau_noise = _rows(torque_noise, n, 1, "torque noise", 0.0)[:, 0]
     delays = _rows(delay_steps, n, 1, "control delay", 0.0)[:, 0]
@@ -217,12 +230,14 @@ def build_plan(robot: Robot, x0, t_final, controllers, dt=None, integrator=None,
     setup[:, S_NOISE_Q:S_NOISE_Q + 2] = noise
     setup[:, S_TAU_NOISE] = tau_noise
     setup[:, S_DELAY] = delays
-    pushes = np.zeros((n, 0, N_PUSH)) if pushes is None else np.ascontiguousarray(pushes, dtype=float)
-    if pushes.ndim != 3 or pushes.shape[0] != n or pushes.shape[2] != N_PUSH or not np.all(np.isfinite(pushes)):
-        raise PaaError(f"pushes must be a finite (N, K, {N_PUSH}) array of (t_center, sigma, f1, f2, f3)")
+    push = push_width(links)
+    pushes = np.zeros((n, 0, push)) if pushes is None else np.ascontiguousarray(pushes, dtype=float)
+    if pushes.ndim != 3 or pushes.shape[0] != n or pushes.shape[2] != push or not np.all(np.isfinite(pushes)):
+        forces = ", ".join(f"f{i + 1}" for i in range(links))
+        raise PaaError(f"pushes must be a finite (N, K, {push}) array of (t_center, sigma, {forces})")
     setup[:, S_PUSH_END] = np.max(pushes[:, :, 0] + 4 * pushes[:, :, 1], axis=1, initial=-np.inf) \
         if pushes.shape[1] else -np.inf
-    cert = np.zeros((n, engine.N_CERT))
+    cert = np.zeros((n, certificate_size(links)))
     certificates = {}
     disturbed = (noise.any(axis=1)) | (tau_noise > 0) | (delays > 0)
     for r in range(n):
@@ -230,7 +245,7 @@ def build_plan(robot: Robot, x0, t_final, controllers, dt=None, integrator=None,
         gain = None if form is None else form.balance_gain
         key = (model_index[r], id(controllers[r]))
         if key not in certificates:
-            certificates[key] = engine.retirement_certificate(plant_robots[model_index[r]].analytic, gain, dt)
+            certificates[key] = retirement_certificate(plant_robots[model_index[r]].analytic, gain, dt, goal)
         if not disturbed[r]:
             cert[r], setup[r, S_LEVEL] = certificates[key]
     ids = np.arange(n, dtype=np.int64) if rollout_ids is None else np.asarray(rollout_ids, dtype=np.int64).reshape(-1)
@@ -239,7 +254,7 @@ def build_plan(robot: Robot, x0, t_final, controllers, dt=None, integrator=None,
     check_seed(seed, "seed")
     return engine.Plan(models=models, model_index=model_index, x0=np.ascontiguousarray(x0), setup=setup, cert=cert,
                        pushes=pushes, rollout_ids=ids, seed=int(seed), dt=dt, n_steps=n_steps, every=int(every),
-                       retire=bool(retire))
+                       retire=bool(retire), goal=goal)
 
 
 def _plants(robot, base, plants, n):
@@ -268,11 +283,15 @@ def _plants(robot, base, plants, n):
 def outcome_arrays(plan: engine.Plan, outcome: engine.Outcome, controllers, plant_analytics) -> dict:
     """The per-rollout outcomes (:data:`OUTCOMES`) of an engine run."""
     ist, fst, dt = outcome.istate, outcome.fstate, plan.dt
+    links = plan.n_links
+    f_peak, _, f_last, _ = fstate_layout(links)
+    _, s_goal, _ = setup_layout(links)
+    goal = plan.setup[:, s_goal:s_goal + links]
     status = ist[:, I_STATUS].copy()
-    final = fst[:, F_Q1:F_D1 + 3].copy()
+    final = fst[:, f_last:f_last + 2 * links].copy()
     diverged = np.isin(status, DIVERGED)
     ended = np.isin(status, (FINISHED, RETIRED))
-    distance = np.max(np.abs(udd_error(final[:, :3], final[:, 3:])), axis=1)
+    distance = np.max(np.abs(goal_error(final[:, :links], final[:, links:], goal)), axis=1)
     balanced = (distance < BALANCE_TOL) & ended
     steps = ist[:, I_STEP]
     switch = np.where(ist[:, I_SWITCH] >= 0, ist[:, I_SWITCH] * dt, np.nan)
@@ -280,12 +299,12 @@ def outcome_arrays(plan: engine.Plan, outcome: engine.Outcome, controllers, plan
     t_balanced = np.where(balanced, (ist[:, I_OUTSIDE] + 1) * dt, np.nan)
     e_err, V = np.empty(len(final)), np.empty(len(final))
     for r, (am, ctrl) in enumerate(zip(plant_analytics, controllers)):
-        q, qd = final[r, :3], final[r, 3:]
-        e_err[r] = am.energy(q, qd) - am.E_r
+        q, qd = final[r, :links], final[r, links:]
+        e_err[r] = am.energy(q, qd) - am.goal_energy(plan.goal)
         V[r] = _lyapunov(ctrl, am, q, qd)
     return {
         "x0": plan.x0.copy(), "switch_time": switch, "balanced": balanced, "final_state": final,
-        "E_minus_Er_final": e_err, "V_final": V, "max_abs_tau": fst[:, [F_TAU2, F_TAU3]].copy(), "diverged": diverged,
+        "E_minus_Er_final": e_err, "V_final": V, "max_abs_tau": fst[:, f_peak:f_peak + links - 1].copy(), "diverged": diverged,
         "success": succeeded(status == FINISHED, status == RETIRED, ist[:, I_LEFT_GOAL], steps, dt) & ~diverged,
         "t_end": steps * dt, "status": status, "t_region": region, "t_balanced": t_balanced,
         "int_tau2": fst[:, F_INT_TAU2].copy(), "work": fst[:, F_WORK].copy(),
@@ -300,7 +319,7 @@ def _lyapunov(controller, plant, q, qd):
     swing = getattr(controller, "first", controller)
     if not isinstance(swing, EnergyVCLController):
         return np.full(np.shape(q)[:-1], np.nan)
-    return type(swing)(plant, swing.kD, swing.kP, swing.kV, check=False).lyapunov(q, qd)
+    return type(swing)(plant, swing.kD, swing.kP, swing.kV, check=False, goal=swing.goal_name).lyapunov(q, qd)
 
 
 def simulate_batch(robot: Robot, x0: ArrayLike, t_final: float = 30.0, controller="vcl", dt: float | None = None,
@@ -308,15 +327,16 @@ def simulate_batch(robot: Robot, x0: ArrayLike, t_final: float = 30.0, controlle
                    noise_std: ArrayLike | None = None, torque_noise: ArrayLike | None = None,
                    delay_steps: ArrayLike | None = None, pushes: ArrayLike | None = None, seed: int = 0,
                    rollout_ids: ArrayLike | None = None, record: bool = False, sample_dt: float = 0.01,
-                   retire: bool = True, nthread: int | None = None, progress: bool = False) -> BatchResult:
+                   retire: bool = True, nthread: int | None = None, progress: bool = False,
+                   goal: str = "folded") -> BatchResult:
     """Closed-loop rollouts of N initial states at once.
 
     Parameters
     ----------
     robot : Robot
         The nominal robot: default plant, and what controllers are built for.
-    x0 : array_like (N, 6)
-        Initial states [q1, q2, q3, d1, d2, d3] [rad, rad/s].
+    x0 : array_like (N, 2n)
+        Initial states [q, qd] [rad, rad/s] ([q1, q2, q3, d1, d2, d3] for the gymnast).
     t_final : float
         Duration [s].
     controller : str, ControllerSpec, controller, or a list of those (one per rollout)
@@ -325,7 +345,7 @@ def simulate_batch(robot: Robot, x0: ArrayLike, t_final: float = 30.0, controlle
         Physics time step [s] and integrator; default: the robot model's (RK4, 1 ms).
     plants : list of RobotParams or None, optional
         Per rollout, the robot MuJoCo simulates (None: the nominal robot).
-    torque_limit : float, (2,), (N,) or (N, 2), optional
+    torque_limit : float, (n - 1,), (N,) or (N, n - 1), optional
         Saturation of each torque [N m] (also capped by the model's actuator ranges).
     noise_std : (2,) or (N, 2), optional
         Standard deviation of Gaussian measurement noise on q [rad] and qd [rad/s].
@@ -333,8 +353,8 @@ def simulate_batch(robot: Robot, x0: ArrayLike, t_final: float = 30.0, controlle
         Standard deviation of Gaussian noise added to each applied torque [N m].
     delay_steps : int or (N,), optional
         Control delay in physics steps (zero torque until the first one arrives).
-    pushes : ndarray (N, K, 5), optional
-        Gaussian pulses of generalized force (t_center [s], sigma [s], f1, f2, f3 [N m]).
+    pushes : ndarray (N, K, 2 + n), optional
+        Gaussian pulses of generalized force (t_center [s], sigma [s], f_1..f_n [N m]).
     seed : int
         Seed of the noise; rollout ``rollout_ids[i]`` draws the same noise wherever it runs.
     record : bool
@@ -343,14 +363,17 @@ def simulate_batch(robot: Robot, x0: ArrayLike, t_final: float = 30.0, controlle
         Stop each rollout once its balance can no longer fail (:mod:`paa_mj.sim.engine`).
     nthread : int, optional
         Threads for compiled controllers (default: all cores).
+    goal : {"folded", "stretched"}
+        The task: the goal the controllers named here aim at, and around which region (68), success and
+        balance are judged (:mod:`paa_mj.model.states`); default the paper's folded UDD.
     """
-    x0 = check_initial_states(x0)
+    x0 = check_initial_states(x0, robot.params.n_links)
     n = len(x0)
-    controllers = controllers_for(robot, controller, n)
+    controllers = controllers_for(robot, controller, n, goal)
     base_dt = float(mujoco_model_for(robot, dt, integrator).opt.timestep)
     every = sample_interval(sample_dt, base_dt, t_final) if record else 0
     plan = build_plan(robot, x0, t_final, controllers, dt, integrator, plants, torque_limit, noise_std, torque_noise,
-                      delay_steps, pushes, seed, rollout_ids, every, retire)
+                      delay_steps, pushes, seed, rollout_ids, every, retire, goal)
     outcome = engine.run(plan, controllers, nthread=nthread, progress=progress, desc=f"{n} rollouts")
     plant_analytics = [robot.analytic if plants is None or plants[r] is None else None for r in range(n)]
     if plants is not None:
@@ -370,7 +393,8 @@ def simulate_batch(robot: Robot, x0: ArrayLike, t_final: float = 30.0, controlle
 
 def kip_peak_torques(robot: Robot, controller="vcl", torque_limit=None, t_final: float = 30.0) -> np.ndarray:
     """Peak torques :math:`|\\tau_2|, |\\tau_3|` [N m] of a controller's kip from (65), over every step (the scale of torque limits)."""
-    result = simulate_batch(robot, X0_HANGING[None], t_final, controller=controller, torque_limit=torque_limit,
+    result = simulate_batch(robot, hanging_state(robot.params.n_links)[None], t_final, controller=controller,
+                            torque_limit=torque_limit,
                             retire=False)
     if result.interrupted:
         raise KeyboardInterrupt

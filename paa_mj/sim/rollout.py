@@ -13,7 +13,7 @@ from numpy.typing import ArrayLike
 
 from ..errors import SimulationDiverged
 from ..model.robot import Robot
-from ..model.states import X0_HANGING
+from ..model.states import X0_HANGING, hanging_state
 from . import engine
 from ..control.region import SUCCESS_DEFINITION
 from .batch import _lyapunov, build_plan, check_initial_state, controllers_for, outcome_arrays, sample_interval
@@ -28,18 +28,18 @@ def describe_controller(controller) -> dict:
     return describe() if callable(describe) else {"controller": type(controller).__name__}
 
 
-def trajectory_quantities(controller, robot: Robot, q, qd):
+def trajectory_quantities(controller, robot: Robot, q, qd, goal="folded"):
     """E - E_r [J] and V of (34) (NaN without an energy controller) at the recorded states."""
-    e_err = robot.analytic.energy(q, qd) - robot.analytic.E_r
+    e_err = robot.analytic.energy(q, qd) - robot.analytic.goal_energy(goal)
     return e_err, np.broadcast_to(_lyapunov(controller, robot.analytic, q, qd), e_err.shape).astype(float)
 
 
-def simulate_mujoco(robot: Robot, controller="vcl", x0: ArrayLike = X0_HANGING, t_final: float = 30.0,
+def simulate_mujoco(robot: Robot, controller="vcl", x0: ArrayLike | None = None, t_final: float = 30.0,
                     dt: float | None = None, integrator: str | None = None, sample_dt: float = 0.01,
                     progress: bool = False, stop_on_divergence: bool = True, retire: bool = False,
                     torque_limit: ArrayLike | None = None, noise_std: ArrayLike | None = None,
                     torque_noise: float | None = None, delay_steps: int | None = None,
-                    pushes: ArrayLike | None = None, seed: int = 0) -> Trajectory:
+                    pushes: ArrayLike | None = None, seed: int = 0, goal: str = "folded") -> Trajectory:
     """Run ``controller`` on the MuJoCo model for ``t_final`` seconds and record it.
 
     Parameters
@@ -47,8 +47,8 @@ def simulate_mujoco(robot: Robot, controller="vcl", x0: ArrayLike = X0_HANGING, 
     robot : Robot
     controller : controller, name or ControllerSpec
         Reset before the run. Default: ``"vcl"`` with the robot's stored gains.
-    x0 : array_like (6,)
-        Initial [q1, q2, q3, d1, d2, d3] [rad, rad/s]; default (65).
+    x0 : array_like (2n,)
+        Initial [q, qd] [rad, rad/s]; default hanging at rest, (65) for the gymnast.
     t_final : float
         Duration [s].
     dt, integrator : float, str, optional
@@ -60,6 +60,8 @@ def simulate_mujoco(robot: Robot, controller="vcl", x0: ArrayLike = X0_HANGING, 
         Stop once the balance can no longer fail (as the batch engine does).
     torque_limit, noise_std, torque_noise, delay_steps, pushes, seed
         Disturbances, as in :func:`paa_mj.sim.batch.simulate_batch` for one rollout.
+    goal : {"folded", "stretched"}
+        The task (:func:`paa_mj.sim.batch.simulate_batch`).
 
     Raises
     ------
@@ -67,27 +69,29 @@ def simulate_mujoco(robot: Robot, controller="vcl", x0: ArrayLike = X0_HANGING, 
         Non-finite state or torque, runaway speeds or a MuJoCo warning; the
         exception carries the trajectory recorded up to the last good state.
     """
-    x0 = check_initial_state(x0)
-    controllers = controllers_for(robot, controller, 1)
+    links = robot.params.n_links
+    x0 = check_initial_state(hanging_state(links) if x0 is None else x0, links)
+    controllers = controllers_for(robot, controller, 1, goal)
     model = mujoco_model_for(robot, dt, integrator)
     dt = float(model.opt.timestep)
     every = sample_interval(sample_dt, dt, t_final)
     per_rollout = lambda v: None if v is None else np.asarray(v)[None]  # noqa: E731
     plan = build_plan(robot, x0, t_final, controllers, dt, integrator, None, torque_limit, per_rollout(noise_std),
                       per_rollout(torque_noise), per_rollout(delay_steps), per_rollout(pushes), seed, None, every,
-                      retire)
+                      retire, goal)
     outcome = engine.run(plan, controllers, nthread=1, progress=progress, desc=f"{robot.name} mujoco")
     out = outcome_arrays(plan, outcome, controllers, [robot.analytic])
     count = int(outcome.samples["count"][0])
     s = {k: v[0, :count] for k, v in outcome.samples.items() if k != "count"}
-    e_err, V = trajectory_quantities(controllers[0], robot, s["q"], s["qd"])
+    e_err, V = trajectory_quantities(controllers[0], robot, s["q"], s["qd"], goal)
     switch = out["switch_time"][0]
     status = int(out["status"][0])
     traj = Trajectory(s["t"].copy(), s["q"].copy(), s["qd"].copy(), s["tau"].copy(), e_err, V, s["mode"].copy(),
                       None if np.isnan(switch) else float(switch),
                       meta={"robot": robot.name, "engine": "mujoco", "integrator": integrator_name(model), "dt": dt,
                             "sample_dt": every * dt, "x0": x0[0].tolist(), "t_final": float(t_final), **describe_controller(controllers[0]),
-                            "torque_limit": _limit_meta(plan)}, robot_xml=robot.xml)
+                            "torque_limit": _limit_meta(plan), **({"goal": goal} if goal != "folded" else {})},
+                      robot_xml=robot.xml)
     when = float(out["t_end"][0])
     traj.meta["success"] = bool(out["success"][0])
     # the engine's peak over every step, not only over the recorded samples
@@ -108,7 +112,7 @@ def simulate_mujoco(robot: Robot, controller="vcl", x0: ArrayLike = X0_HANGING, 
 
 
 def _limit_meta(plan):
-    limits = plan.setup[0, engine.S_LIMIT2:engine.S_LIMIT2 + 2]
+    limits = plan.setup[0, engine.S_LIMITS:engine.S_LIMITS + plan.n_links - 1]
     return None if np.all(np.isinf(limits)) else limits.tolist()
 
 

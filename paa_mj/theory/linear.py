@@ -1,4 +1,4 @@
-"""Linear analysis at the goal: linearisation of (1) at UDD, controllability, the LQR gain of (67)."""
+"""Linear analysis at the goal: linearisation of (1) at UDD (or any goal), controllability, the LQR gain of (67)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -6,16 +6,22 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..model.dynamics import AnalyticModel
-from ..model.states import Q_UDD
+from ..model.states import goal_angles
 
-#: The paper's LQR weights for (67).
-LQR_Q = 10000.0 * np.eye(6)
+#: The paper's LQR weights for (67): Q = 1e4 I, R = I (sized for the gymnast, 6 and 2; for n links 2n and n - 1).
+LQR_WEIGHT = 10000.0
+LQR_Q = LQR_WEIGHT * np.eye(6)
 LQR_R = np.eye(2)
+
+
+def goal_linearization(am: AnalyticModel, goal="folded"):
+    """(A, B) of (1) linearised at the goal with x = [q - q*, qd]: at UDD, x = [q1, q2 + pi, q3, d1, d2, d3]."""
+    return am.linearize(goal_angles(goal, am.n_links))
 
 
 def udd_linearization(am: AnalyticModel):
     """(A, B) of (1) linearised at UDD with x = [q1, q2 + pi, q3, d1, d2, d3]."""
-    return am.linearize(Q_UDD)
+    return goal_linearization(am, "folded")
 
 
 @dataclass(frozen=True)
@@ -49,33 +55,37 @@ def linear_controllability(A, B, tol=1e-10) -> Controllability:
                            sigma_min_ratio=float(s[-1] / s[0]), pbh_min=pbh_rel)
 
 
-def udd_controllability(am: AnalyticModel, tol=1e-10) -> Controllability:
-    """Linear controllability of the 3-link robot at UDD (:func:`linear_controllability`)."""
-    return linear_controllability(*udd_linearization(am), tol=tol)
+def udd_controllability(am: AnalyticModel, tol=1e-10, goal="folded") -> Controllability:
+    """Linear controllability of the robot at UDD, or at ``goal`` (:func:`linear_controllability`)."""
+    return linear_controllability(*goal_linearization(am, goal), tol=tol)
 
 
-def lqr_gain(am: AnalyticModel, Q=LQR_Q, R=LQR_R):
-    """LQR gain K of (67) on the UDD linearisation: tau = -K x, K = R^-1 B^T S with S the stabilising
-    solution of the continuous algebraic Riccati equation (SciPy)."""
+def lqr_gain(am: AnalyticModel, Q=None, R=None, goal="folded"):
+    """LQR gain K of (67) on the linearisation at the goal: tau = -K x, K = R^-1 B^T S with S the stabilising
+    solution of the continuous algebraic Riccati equation (SciPy); Q, R default to the paper's 1e4 I and I."""
     from scipy.linalg import solve_continuous_are
 
-    A, Bl = udd_linearization(am)
+    n = am.n_links
+    Q = LQR_WEIGHT * np.eye(2 * n) if Q is None else Q
+    R = np.eye(n - 1) if R is None else R
+    A, Bl = goal_linearization(am, goal)
     S = solve_continuous_are(A, Bl, Q, R)
     return np.linalg.solve(R, Bl.T @ S)
 
 
-def sampled_closed_loop(am: AnalyticModel, K, dt):
-    """Phi = Ad - Bd K: the linearisation at UDD sampled with zero-order hold at ``dt`` [s], under tau = -K x."""
+def sampled_closed_loop(am: AnalyticModel, K, dt, goal="folded"):
+    """Phi = Ad - Bd K: the linearisation at the goal sampled with zero-order hold at ``dt`` [s], under tau = -K x."""
     from scipy.linalg import expm
 
-    A, B = udd_linearization(am)
-    block = np.zeros((8, 8))
-    block[:6, :6], block[:6, 6:] = A, B
+    A, B = goal_linearization(am, goal)
+    m, k = B.shape
+    block = np.zeros((m + k, m + k))
+    block[:m, :m], block[:m, m:] = A, B
     sampled = expm(block * dt)
-    return sampled[:6, :6] - sampled[:6, 6:] @ np.asarray(K, float)
+    return sampled[:m, :m] - sampled[:m, m:] @ np.asarray(K, float)
 
 
-def sampled_spectral_radius(am: AnalyticModel, K, dt) -> float:
+def sampled_spectral_radius(am: AnalyticModel, K, dt, goal="folded") -> float:
     """The spectral radius of :func:`sampled_closed_loop` (below 1: the sampled balance is stable)."""
-    phi = sampled_closed_loop(am, K, dt)
+    phi = sampled_closed_loop(am, K, dt, goal)
     return float(np.max(np.abs(np.linalg.eigvals(phi)))) if np.all(np.isfinite(phi)) else float("inf")

@@ -1,0 +1,1 @@
+"""The robots' MJCF files (``models/`` at the top of the repository, installed as ``paa_mj.models``)."""

@@ -1,0 +1,80 @@
+"""Retirement: a rollout whose balance can no longer fail stops early.
+
+Linearised at the goal and sampled with zero-order hold at the time step, the closed loop of the
+plant and the controller's balance gain K is x_{k+1} = Phi x_k (x = [wrap(q - q*), qd], 2n
+coordinates). Writing x = sum_m c_m v_m over the eigenvectors of Phi (all eigenvalues inside the unit
+circle), every future :math:`|x_i|` is at most :math:`\\sum_m |c_m| |v_{m,i}|` (the *modal bound*,
+tight when one mode dominates). A rollout retires when that bound is below
+:data:`RETIRE_FRACTION` x :data:`~paa_mj.control.region.BALANCE_TOL` in every coordinate: it would
+stay balanced to the end, and its peak torques can no longer grow (:math:`|K x|` only shrinks there).
+Retirement is off where the bound does not hold: with noise, delay, pushes still to come, or an
+unstable sampled loop.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from ..control.region import BALANCE_TOL
+from ..model.states import wrap
+
+#: A rollout retires when its modal bound is below this fraction of BALANCE_TOL.
+RETIRE_FRACTION = 0.9
+
+
+def certificate_size(n_links: int) -> int:
+    """Width of a certificate: Re and Im of V^-1 and the moduli of V, (2n x 2n) each."""
+    return 3 * (2 * n_links) ** 2
+
+
+def retirement_certificate(plant, K, dt, goal="folded"):
+    """(certificate, level) of the retirement rule for ``plant`` under tau = -K x, or (zeros, 0) if none.
+
+    The certificate holds Re V^-1, Im V^-1 and the moduli of V (row by row) for the
+    eigenvectors V of the closed loop Phi = Ad - Bd K of the plant linearised at
+    the goal and sampled with zero-order hold at ``dt``; ``level`` =
+    :data:`RETIRE_FRACTION` x BALANCE_TOL.
+    """
+    from ..theory.linear import sampled_closed_loop
+
+    none = np.zeros(certificate_size(plant.n_links)), 0.0
+    if K is None:
+        return none
+    phi = sampled_closed_loop(plant, K, dt, goal)
+    if not np.all(np.isfinite(phi)):
+        return none
+    eigenvalues, vectors = np.linalg.eig(phi)
+    if np.max(np.abs(eigenvalues)) >= 1.0 or np.linalg.cond(vectors) > 1e8:
+        return none
+    inverse = np.linalg.inv(vectors)
+    cert = np.concatenate([inverse.real.reshape(-1), inverse.imag.reshape(-1), np.abs(vectors).reshape(-1)])
+    return cert, RETIRE_FRACTION * BALANCE_TOL
+
+
+@njit(cache=True)
+def modal_bound(cert, qpos, qvel, goal):
+    """:math:`\\max_i \\sum_m |c_m| |v_{m,i}|` with :math:`c = V^{-1} x`, x the error from the goal: a bound on every
+    future :math:`|x_i|` of the sampled linear loop."""
+    n = qpos.size
+    size = 2 * n
+    x = np.empty(size)
+    for i in range(n):
+        x[i] = wrap(qpos[i] - goal[i])
+        x[n + i] = qvel[i]
+    square = size * size
+    amplitude = np.empty(size)
+    for m in range(size):
+        re, im = 0.0, 0.0
+        for j in range(size):
+            re += cert[size * m + j] * x[j]
+            im += cert[square + size * m + j] * x[j]
+        amplitude[m] = math.sqrt(re * re + im * im)
+    bound = 0.0
+    for i in range(size):
+        total = 0.0
+        for m in range(size):
+            total += amplitude[m] * cert[2 * square + size * i + m]
+        bound = max(bound, total)
+    return bound

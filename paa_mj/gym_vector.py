@@ -3,10 +3,16 @@
 ``gym.make_vec("paa_mj/GymnastBalance-v1", num_envs=64)`` (or ``paa_mj/GymnastKip-v1``) builds a
 :class:`GymnastVectorEnv`: the sub-environments are those of :class:`paa_mj.gym_env.GymnastEnv`, same
 arguments, spaces, rewards and information, but one environment step of all of them is one compiled call
-(N MjData, each with its torque set and ``frame_skip`` ``mj_step`` from numba). The observations, rewards,
-terminations and truncations equal those of N :class:`~paa_mj.gym_env.GymnastEnv` stepped with the same
-actions, bit for bit (the same compiled code computes both), and so do the resets: sub-environment i is
-seeded with ``seed + i`` as :class:`gymnasium.vector.SyncVectorEnv` seeds its copies.
+(N MjData, each with its torque set and ``frame_skip`` ``mj_step`` from numba; the actions' torques, the
+observations, rewards, terminations, truncations and information are computed in the same call). The
+observations, rewards, terminations and truncations equal those of N :class:`~paa_mj.gym_env.GymnastEnv`
+stepped with the same actions, bit for bit (the same compiled code computes both), and so do the resets:
+sub-environment i is seeded with ``seed + i`` as :class:`gymnasium.vector.SyncVectorEnv` seeds its copies.
+
+What it saves is the Python around the physics, not the physics: at the default 10 ms control period (ten RK4
+``mj_step`` of 1 ms) ``mj_step`` alone is about two thirds of a single environment's step and above 95% of
+this one's, so N single environments cost about 1.5 times as much CPU per step, no more; at 1 ms, 4 to 5 times
+(``paa-mj bench``: ``vector_env_speedup``, ``vector_env_speedup_bound``, ``vector_env_physics_share``).
 
 Autoreset (Gymnasium 1.x, ``metadata["autoreset_mode"]``):
 
@@ -28,13 +34,89 @@ import numpy as np
 from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
+from numba import njit
 
+from .control.region import SUCCESS_WINDOW
 from .sim.mujoco_log import mujoco_log_off
-from .gym_env import GymnastEnv, _check_options, _check_x0, _real_array, _Robots, _whole, action_to_torque, perturbed
+from .sim.engine import _mj_step
+from .gym_env import (_CTRL, _DATA, DIVERGED_REWARD, GymnastEnv, _advance, _check_options, _check_x0, _float64_at,
+                      _real_array, _Robots, _whole, action_to_torque, perturbed)
 
 #: The most sub-environments of one vector environment.
 MAX_ENVS = 1_000_000
 _MODES = {mode.value: mode for mode in AutoresetMode}
+
+
+@njit(nogil=True, cache=True)
+def _first_bad_action(actions):
+    """The first row of ``actions`` (N, 2) with a non-finite number, or -1."""
+    for i in range(actions.shape[0]):
+        if not (math.isfinite(actions[i, 0]) and math.isfinite(actions[i, 1])):
+            return i
+    return -1
+
+
+@njit(nogil=True, cache=True)
+def _vector_step(lo, hi, actions, normalized, restart, terminate_margin, max_steps, window, timestep, steps, ended,
+                 model_ptr, addresses, warn_stride, tau, limits, frame_skip, kind, diverged_reward, phys_step,
+                 last_exit, diverged, q, qd, obs, reward, margin,
+                 out_obs, out_reward, out_terminated, out_truncated, out_q, out_qd, out_time, out_diverged,
+                 out_success):
+    """One environment step of the sub-environments lo..hi-1, in one call (the actions checked finite before).
+
+    The torques of :func:`~paa_mj.gym_env.action_to_torque` (clip(a T, -T, T), the same operations), the physics,
+    observation and reward of :func:`~paa_mj.gym_env._advance` (the code of the single environment) for the rows
+    not in ``restart``, then the step counters, terminations, truncations and the information of
+    :meth:`GymnastVectorEnv._info` (time, success as :func:`~paa_mj.control.region.succeeded` computes them),
+    written into the ``out_`` arrays. ``restart`` rows (reset by the caller) get reward 0, neither ended.
+    """
+    rows = np.empty(hi - lo, np.intp)
+    m = 0
+    for i in range(lo, hi):
+        for j in range(2):
+            a = np.float64(actions[i, j])
+            if normalized:
+                a = a * limits[j]
+            if a < -limits[j]:  # np.clip(a, -T, T) of a finite a
+                a = -limits[j]
+            elif a > limits[j]:
+                a = limits[j]
+            tau[i, j] = a
+        if not restart[i]:
+            rows[m] = i
+            m += 1
+    _advance(model_ptr, addresses, warn_stride, rows[:m], tau, limits, frame_skip, kind, diverged_reward, phys_step,
+             last_exit, diverged, q, qd, obs, reward, margin)
+    for i in range(lo, hi):
+        if restart[i]:
+            terminated, truncated, out_reward[i] = False, False, 0.0
+        else:
+            steps[i] += 1
+            terminated = diverged[i] or margin[i] >= terminate_margin
+            truncated = steps[i] >= max_steps and not terminated
+            out_reward[i] = reward[i]
+        ended[i] = terminated or truncated
+        out_terminated[i], out_truncated[i] = terminated, truncated
+        for j in range(obs.shape[1]):
+            out_obs[i, j] = obs[i, j]
+        for j in range(3):
+            out_q[i, j], out_qd[i, j] = q[i, j], qd[i, j]
+        out_time[i] = phys_step[i] * timestep
+        out_diverged[i] = diverged[i]
+        out_success[i] = not diverged[i] and last_exit[i] < phys_step[i] - min(window, phys_step[i])
+
+
+@njit(nogil=True, cache=True)
+def physics_only(model_ptr, addresses, tau, frame_skip):
+    """The physics alone of ``tau.shape[0]`` environment steps (``paa-mj bench``): the torques ``tau[k, i]`` [N m]
+    held over ``frame_skip`` ``mj_step`` of the MjData at ``addresses[i]`` (a vector environment's ``_robots``),
+    nothing else: no check, observation, reward or information."""
+    for k in range(tau.shape[0]):
+        for i in range(tau.shape[1]):
+            ctrl = _float64_at(addresses[i, _CTRL])
+            ctrl[0], ctrl[1] = tau[k, i, 0], tau[k, i, 1]
+            for _ in range(frame_skip):
+                _mj_step(model_ptr, addresses[i, _DATA])
 
 
 class GymnastVectorEnv(VectorEnv):
@@ -95,6 +177,9 @@ class GymnastVectorEnv(VectorEnv):
         self._reset_once = False
         self.num_threads = min(num_threads, num_envs)
         self._pool = None
+        self._no_restart = np.zeros(num_envs, bool)
+        self._state = None
+        self._window = int(round(SUCCESS_WINDOW / self.model.opt.timestep))  # as succeeded() computes it
 
     # --- resets ---------------------------------------------------------------------------------------------
 
@@ -157,6 +242,19 @@ class GymnastVectorEnv(VectorEnv):
             raise ValueError(f"actions must be finite; sub-environment(s) {bad[:5].tolist()} got non-finite ones")
         return action_to_torque(actions, self.torque_limits, self.normalize_actions)
 
+    def _actions(self, actions):
+        """``actions`` as a C-contiguous float32 or float64 array (N, 2) of finite numbers, else the ValueError of
+        :meth:`_torques`. The common case, such an array already, costs no copy and no NumPy pass."""
+        if not (type(actions) is np.ndarray and actions.dtype in (np.float32, np.float64)
+                and actions.shape == (self.num_envs, 2)):
+            given, actions = actions, _real_array(actions)
+            if actions is None or actions.shape != (self.num_envs, 2):
+                self._torques(given)  # raises
+        actions = np.ascontiguousarray(actions)
+        if _first_bad_action(actions) >= 0:
+            self._torques(actions)  # raises, naming the rows
+        return actions
+
     def step(self, actions):
         """One environment step of every sub-environment (autoreset as the module docstring says).
 
@@ -166,45 +264,59 @@ class GymnastVectorEnv(VectorEnv):
         """
         if not self._reset_once:
             raise ValueError("call reset() before step()")
-        tau = self._torques(actions)
-        robots, n = self._robots, self.num_envs
-        restart = self._ended.copy() if self.autoreset_mode == AutoresetMode.NEXT_STEP else np.zeros(n, bool)
-        if self.autoreset_mode == AutoresetMode.DISABLED and self._ended.any():
-            raise ValueError(f"sub-environment(s) {np.flatnonzero(self._ended)[:5].tolist()} ended: reset them with"
+        mode, ended = self.autoreset_mode, self._ended
+        if mode == AutoresetMode.DISABLED and ended.any():
+            self._actions(actions)  # a wrong action is named first, as before any other check
+            raise ValueError(f"sub-environment(s) {np.flatnonzero(ended)[:5].tolist()} ended: reset them with"
                              " reset(options={'reset_mask': mask}) first (autoreset_mode Disabled)")
-        for i in np.flatnonzero(restart):
-            self._reset_one(i, self.prototype.start)
-        rows = np.flatnonzero(~restart)
-        self._step_rows(rows, tau[rows])
-        self._steps[rows] += 1
-        margin = self.prototype.terminate_margin
-        terminated = ~restart & (robots.diverged | (robots.margin >= margin))
-        truncated = ~restart & (self._steps >= self.max_steps) & ~terminated
-        rewards = np.where(restart, 0.0, robots.reward)
-        self._ended = terminated | truncated
-        if self.autoreset_mode != AutoresetMode.SAME_STEP or not self._ended.any():
-            return robots.obs.copy(), rewards, terminated, truncated, self._info()
+        actions = self._actions(actions)
+        restart = self._no_restart
+        if mode == AutoresetMode.NEXT_STEP and ended.any():
+            restart = ended.copy()
+            for i in np.flatnonzero(restart):
+                self._reset_one(i, self.prototype.start)
+        n = self.num_envs
+        out = (np.empty((n, self._robots.obs.shape[1]), np.float32), np.empty(n), np.empty(n, bool),
+               np.empty(n, bool), np.empty((n, 3)), np.empty((n, 3)), np.empty(n), np.empty(n, bool),
+               np.empty(n, bool))
+        self._run_step(actions, restart, out)
+        obs, rewards, terminated, truncated, q, qd, time, diverged, success = out
+        ones = np.ones(n, bool)
+        info = {"q": q, "_q": ones, "qd": qd, "_qd": ones.copy(), "time": time, "_time": ones.copy(),
+                "diverged": diverged, "_diverged": ones.copy(), "is_success": success, "_is_success": ones.copy()}
+        if mode != AutoresetMode.SAME_STEP or not self._ended.any():
+            return obs, rewards, terminated, truncated, info
         ended = self._ended.copy()
         final_obs = np.full(n, None, dtype=object)
         for i in np.flatnonzero(ended):
-            final_obs[i] = robots.obs[i].copy()
+            final_obs[i] = obs[i].copy()
         final_info = self._info(ended)
         for i in np.flatnonzero(ended):
             self._reset_one(i, self.prototype.start)
         info = self._info() | {"final_obs": final_obs, "_final_obs": ended, "final_info": final_info,
                                "_final_info": ended}
-        return robots.obs.copy(), rewards, terminated, truncated, info
+        return self._robots.obs.copy(), rewards, terminated, truncated, info
 
-    def _step_rows(self, rows, tau):
-        if self.num_threads == 1 or len(rows) < 2:
-            self._robots.step(rows, tau)
-            return
-        if self._pool is None:
-            self._pool = ThreadPoolExecutor(self.num_threads, thread_name_prefix="paa_mj-gym")
-        # contiguous chunks: each thread writes rows of the shared arrays that no other thread touches
-        chunks = np.array_split(np.arange(len(rows)), min(self.num_threads, len(rows)))
+    def _run_step(self, actions, restart, out):
+        """:func:`_vector_step` of every sub-environment: one call, or contiguous chunks on ``num_threads`` threads
+        (each writes rows of the shared arrays that no other thread touches)."""
+        if self._state is None:  # the arrays are updated in place: their tuple holds for the environment's life
+            robots = self._robots
+            self._state = (self._steps, self._ended, self.model._address, robots.addresses, robots.warn_stride,
+                           robots.tau, robots.torque_limits, robots.frame_skip, robots.kind,
+                           DIVERGED_REWARD[robots.kind], robots.phys_step, robots.last_exit, robots.diverged, robots.q,
+                           robots.qd, robots.obs, robots.reward, robots.margin)
+        args = (actions, self.normalize_actions, restart, self.prototype.terminate_margin, float(self.max_steps),
+                self._window, self.model.opt.timestep) + self._state + out
+        # a diverging step ends the episode; MuJoCo's warning must not leave MUJOCO_LOG.TXT
         with mujoco_log_off():
-            list(self._pool.map(lambda c: self._robots.step(rows[c], tau[c], log=False), chunks))
+            if self.num_threads == 1:
+                _vector_step(0, self.num_envs, *args)
+                return
+            if self._pool is None:
+                self._pool = ThreadPoolExecutor(self.num_threads, thread_name_prefix="paa_mj-gym")
+            bounds = np.linspace(0, self.num_envs, self.num_threads + 1).astype(int)
+            list(self._pool.map(lambda k: _vector_step(bounds[k], bounds[k + 1], *args), range(self.num_threads)))
 
     def _info(self, mask=None):
         """The information of the sub-environments in ``mask`` (all by default), batched with masks."""

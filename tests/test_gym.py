@@ -213,27 +213,36 @@ def test_new_arguments_are_refused_in_one_line(kwargs, fragment):
 
 # --- the vector environment --------------------------------------------------------------------------------
 
+def _as_given(actions, k):
+    """The actions as a user may give them, in turn: float32 (what an agent gives), float64, a list, Fortran order."""
+    return [actions, actions.astype(float), actions.tolist(), np.asfortranarray(actions.astype(float))][k % 4]
+
+
+@pytest.mark.parametrize("num_threads", [1, 2])
 @pytest.mark.parametrize("mode", list(AutoresetMode), ids=lambda m: m.value)
-def test_the_vector_env_equals_single_envs_bit_for_bit(mode):
-    """Random actions, short episodes and a tight margin: terminations, truncations and resets in every mode."""
+def test_the_vector_env_equals_single_envs_bit_for_bit(mode, num_threads):
+    """Random actions (some beyond [-1, 1]: clipped), short episodes and a tight margin: terminations, truncations
+    and resets in every mode, with the compiled step in one call or split over threads."""
     n, options = 5, dict(task="balance", max_episode_seconds=0.25, terminate_margin=0.2)
-    vector = GymnastVectorEnv(n, autoreset_mode=mode, num_threads=2, **options)
+    vector = GymnastVectorEnv(n, autoreset_mode=mode, num_threads=num_threads, **options)
     singles = SyncVectorEnv([lambda: GymnastEnv(**options) for _ in range(n)], autoreset_mode=mode)
     a, info_a = vector.reset(seed=7)
     b, info_b = singles.reset(seed=7)
     np.testing.assert_array_equal(a, b)
     rng, ended, ends = np.random.default_rng(0), np.zeros(n, bool), 0
-    for _ in range(80):
+    for k in range(80):
         if mode == AutoresetMode.DISABLED and ended.any():
             a, _ = vector.reset(options={"reset_mask": ended.copy()})
             b, _ = singles.reset(options={"reset_mask": ended.copy()})
             np.testing.assert_array_equal(a, b)
-        actions = rng.uniform(-1, 1, (n, 2)).astype(np.float32)
-        got, want = vector.step(actions), singles.step(actions)
+        actions = rng.uniform(-1.2, 1.2, (n, 2)).astype(np.float32)
+        got, want = vector.step(_as_given(actions, k)), singles.step(actions)
         for x, y in zip(got[:4], want[:4]):
+            assert x.dtype == y.dtype
             np.testing.assert_array_equal(x, y)
         for key in ("q", "qd", "time", "is_success", "diverged"):
             np.testing.assert_array_equal(got[4][key], want[4][key])
+            np.testing.assert_array_equal(got[4]["_" + key], want[4]["_" + key])
         if "final_obs" in want[4]:
             np.testing.assert_array_equal(got[4]["_final_obs"], want[4]["_final_obs"])
             for i in np.flatnonzero(want[4]["_final_obs"]):
@@ -244,6 +253,54 @@ def test_the_vector_env_equals_single_envs_bit_for_bit(mode):
         ends += ended.sum()
     assert ends > 10
     vector.close()
+
+
+def test_the_vector_env_of_torques_and_of_the_kip_equals_single_envs():
+    """v0's torque actions (clipped at the limits, one physics step) and the kip: the same bits as single envs,
+    and the arrays a step returns stay the caller's (the next steps do not change them)."""
+    for options in (dict(task="kip", normalize_actions=False, frame_skip=1, torque_limit=50.0), dict(task="kip")):
+        n, torques = 4, not options.get("normalize_actions", True)
+        vector = GymnastVectorEnv(n, **options)
+        singles = [GymnastEnv(**options) for _ in range(n)]
+        first = vector.reset(seed=3)[0]
+        np.testing.assert_array_equal(first, [env.reset(seed=3 + i)[0] for i, env in enumerate(singles)])
+        rng, kept = np.random.default_rng(1), None
+        for k in range(12):
+            actions = rng.uniform(-80, 80, (n, 2)) if torques else rng.uniform(-1, 1, (n, 2)).astype(np.float32)
+            got = vector.step(actions)
+            want = [env.step(a) for env, a in zip(singles, actions)]
+            for j in range(4):
+                np.testing.assert_array_equal(got[j], [w[j] for w in want])
+            for key in ("q", "qd", "time", "diverged", "is_success"):
+                np.testing.assert_array_equal(got[4][key], [w[4][key] for w in want])
+            if k == 0:
+                kept = got, [np.copy(x) for x in got[:4]] + [{key: np.copy(x) for key, x in got[4].items()}]
+        for x, y in zip(kept[0][:4], kept[1][:4]):
+            np.testing.assert_array_equal(x, y)
+        for key, value in kept[1][4].items():
+            np.testing.assert_array_equal(kept[0][4][key], value)
+        vector.close()
+
+
+def test_bench_times_the_physics_of_the_same_steps_without_timing_assertions():
+    """``physics_only`` (bench's floor) runs the vector environment's steps: from the same reset, the same states."""
+    from paa_mj.gym_vector import physics_only
+    from paa_mj.studies.bench import vector_env_costs
+
+    vector = GymnastVectorEnv(3, task="kip")
+    actions = np.random.default_rng(0).uniform(-1, 1, (4, 3, 2)).astype(np.float32)
+    vector.reset(seed=0)
+    for a in actions:
+        vector.step(a)
+    stepped = np.hstack([vector._robots.q, vector._robots.qd])
+    vector.reset(seed=0)
+    tau = np.ascontiguousarray(gym_env.action_to_torque(actions, vector.torque_limits))
+    physics_only(vector.model._address, vector._robots.addresses, tau, vector._robots.frame_skip)
+    np.testing.assert_array_equal(np.hstack([[d.qpos for d in vector._robots.datas],
+                                             [d.qvel for d in vector._robots.datas]]), stepped)
+    costs = vector_env_costs(n_envs=2, steps=2, repeats=1, frame_skip=1)
+    assert set(costs) == {"single", "sync", "vector", "physics"}
+    assert all(np.isfinite(c) and c > 0 for c in costs.values())
 
 
 def test_make_vec_builds_the_compiled_vector_env():

@@ -9,8 +9,11 @@
 * analytic: the ``solve_ivp`` reference of the 30 s Table 1 run against the MuJoCo rollout;
 * vector env (with Gymnasium installed): CPU time per environment step of
   :class:`~paa_mj.gym_vector.GymnastVectorEnv` of 64 robots against 64 :class:`~paa_mj.gym_env.GymnastEnv`
-  stepped one after the other with the same actions (``vector_env_speedup``: single / vector), at the
-  default 10 ms control period (10 RK4 steps, mostly physics) and at 1 ms (``..._frame_skip_1``, mostly Python).
+  stepped one after the other with the same actions (``vector_env_speedup``: single / vector), against
+  them in Gymnasium's ``SyncVectorEnv`` (``vector_env_speedup_vs_sync``), and the ``mj_step`` calls alone of
+  the same steps: ``vector_env_physics_share`` (physics / vector) and ``vector_env_speedup_bound``
+  (single / physics, the most any vector environment on MuJoCo's ``mj_step`` can reach), at the default
+  10 ms control period (10 RK4 steps, mostly physics) and at 1 ms (``..._frame_skip_1``, mostly Python).
 
 Every ratio divides two costs measured in this run, on this machine.
 """
@@ -97,36 +100,69 @@ def _cpu_best_of(fn, repeats):
 def vector_env_costs(n_envs=64, steps=50, repeats=3, frame_skip=10):
     """CPU time per environment step [s] of ``n_envs`` single environments and of one vector environment.
 
-    Both run the kip task (no termination, so no reset inside the clock) with the same random actions.
-    Returns (single, vector), or None without Gymnasium.
+    Both run the kip task (no termination, so no reset inside the clock: every run starts from a reset outside
+    it) with the same random actions, measured in turns (single, sync, vector, physics, single, ...) so that
+    other work on the machine weighs on all alike. A dict of costs, or None without Gymnasium:
+
+    * ``single``: the ``n_envs`` :class:`~paa_mj.gym_env.GymnastEnv` stepped one after the other in a Python
+      loop, the cheapest way to run them one by one (no wrapper, no batching of the results);
+    * ``sync``: the same environments in :class:`gymnasium.vector.SyncVectorEnv` (what Gymnasium builds for an
+      environment without its own vector version: results batched, as the vector environment returns them);
+    * ``vector``: :class:`~paa_mj.gym_vector.GymnastVectorEnv`, one thread;
+    * ``physics``: the ``mj_step`` calls alone of the same steps (:func:`~paa_mj.gym_vector.physics_only` on the
+      vector environment's MjData, same torques, same starts): what no environment can go below, so
+      ``single / physics`` bounds the speedup ``single / vector``.
     """
     try:
-        from ..gym_env import GymnastEnv
-        from ..gym_vector import GymnastVectorEnv
+        from gymnasium.vector import SyncVectorEnv
+
+        from ..gym_env import GymnastEnv, action_to_torque
+        from ..gym_vector import GymnastVectorEnv, physics_only
+        from ..sim.mujoco_log import mujoco_log_off
     except ImportError:
         return None
     options = dict(task="kip", frame_skip=frame_skip, max_episode_seconds=1e4)
     singles = [GymnastEnv(**options) for _ in range(n_envs)]
+    sync = SyncVectorEnv([lambda: GymnastEnv(**options) for _ in range(n_envs)])
     vector = GymnastVectorEnv(n_envs, **options)
     actions = np.random.default_rng(0).uniform(-1, 1, (steps, n_envs, 2)).astype(np.float32)
+    tau = np.ascontiguousarray(action_to_torque(actions, vector.torque_limits, vector.normalize_actions))
+    robots = vector._robots
 
-    def run_singles():
+    def reset_singles():
         for i, env in enumerate(singles):
             env.reset(seed=i)
+
+    def run_singles():
         for k in range(steps):
             for env, action in zip(singles, actions[k]):
                 env.step(action)
 
+    def run_sync():
+        for k in range(steps):
+            sync.step(actions[k])
+
     def run_vector():
-        vector.reset(seed=0)
         for k in range(steps):
             vector.step(actions[k])
 
-    run_singles(), run_vector()  # compiled kernels loaded, caches warm
-    per_step = n_envs * steps
-    single, vec = _cpu_best_of(run_singles, repeats) / per_step, _cpu_best_of(run_vector, repeats) / per_step
+    def run_physics():
+        with mujoco_log_off():
+            physics_only(vector.model._address, robots.addresses, tau, robots.frame_skip)
+
+    cases = {"single": (reset_singles, run_singles), "sync": (lambda: sync.reset(seed=0), run_sync),
+             "vector": (lambda: vector.reset(seed=0), run_vector), "physics": (lambda: vector.reset(seed=0), run_physics)}
+    best = dict.fromkeys(cases, np.inf)
+    for turn in range(repeats + 1):  # the first turn loads the compiled kernels and warms the caches
+        for name, (reset, run) in cases.items():
+            reset()
+            start = time.process_time()
+            run()
+            if turn:
+                best[name] = min(best[name], time.process_time() - start)
+    sync.close()
     vector.close()
-    return single, vec
+    return {name: cost / (n_envs * steps) for name, cost in best.items()}
 
 
 def run_bench(batch_size=1024, batch_seconds=2.0, repeats=3, basin_grid=16, basin_seconds=30.0, progress=False,
@@ -174,10 +210,16 @@ def run_bench(batch_size=1024, batch_seconds=2.0, repeats=3, basin_grid=16, basi
     vector = {}
     costs = vector_env_costs(vector_envs, vector_steps, repeats)
     if costs is not None:
-        fast = vector_env_costs(vector_envs, vector_steps, repeats, frame_skip=1)
-        vector = {"vector_env_num_envs": vector_envs, "single_env_step_us": costs[0] * 1e6,
-                  "vector_env_step_us": costs[1] * 1e6, "vector_env_speedup": costs[0] / costs[1],
-                  "vector_env_speedup_frame_skip_1": fast[0] / fast[1]}
+        vector = {"vector_env_num_envs": vector_envs}
+        for suffix, c in (("", costs), ("_frame_skip_1", vector_env_costs(vector_envs, vector_steps, repeats, 1))):
+            vector |= {f"single_env_step_us{suffix}": c["single"] * 1e6,
+                       f"sync_vector_env_step_us{suffix}": c["sync"] * 1e6,
+                       f"vector_env_step_us{suffix}": c["vector"] * 1e6,
+                       f"vector_env_physics_us{suffix}": c["physics"] * 1e6,
+                       f"vector_env_speedup{suffix}": c["single"] / c["vector"],
+                       f"vector_env_speedup_vs_sync{suffix}": c["sync"] / c["vector"],
+                       f"vector_env_speedup_bound{suffix}": c["single"] / c["physics"],
+                       f"vector_env_physics_share{suffix}": c["physics"] / c["vector"]}
     return {
         "machine_cores": os.cpu_count(),
         "mujoco_version": mujoco.__version__,
@@ -216,7 +258,12 @@ def format_bench(r) -> str:
         f"  30 s Table 1 run: solve_ivp {r['analytic_30s_seconds']:.2f} s, MuJoCo {r['mujoco_30s_seconds']:.2f} s"
         f" (ratio {r['analytic_to_mujoco_ratio']:.1f})",
     ] + ([
-        f"  Gymnasium, {r['vector_env_num_envs']} robots, 10 ms step   single {r['single_env_step_us']:8.2f},"
-        f" vector {r['vector_env_step_us']:8.2f} us CPU/env-step  vector_env_speedup = {r['vector_env_speedup']:.2f}"
-        f" (1 ms step: {r['vector_env_speedup_frame_skip_1']:.2f})",
+        f"  Gymnasium, {r['vector_env_num_envs']} robots, {period} step: single {r[f'single_env_step_us{s}']:.2f},"
+        f" SyncVectorEnv {r[f'sync_vector_env_step_us{s}']:.2f}, vector {r[f'vector_env_step_us{s}']:.2f},"
+        f" its mj_step alone {r[f'vector_env_physics_us{s}']:.2f} us CPU/env-step\n"
+        f"      vector_env_speedup{s} = {r[f'vector_env_speedup{s}']:.2f}"
+        f" (at most {r[f'vector_env_speedup_bound{s}']:.2f}, single / mj_step alone;"
+        f" physics {100 * r[f'vector_env_physics_share{s}']:.0f}% of the vector step),"
+        f" vs SyncVectorEnv {r[f'vector_env_speedup_vs_sync{s}']:.2f}"
+        for period, s in (("10 ms", ""), ("1 ms", "_frame_skip_1"))
     ] if "vector_env_speedup" in r else []))

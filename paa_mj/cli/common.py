@@ -145,10 +145,33 @@ def seed(text):
 
 def robot_parent(default="gymnast"):
     p = argparse.ArgumentParser(add_help=False)
-    p.add_argument("--robot", default=default, metavar="{gymnast,example2,PATH.xml}",
-                   help="gymnast (Table 1), example2 (Table 2) or an MJCF file of the same shape"
+    p.add_argument("--robot", default=default, metavar="{gymnast,example2,acrobot,chain4,PATH.xml}",
+                   help="gymnast (Table 1), example2 (Table 2), acrobot (Drake's), chain4 (four links) or the MJCF"
+                        " file of any planar chain on the bar"
                         + ("" if default else " (default: gymnast, or the trajectory's robot with --from)"))
     return p
+
+
+def goal_parent():
+    p = argparse.ArgumentParser(add_help=False)
+    p.add_argument("--goal", choices=("folded", "stretched"), default="folded",
+                   help="the task: folded (the paper's UDD: link 1 up, the others down; for an acrobot the up-down"
+                        " point) or stretched (every link up)")
+    return p
+
+
+def initial_state(args, robot):
+    """--x0 checked against the robot (2n numbers), or the hanging state; a one-line error otherwise."""
+    from ..model.states import start_state
+    from ..sim.batch import check_initial_state
+
+    n = robot.params.n_links
+    if args.x0 is None:
+        return start_state(n, getattr(args, "goal", "folded"))
+    if len(args.x0) != 2 * n:
+        names = " ".join([f"q{i + 1}" for i in range(n)] + [f"d{i + 1}" for i in range(n)])
+        raise PaaError(f"--x0 needs {2 * n} numbers for robot {robot.name} ({names}), got {len(args.x0)}")
+    return check_initial_state(args.x0, n)[0]
 
 
 def gains_parent(stored="the robot's stored gains"):
@@ -230,11 +253,12 @@ def spec_from_args(args, robot, name=None):
     elif getattr(args, "kip_duration", None) is not None:
         raise PaaError(f"--kip-duration applies to the controllers {', '.join(OPTIONS)}, not to {name}")
     given = {k: getattr(args, k, None) for k in ("kD", "kP", "kV")}
+    goal = getattr(args, "goal", "folded")
     if all(v is None for v in given.values()):
-        return ControllerSpec(name, options=tuple(options))
+        return ControllerSpec(name, options=tuple(options), goal=goal)
     if name not in GAIN_CONTROLLERS:
         raise PaaError(f"--kD, --kP and --kV apply to the controllers {', '.join(GAIN_CONTROLLERS)}, not to {name}")
-    return ControllerSpec(name, tuple(robot.resolve_gains(**given).values()), options=tuple(options))
+    return ControllerSpec(name, tuple(robot.resolve_gains(**given).values()), options=tuple(options), goal=goal)
 
 
 _json_stdout = None

@@ -4,18 +4,19 @@ from __future__ import annotations
 import argparse
 
 from ..errors import PaaError, SimulationDiverged
-from .common import (controller_parent, file_path, finish, finite, output_lock, output_parent,
-                     physics_parent, positive, positive_int, print_json, robot_parent, spec_from_args)
+from .common import (controller_parent, file_path, finish, finite, goal_parent, initial_state, output_lock,
+                     output_parent, physics_parent, positive, positive_int, print_json, robot_parent, spec_from_args)
 
 
 def run_parent(robot_default="gymnast"):
     """Options of a recorded rollout (simulate, render)."""
-    p = argparse.ArgumentParser(add_help=False, parents=[robot_parent(robot_default), controller_parent(),
-                                                         physics_parent()])
+    p = argparse.ArgumentParser(add_help=False, parents=[robot_parent(robot_default), goal_parent(),
+                                                         controller_parent(), physics_parent()])
     p.add_argument("--engine", choices=("mujoco", "analytic"), default="mujoco",
                    help="MuJoCo, or the analytic model (1) by solve_ivp with continuous-time control")
-    p.add_argument("--x0", type=finite, nargs=6, metavar="X",
-                   help="initial q1 q2 q3 d1 d2 d3 [rad, rad/s] (default (65): -pi 0 0 0 0 0)")
+    p.add_argument("--x0", type=finite, nargs="+", metavar="X",
+                   help="initial q1..qn d1..dn [rad, rad/s], 2n numbers (default: hanging at rest, (65) for the"
+                        " gymnast: -pi 0 0 0 0 0)")
     p.add_argument("--no-switch", action="store_true", help="the same as --controller vcl-only")
     p.add_argument("--sample-dt", type=positive, default=0.01, help="recording interval [s], at most --t-final")
     return p
@@ -50,10 +51,7 @@ def check_duration(t_final, dt):
 
 def run_from_args(args, progress=True):
     """Build the robot and controller from the options and run the rollout (returns robot, trajectory)."""
-    import numpy as np
-
     from ..model.robot import load_robot
-    from ..model.states import X0_HANGING
     from ..sim.analytic import simulate_analytic
     from ..sim.rollout import simulate_mujoco
 
@@ -63,14 +61,15 @@ def run_from_args(args, progress=True):
     check_duration(args.t_final, args.dt or (1e-3 if args.engine == "analytic" else float(robot.model.opt.timestep)))
     spec = spec_from_args(args, robot)
     controller = spec.build(robot)
-    x0 = X0_HANGING if args.x0 is None else np.asarray(args.x0, float)
+    x0 = initial_state(args, robot)
     try:
         if args.engine == "analytic":
             traj = simulate_analytic(robot, controller, x0, args.t_final, sample_dt=args.sample_dt,
-                                     torque_limit=args.torque_limit, progress=progress)
+                                     torque_limit=args.torque_limit, progress=progress, goal=args.goal)
         else:
             traj = simulate_mujoco(robot, controller, x0, args.t_final, dt=args.dt, integrator=args.integrator,
-                                   sample_dt=args.sample_dt, torque_limit=args.torque_limit, progress=progress)
+                                   sample_dt=args.sample_dt, torque_limit=args.torque_limit, progress=progress,
+                                   goal=args.goal)
     except SimulationDiverged as err:
         if err.trajectory is not None:
             err.trajectory.robot_xml = robot.xml  # what is kept of it names its robot too
@@ -105,10 +104,13 @@ def cmd_simulate(args):
         print(f"robot {summary['robot']}, controller {summary['controller']}, {summary['engine']}"
               f" ({summary['integrator']}, dt = {summary['dt']}), {summary['final_time']:.3f} s")
         print(f"  switch to balance    {'never' if st is None else f'{st:.4f} s'}")
-        print(f"  balanced at UDD      {summary['balanced']}")
+        goal = "UDD" if traj.goal == "folded" and traj.n_links == 3 else f"the {traj.goal} goal"
+        print(f"  balanced at {goal:<9}{summary['balanced']}")
         print(f"  E - E_r at the end   {summary['E_minus_Er_final']:.6g} J")
         print(f"  V at the end         {summary['V_final']:.6g}")
-        print(f"  max |tau2|, |tau3|   {summary['max_abs_tau'][0]:.2f}, {summary['max_abs_tau'][1]:.2f} N m")
+        peaks = summary["max_abs_tau"]
+        names = ", ".join(f"|tau{i + 2}|" for i in range(len(peaks)))
+        print(f"  max {names:<17}{', '.join(f'{v:.2f}' for v in peaks)} N m")
     return finish(traj.meta.get("interrupted", False), f"stopped at t = {summary['final_time']:.3f} s", args.out,
                   kept="kept what was computed in {out}")
 

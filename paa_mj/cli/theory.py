@@ -73,10 +73,10 @@ def cmd_make_model(args):
         if None in (args.kD, args.kP, args.kV):
             raise PaaError("give all three of --kD --kP --kV to store default gains")
         gains = {"kD": args.kD, "kP": args.kP, "kV": args.kV}
-        from ..control.gains import check_gains
+        from ..control.gains import check_gains_for
         from ..model.dynamics import AnalyticModel
 
-        check_gains(AnalyticModel.from_params(params), **gains)  # every command would refuse the file later
+        check_gains_for(AnalyticModel.from_params(params), **gains)  # every command would refuse the file later
 
     def write(gains):
         return mjcf_from_params(params, name=args.name, title=args.title, gains=gains, torque_limits=limits)

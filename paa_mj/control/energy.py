@@ -45,7 +45,7 @@ from ..model.dynamics import AnalyticModel
 from ..model.states import Q_AR, goal_angles
 from ..model.vcl import Psi, psi, theta
 from .base import CompiledForm, Controller, kernel
-from .gains import check_gain_range, check_gains
+from .gains import check_chain_gains, check_gains
 
 _KD, _KP, _KV = len(eq.CONSTANTS), len(eq.CONSTANTS) + 1, len(eq.CONSTANTS) + 2
 
@@ -260,8 +260,8 @@ class EnergyVCLController(Controller):
                                                                  self.uses_vcl)
         if check and self.papers:
             check_gains(model, self.kD, self.kP, self.kV, stacklevel=4)
-        elif check:  # Theorem 1's bounds (41), (59), (60) are proved for the paper's case only
-            check_gain_range(self.kD, self.kP, self.kV)
+        elif check:  # Theorem 1's bounds (59), (60) are proved for the paper's case only; (41) holds by definition
+            check_chain_gains(model, self.kD, self.kP, self.kV, goal)
 
     @property
     def E_r(self) -> float:

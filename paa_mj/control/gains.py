@@ -7,7 +7,7 @@ import numpy as np
 
 from ..errors import PaaError
 from ..model.dynamics import AnalyticModel
-from ..theory.conditions import constraint_54, thresholds
+from ..theory.conditions import chain_kd_min, constraint_54, thresholds
 
 
 #: Largest gain accepted: 1e8 times the paper's (66); no robot of this model needs more, and the products
@@ -88,3 +88,39 @@ def check_gains(model: AnalyticModel, kD, kP, kV, stacklevel=3):
     for message in messages:
         warnings.warn(message, TheoryWarning, stacklevel=stacklevel)
     return messages
+
+
+_KD_MIN_CACHE: dict = {}
+
+
+def chain_singularity_bound(model: AnalyticModel, goal="folded") -> float:
+    """kD_min of (41) from its definition for any chain and goal (:func:`~paa_mj.theory.conditions.chain_kd_min`),
+    cached per robot and goal."""
+    key = (model.key(), goal)
+    if key not in _KD_MIN_CACHE:
+        _KD_MIN_CACHE[key] = chain_kd_min(model, goal).value
+    return _KD_MIN_CACHE[key]
+
+
+def check_chain_gains(model: AnalyticModel, kD, kP, kV, goal="folded"):
+    """Gains of (40) (or (12)) on a chain or goal beyond the paper, or a one-line error.
+
+    Each in range (:func:`check_gain_range`), and kD above the singularity bound (41) computed from its
+    definition for this robot and goal: below it Lambda (38) can become singular. Theorem 1's other
+    bounds, (59) and (60), are proved for the paper's gymnast and goal only and are not checked here.
+    """
+    check_gain_range(kD, kP, kV)
+    bound = chain_singularity_bound(model, goal)
+    if kD <= bound:
+        raise PaaError(f"gain kD = {kD:g} is not above kD_min = {bound:.6g} of (41) (its definition, computed for this"
+                       f" {model.n_links}-link robot and the {goal} goal): controller (40) can become singular")
+
+
+def check_gains_for(model: AnalyticModel, kD, kP, kV, goal="folded", stacklevel=3):
+    """:func:`check_gains` (Theorem 1's bounds) for the paper's gymnast and goal, :func:`check_chain_gains`
+    (the singularity bound (41) by its definition) for every other robot or goal."""
+    if model.paper_shape and goal == "folded":
+        return check_gains(model, kD, kP, kV, stacklevel=stacklevel + 1)
+    check_chain_gains(model, kD, kP, kV, goal)
+    return []
+

@@ -59,6 +59,20 @@ def goal_angles(goal: str, n_links: int) -> np.ndarray:
     return angles
 
 
+#: The stretched goal's runs start with link 1 this far from straight down [rad]: hanging at rest is an
+#: equilibrium of (40) aiming at the stretched goal (e = 0, qd = 0, G = 0), so a swing-up from there never starts.
+STRETCHED_START_OFFSET = 0.1
+
+
+def start_state(n_links: int, goal: str = "folded") -> np.ndarray:
+    """Where a run of the task starts by default: hanging at rest ((65) for the gymnast); for the stretched goal,
+    link 1 :data:`STRETCHED_START_OFFSET` rad off straight down, at rest."""
+    x = hanging_state(n_links)
+    if goal == "stretched":
+        x[0] += STRETCHED_START_OFFSET
+    return x
+
+
 def hanging_state(n_links: int) -> np.ndarray:
     """Hanging straight down at rest, (65) for the gymnast: q = (-pi, 0, ..., 0), qd = 0."""
     x = np.zeros(2 * n_links)

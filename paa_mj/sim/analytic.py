@@ -19,7 +19,7 @@ from ..control.combined import CombinedController
 from ..errors import PaaError, SimulationDiverged
 from ..limits import check_memory, check_steps, positive_finite
 from ..model.robot import Robot
-from ..model.states import X0_HANGING
+from ..model.states import start_state
 from .engine import MAX_SPEED, NONFINITE_TORQUE, RUNAWAY, STATUS_TEXT
 from .batch import check_initial_state, controllers_for, sample_interval, steps_for
 from .rollout import describe_controller, trajectory_quantities
@@ -72,26 +72,31 @@ def _first_entry(margin, dense, t_start, t_end, resolution):
     return hi, dense(hi)
 
 
-def simulate_analytic(robot: Robot, controller="vcl", x0=X0_HANGING, t_final: float = 30.0, sample_dt: float = 0.01,
+def simulate_analytic(robot: Robot, controller="vcl", x0=None, t_final: float = 30.0, sample_dt: float = 0.01,
                       rtol: float = 1e-10, atol: float = 1e-10, method: str = "DOP853", torque_limit=None,
-                      event_resolution: float = 1e-3, progress: bool = False) -> Trajectory:
+                      event_resolution: float = 1e-3, progress: bool = False, goal: str = "folded") -> Trajectory:
     """Integrate (1) closed by ``controller`` with continuous-time control.
 
     Parameters
     ----------
     controller : controller, name or ControllerSpec
-    torque_limit : float or (2,), optional
+    x0 : array_like (2n,), optional
+        Initial [q, qd]; default hanging at rest ((65) for the gymnast).
+    torque_limit : float or (n - 1,), optional
         Saturation [N m], capped by the model's actuator ranges as in MuJoCo.
     rtol, atol, method
         Tolerances and method ("DOP853", "RK45", "Radau", "LSODA") of SciPy's integrator.
     event_resolution : float
         The switching condition is watched on the integrator's dense output every this many
         seconds [s], so that no visit of the region longer than that is stepped over.
+    goal : {"folded", "stretched"}
+        The goal the controllers named here aim at and the run is judged against.
     """
     integrators = {"DOP853": DOP853, "RK45": RK45, "Radau": Radau, "LSODA": LSODA}
     if method not in integrators:
         raise PaaError(f"unknown method {method!r}: use one of {', '.join(integrators)}")
-    x0 = check_initial_state(x0)[0]
+    n = robot.params.n_links
+    x0 = check_initial_state(start_state(n, goal) if x0 is None else x0, n)[0]
     t_final = positive_finite("final time", t_final, allow_none=False)
     sample_dt = positive_finite("sample interval", sample_dt, allow_none=False)
     # SciPy takes a NaN or infinite tolerance without a word and then never finishes a step
@@ -110,11 +115,12 @@ def simulate_analytic(robot: Robot, controller="vcl", x0=X0_HANGING, t_final: fl
     check_memory(t_final / sample_dt * 240.0, "recorded samples", "--t-final or raise --sample-dt")
     check_steps(t_final / 1e-3, f"the exact closed loop over {t_final:g} s (counted in 1 ms steps)", "--t-final",
                 cores=1)
-    controller = controllers_for(robot, controller, 1)[0]
+    controller = controllers_for(robot, controller, 1, goal)[0]
     try:
-        requested = np.broadcast_to(np.inf if torque_limit is None else np.asarray(torque_limit, float), (2,))
+        requested = np.broadcast_to(np.inf if torque_limit is None else np.asarray(torque_limit, float), (n - 1,))
     except (TypeError, ValueError):
-        raise PaaError(f"torque limit must be one number or two (T2, T3) [N m], got {torque_limit!r}") from None
+        raise PaaError(f"torque limit must be one number or one per motor ({n - 1}) [N m], got {torque_limit!r}") \
+            from None
     limits = np.minimum(requested, robot.torque_limits)
     if np.any(~(limits > 0)):
         raise PaaError("torque limits must be > 0")
@@ -131,7 +137,7 @@ def simulate_analytic(robot: Robot, controller="vcl", x0=X0_HANGING, t_final: fl
 
     def field(law, start):
         def f(t, x):
-            q, qd = x[:3], x[3:]
+            q, qd = x[:n], x[n:]
             tau = law_torque(law, q, qd, t)
             if not np.all(np.isfinite(tau)):
                 if t == start:  # at the start itself no step helps, and SciPy's step floor is 0 at t = 0
@@ -145,7 +151,7 @@ def simulate_analytic(robot: Robot, controller="vcl", x0=X0_HANGING, t_final: fl
 
     def margin(t, x):
         # one margin per state, also for a condition of time alone (a scalar)
-        return np.broadcast_to(np.asarray(condition.margin(x[:3].T, x[3:].T, t), dtype=float), x.shape[1:])
+        return np.broadcast_to(np.asarray(condition.margin(x[:n].T, x[n:].T, t), dtype=float), x.shape[1:])
 
     t_eval = np.arange(0.0, t_final + 0.5 * sample_dt, sample_dt)
     t_eval = t_eval[t_eval <= t_final]
@@ -178,7 +184,7 @@ def simulate_analytic(robot: Robot, controller="vcl", x0=X0_HANGING, t_final: fl
                     failure = (f"the integrator's step fell below {MIN_STEP:g} s (a torque law that jumps, or"
                                " a stiff closed loop): use --engine mujoco")
                     break
-                if np.any(np.abs(solver.y[3:]) > MAX_SPEED):
+                if np.any(np.abs(solver.y[n:]) > MAX_SPEED):
                     failure = STATUS_TEXT[RUNAWAY]
                     break
                 dense = solver.dense_output()
@@ -194,7 +200,7 @@ def simulate_analytic(robot: Robot, controller="vcl", x0=X0_HANGING, t_final: fl
                 if entered is not None:
                     break
             ts.append(np.concatenate(segment_t) if segment_t else np.zeros(0))
-            xs.append(np.concatenate(segment_x) if segment_x else np.zeros((0, 6)))
+            xs.append(np.concatenate(segment_x) if segment_x else np.zeros((0, 2 * n)))
             modes.append(np.full(len(ts[-1]), phase, np.int8))
             if entered is not None and failure is None:
                 t0, x = entered
@@ -207,19 +213,20 @@ def simulate_analytic(robot: Robot, controller="vcl", x0=X0_HANGING, t_final: fl
         interrupted = True
     bar.close()
     t = np.concatenate(ts) if ts else np.zeros(0)
-    X = np.concatenate(xs) if xs else np.zeros((0, 6))
+    X = np.concatenate(xs) if xs else np.zeros((0, 2 * n))
     mode = np.concatenate(modes) if modes else np.zeros(0, np.int8)
     if failure and not len(t):
         # failed at the start: the start state is what was computed (kept and summarised, as MuJoCo's first sample)
         t, X, mode = np.zeros(1), x0[None].copy(), np.full(1, phase, np.int8)
-    q, qd = X[:, :3], X[:, 3:]
-    tau = np.array([law_torque(laws[m], q[i], qd[i], t[i]) for i, m in enumerate(mode)]).reshape(-1, 2)
-    e_err, V = trajectory_quantities(controller, robot, q, qd)
+    q, qd = X[:, :n], X[:, n:]
+    tau = np.array([law_torque(laws[m], q[i], qd[i], t[i]) for i, m in enumerate(mode)]).reshape(-1, n - 1)
+    e_err, V = trajectory_quantities(controller, robot, q, qd, goal)
     traj = Trajectory(t, q, qd, tau, e_err, V, mode, switch_time,
                       meta={"robot": robot.name, "engine": "analytic", "integrator": f"solve_ivp {method}",
                             "dt": None, "sample_dt": sample_dt, "rtol": rtol, "x0": x0.tolist(), "t_final": float(t_final),
                             **describe_controller(controller),
-                            "torque_limit": None if np.all(np.isinf(limits)) else limits.tolist()},
+                            "torque_limit": None if np.all(np.isinf(limits)) else limits.tolist(),
+                            **({"goal": goal} if goal != "folded" else {})},
                       robot_xml=robot.xml)
     if failure or not np.all(np.isfinite(X)):
         when = float(t[-1]) if len(t) else 0.0

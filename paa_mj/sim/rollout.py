@@ -13,7 +13,7 @@ from numpy.typing import ArrayLike
 
 from ..errors import SimulationDiverged
 from ..model.robot import Robot
-from ..model.states import X0_HANGING, hanging_state
+from ..model.states import X0_HANGING, start_state
 from . import engine
 from ..control.region import SUCCESS_DEFINITION
 from .batch import _lyapunov, build_plan, check_initial_state, controllers_for, outcome_arrays, sample_interval
@@ -70,7 +70,7 @@ def simulate_mujoco(robot: Robot, controller="vcl", x0: ArrayLike | None = None,
         exception carries the trajectory recorded up to the last good state.
     """
     links = robot.params.n_links
-    x0 = check_initial_state(hanging_state(links) if x0 is None else x0, links)
+    x0 = check_initial_state(start_state(links, goal) if x0 is None else x0, links)
     controllers = controllers_for(robot, controller, 1, goal)
     model = mujoco_model_for(robot, dt, integrator)
     dt = float(model.opt.timestep)

@@ -11,7 +11,8 @@ import numpy as np
 from ..control.region import BALANCE_TOL
 from ..errors import PaaError
 from ..io import json_writer, npz_writer, write_set
-from ..model.states import udd_error
+from ..model.params import MAX_LINKS
+from ..model.states import goal_angles, goal_error
 from ..provenance import text_sha256
 FIELDS = ("t", "q", "qd", "tau", "E_minus_Er", "V", "mode")
 
@@ -58,9 +59,21 @@ class Trajectory:
     def final_state(self):
         return np.concatenate([self.q[-1], self.qd[-1]])
 
+    @property
+    def n_links(self) -> int:
+        return int(self.q.shape[-1])
+
+    @property
+    def goal(self) -> str:
+        """The goal the run aimed at (the paper's folded one unless the metadata says otherwise)."""
+        return self.meta.get("goal", "folded")
+
     def balanced(self, tol=BALANCE_TOL) -> bool:
-        """True when the final state is within ``tol`` of UDD (angles mod 2 pi)."""
-        return bool(len(self) and np.max(np.abs(udd_error(self.q[-1], self.qd[-1]))) < tol)
+        """True when the final state is within ``tol`` of the goal, UDD for the paper's (angles mod 2 pi)."""
+        if not len(self):
+            return False
+        error = goal_error(self.q[-1], self.qd[-1], goal_angles(self.goal, self.n_links))
+        return bool(np.max(np.abs(error)) < tol)
 
     def summary(self) -> dict:
         return {
@@ -87,11 +100,14 @@ class Trajectory:
             # bytes, not a NumPy string: UTF-32 would take four times the room
             arrays["robot_mjcf"] = np.frombuffer(self.robot_xml.encode("utf-8"), np.uint8)
             arrays["robot_sha256"] = np.asarray(self.robot_sha256)
-        header = "t,q1,q2,q3,d1,d2,d3,tau2,tau3,E_minus_Er,V,mode"
+        n = self.n_links
+        header = ",".join(["t", *(f"q{i + 1}" for i in range(n)), *(f"d{i + 1}" for i in range(n)),
+                           *(f"tau{i + 2}" for i in range(n - 1)), "E_minus_Er", "V", "mode"])
         table = np.column_stack([self.t, self.q, self.qd, self.tau, self.E_minus_Er, self.V, self.mode])
 
         def csv(path):
-            np.savetxt(path, table, delimiter=",", header=header, comments="", fmt=["%.6f"] + ["%.17g"] * 10 + ["%d"])
+            np.savetxt(path, table, delimiter=",", header=header, comments="",
+                       fmt=["%.6f"] + ["%.17g"] * (3 * n + 1) + ["%d"])
 
         return write_set(out_dir, {
             f"{stem}.npz": npz_writer(**arrays, switch_time=np.nan if self.switch_time is None else self.switch_time,
@@ -130,7 +146,12 @@ class Trajectory:
                 raise PaaError(f"corrupted trajectory file {path}: {name} holds {values.dtype} values, not real"
                                " numbers")
         n = len(arrays["t"])
-        shapes = {"q": (n, 3), "qd": (n, 3), "tau": (n, 2), "E_minus_Er": (n,), "V": (n,), "mode": (n,)}
+        links = arrays["q"].shape[-1] if arrays["q"].ndim == 2 else 0
+        if not 2 <= links <= MAX_LINKS:
+            raise PaaError(f"corrupted trajectory file {path}: q has shape {arrays['q'].shape}, expected (samples,"
+                           f" links) with 2 to {MAX_LINKS} links")
+        shapes = {"q": (n, links), "qd": (n, links), "tau": (n, links - 1), "E_minus_Er": (n,), "V": (n,),
+                  "mode": (n,)}
         for name, shape in shapes.items():
             if arrays[name].shape != shape:
                 raise PaaError(f"corrupted trajectory file {path}: {name} has shape {arrays[name].shape}, expected {shape}")

@@ -47,8 +47,48 @@ def kd_bound_function(am: AnalyticModel, q2, q3):
 
 def kd_min(am: AnalyticModel) -> Maximum:
     """kD_min of (41): controller (40) is singularity-free iff kD > kD_min [J kg m^2]."""
+    _require_paper(am, "kD_min of (41), (42)")
     return grid_maximum(lambda y, z: kd_bound_function(am, y, z), [(0, TWO_PI), (0, TWO_PI)],
                         n=(121, 121), periodic=(True, True))
+
+
+def chain_mu(am: AnalyticModel, q_a):
+    """max over q1 of -P(q) = |sum_k b_k e(phi_k - phi_1)| [J], for the actuated angles ``q_a`` (..., n - 1):
+    (42) for the gymnast."""
+    q_a = np.asarray(q_a, float)
+    relative = np.concatenate([np.zeros(q_a.shape[:-1] + (1,)), np.cumsum(q_a, axis=-1)], axis=-1)
+    b = am.gravity_constants
+    return np.hypot(np.sum(b * np.cos(relative), -1), np.sum(b * np.sin(relative), -1))
+
+
+def chain_actuated_inertia_lambda_max(am: AnalyticModel, q_a):
+    """lambda_max((B^T M^-1 B)^-1) [kg m^2] for any chain: the Schur complement of M11 in M."""
+    q_a = np.asarray(q_a, float)
+    q = np.concatenate([np.zeros(q_a.shape[:-1] + (1,)), q_a], axis=-1)
+    M = am.mass_matrix(q)
+    S = M[..., 1:, 1:] - M[..., 1:, :1] * M[..., :1, 1:] / M[..., :1, :1]
+    return np.linalg.eigvalsh(S)[..., -1]
+
+
+def chain_kd_min(am: AnalyticModel, goal="folded") -> Maximum:
+    """kD_min of (41) from its definition, for any chain and goal [J kg m^2].
+
+    E - E_r >= -(E_r + mu(q_a)) at every state (kinetic energy >= 0, P >= -mu), so Lambda =
+    (E - E_r) I + kD B^T M^-1 B of (38) stays nonsingular for every state when kD exceeds the
+    maximum over q_a of (E_r + mu) lambda_max((B^T M^-1 B)^-1). For the gymnast's UDD this is
+    (41), (42) (:func:`kd_min`); elsewhere it is beyond the paper: the same definition, maximised
+    on a grid of the n - 1 actuated angles and refined.
+    """
+    E_r = am.goal_energy(goal)
+    dim = am.n_links - 1
+    coarse = {1: 721, 2: 121, 3: 41, 4: 17}.get(dim, 9)
+
+    def bound(*angles):
+        q_a = np.stack(np.broadcast_arrays(*angles), axis=-1)
+        return (E_r + chain_mu(am, q_a)) * chain_actuated_inertia_lambda_max(am, q_a)
+
+    return grid_maximum(bound, [(0, TWO_PI)] * dim, n=(coarse,) * dim, periodic=(True,) * dim,
+                        zoom=21 if dim <= 2 else 7)
 
 
 # --- (59), (60) ---------------------------------------------------------------------
@@ -162,8 +202,17 @@ def deltabar(am: AnalyticModel, z):
 _THRESHOLD_CACHE: dict = {}
 
 
+def _require_paper(am: AnalyticModel, what: str):
+    if not am.paper_shape:
+        from ..errors import PaaError
+
+        raise PaaError(f"{what} is Theorem 1's, proved for the paper's 3-link gymnast without damping or armature;"
+                       f" this robot has {am.n_links} links{' and damping or armature' if am.n_links == 3 else ''}")
+
+
 def thresholds(am: AnalyticModel) -> tuple[Maximum, Maximum, Maximum]:
     """(kD_min, eta1, eta2) as :class:`Maximum`; cached per robot (they cost a few grid searches)."""
+    _require_paper(am, "the thresholds (41), (59), (60)")
     key = am.key()
     if key not in _THRESHOLD_CACHE:
         _THRESHOLD_CACHE[key] = (kd_min(am), eta1(am), eta2(am))

@@ -199,17 +199,16 @@ def cmd_view(args):
 
     from ..control.base import torque_of
     from ..model.robot import load_robot
-    from ..model.states import X0_HANGING
-    from ..sim.batch import check_initial_states
     from ..sim.integrators import mujoco_model_for
 
     robot = load_robot(args.robot)
     controller = spec_from_args(args, robot).build(robot)
-    x0 = check_initial_states(X0_HANGING if args.x0 is None else args.x0)[0]
+    x0 = initial_state(args, robot)
+    n = robot.params.n_links
     model = mujoco_model_for(robot, args.dt, args.integrator)
     limits = np.minimum(robot.torque_limits, np.inf if args.torque_limit is None else args.torque_limit)
     data = mujoco.MjData(model)
-    data.qpos[:], data.qvel[:] = x0[:3], x0[3:]
+    data.qpos[:], data.qvel[:] = x0[:n], x0[n:]
     mujoco.mj_forward(model, data)
     _check_glfw()
     try:
@@ -265,8 +264,9 @@ def register(sub, parser_class):
     p.add_argument("--camera", default="side", help="a camera of the model")
     p.set_defaults(func=cmd_render)
 
-    p = sub.add_parser("view", parents=[robot_parent(), controller_parent(), physics_parent()],
+    p = sub.add_parser("view", parents=[robot_parent(), goal_parent(), controller_parent(), physics_parent()],
                        help="MuJoCo's interactive viewer with the controller running (needs a display)",
                        description="Watch a controller in MuJoCo's viewer, in real time.")
-    p.add_argument("--x0", type=finite, nargs=6, metavar="X", help="initial q1 q2 q3 d1 d2 d3 (default (65))")
+    p.add_argument("--x0", type=finite, nargs="+", metavar="X",
+                   help="initial q1..qn d1..dn, 2n numbers (default: hanging at rest, (65) for the gymnast)")
     p.set_defaults(func=cmd_view)

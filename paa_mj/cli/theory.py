@@ -2,21 +2,26 @@
 from __future__ import annotations
 
 from ..errors import PaaError
-from .common import (file_path, finite, gains_parent, links_count, non_negative, positive, positive_int, print_json,
+from .common import (file_path, finite, gains_parent, goal_parent, links_count, non_negative, positive, positive_int, print_json,
                      robot_parent, seed)
 
 
 def cmd_theory(args):
     from ..model.robot import load_robot
-    from ..outputs.theory_report import theory_report, theory_table
+    from ..outputs.theory_report import chain_theory_report, chain_theory_table, theory_report, theory_table
 
     robot = load_robot(args.robot)
     gains = robot.resolve_gains(args.kD, args.kP, args.kV)
-    report = theory_report(robot.analytic, **gains).to_json_dict()
+    if robot.analytic.paper_shape and args.goal == "folded":
+        report = theory_report(robot.analytic, **gains).to_json_dict()
+        text = theory_table
+    else:
+        report = chain_theory_report(robot.analytic, **gains, goal=args.goal)
+        text = chain_theory_table
     if args.json:
         print_json(report)
     else:
-        print(theory_table(robot.name, report))
+        print(text(robot.name, report))
     return 0
 
 
@@ -116,7 +121,7 @@ def _rule_gains(params):
 
 def register(sub, parser_class):
 
-    p = sub.add_parser("theory", parents=[robot_parent(), gains_parent()],
+    p = sub.add_parser("theory", parents=[robot_parent(), goal_parent(), gains_parent()],
                        help="thresholds (41), (59), (60), constraint (54), controllability, LQR (67), DUU",
                        description="Every condition of Theorem 1 for a robot and gains, the LQR gain (67) and the"
                                    " closed loop at DUU.")

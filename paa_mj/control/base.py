@@ -119,13 +119,14 @@ def _user_call(controller, what, call, *args):
                        + (f": {detail}" if detail else "")) from None
 
 
-def torque_of(controller, q, qd, t):
+def torque_of(controller, q, qd, t, copy=True):
     """``controller.torque(q, qd, t)`` as a float array of shape (..., n - 1), or a one-line error.
 
     The controller gets copies of ``q`` and ``qd``: the engines pass views of their own state (the
     integrator's, the measured state), which a controller that writes into its inputs would
     otherwise move. The result is a copy too, so that a controller reusing its output buffer cannot
-    change a torque already applied.
+    change a torque already applied. ``copy=False`` leaves both to the caller (the engine, every
+    step: it passes float copies of its own and reads the torques before the controller runs again).
 
     Raises
     ------
@@ -133,12 +134,13 @@ def torque_of(controller, q, qd, t):
         The controller failed, or returned the wrong shape or numbers that are not real
         (complex, boolean, text, objects).
     """
-    q, qd = np.array(q, dtype=float), np.array(qd, dtype=float)
+    if copy:
+        q, qd = np.array(q, dtype=float), np.array(qd, dtype=float)
     shape = q.shape
     expected = shape[:-1] + (shape[-1] - 1,)
     raw = _user_call(controller, "torque", controller.torque, q, qd, t)
     if type(raw) is np.ndarray and raw.dtype == np.float64 and raw.shape == expected:
-        return raw.copy()  # the common case, checked at once (this runs every step of a rollout)
+        return raw.copy() if copy else raw  # the common case, checked at once (this runs every step of a rollout)
     raw = _user_call(controller, "torque", np.asarray, raw)
     name = type(controller).__name__
     if raw.dtype.kind not in "fiu":
@@ -153,11 +155,15 @@ def torque_of(controller, q, qd, t):
     return tau
 
 
-def mode_of(controller, shape=()):
-    """The controller's mode as an int array of ``shape`` (0 when it has none), or a one-line error."""
+def mode_of(controller, shape=(), plain=False):
+    """The controller's mode as an int array of ``shape`` (0 when it has none), or a one-line error.
+
+    With ``plain``, a mode that is a plain 0 or 1 comes back as that int, the mode of every state (the
+    engine asks every step, and an array costs more than the rest of the check).
+    """
     mode = _user_call(controller, "mode", getattr, controller, "mode", 0)
     if type(mode) is int and (mode == 0 or mode == 1):  # the common case, at once (every step of a rollout)
-        return np.full(shape, mode, np.int8)
+        return mode if plain else np.full(shape, mode, np.int8)
     mode = _user_call(controller, "mode", np.asarray, mode)
     if mode.dtype.kind not in "biu" or not (mode.shape == () or mode.shape == shape):
         raise PaaError(f"controller {type(controller).__name__}.mode must be an integer or one integer per state"

@@ -26,7 +26,7 @@ theta = atan2(sum_k b_k sin(phi_k - phi_2), sum_k b_k cos(phi_k - phi_2)) (k >= 
 n = 3 this is (16), (17)), e = [q2 + theta - q2*, q3 - q3*, ..., qn - qn*], Psi = de/dq_a.
 For two links (40) is the energy-based acrobot law of Xin and Kaneda (theta = 0,
 Psi = 1). Joint damping D is put into H (the law compensates its effect on the
-accelerations), which leaves dV/dt = -kV |qd_a|^2 - (E - E_r) qd^T D qd: the last
+accelerations), which leaves :math:`\\dot V = -k_V \\dot q_a^\\top \\dot q_a - (E - E_r) \\dot q^\\top D \\dot q`: the last
 term is the energy the damping takes, not sign-definite, and zero without damping.
 The paper's closed forms run wherever the robot is its gymnast and the goal its UDD.
 """
@@ -35,9 +35,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba.extending import register_jitable
-
 from numba import njit
+from numba.extending import register_jitable
 
 from ..model import chain
 from ..model import equations as eq

@@ -332,7 +332,7 @@ def _shape_error(source, what):
 
 
 def _feature_error(source, what):
-    return PaaError(f"{source} has a feature the paper's model lacks: {what}")
+    return PaaError(f"{source} has a feature the analytic model lacks: {what}")
 
 
 def _axis_inertia(model, body, axis):

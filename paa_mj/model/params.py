@@ -79,6 +79,12 @@ class RobotParams:
         object.__setattr__(self, "g", float(self.g))
         self.validate()
 
+    def __repr__(self):
+        extra = "".join(f", {key}={getattr(self, key)!r}" for key in ("damping", "armature")
+                        if np.any(getattr(self, key)))
+        return (f"RobotParams(m={self.m!r}, l={self.l!r}, lc={self.lc!r}, J={self.J!r}, g={self.g!r},"
+                f" name={self.name!r}{extra})")
+
     @property
     def n_links(self) -> int:
         """The number of links n (and of joints; joints 2..n carry motors)."""

@@ -77,6 +77,66 @@ def theory_report(am: AnalyticModel, kD, kP, kV) -> TheoryReport:
     )
 
 
+def chain_theory_report(am: AnalyticModel, kD, kP, kV, goal="folded") -> dict:
+    """What is defined and computable for a robot or goal beyond Theorem 1 (beyond the paper).
+
+    The energy at the goal and its sign, the singularity bound (41) from its definition, linear
+    controllability at the goal (our rank and PBH test, and python-control's ``ctrb``), the LQR gain there,
+    and the merged acrobot of Sect. 2.4 (deltabar of (30), Lemma 1). Theorem 1's other conditions
+    ((54), (59), (60)) are proved for the paper's gymnast and folded goal only: the report says so.
+    """
+    import control
+
+    from ..theory.conditions import chain_kd_min, merged_acrobot_deltabar
+    from ..theory.linear import goal_linearization
+
+    check_gain_range(kD, kP, kV)
+    E_r = am.goal_energy(goal)
+    kd = chain_kd_min(am, goal)
+    A, B = goal_linearization(am, goal)
+    ctrb = udd_controllability(am, goal=goal)
+    rank = int(np.linalg.matrix_rank(control.ctrb(A, B)))
+    merged_ok, db_min, db_max = merged_acrobot_deltabar(am)
+    why = (f"this robot has {am.n_links} links" if am.n_links != 3 else "this robot has damping or armature") \
+        if not am.paper_shape else f"the goal is {goal}"
+    return {
+        "links": am.n_links, "goal": goal, "beta": am.gravity_constants.tolist(), "E_r": E_r,
+        "E_r_positive": bool(E_r > 0),
+        "kD_min": kd.value, "kD_min_at": list(kd.argmax), "kD_above_kD_min": bool(kD > kd.value),
+        "goal_controllable": ctrb.controllable, "goal_controllability": asdict(ctrb), "ctrb_rank": rank,
+        "state_dimension": int(A.shape[0]),
+        "lqr_K": lqr_gain(am, goal=goal).tolist(),
+        "merged_acrobot_ud_controllable": merged_ok, "deltabar_min": db_min, "deltabar_max": db_max,
+        "gains": {"kD": kD, "kP": kP, "kV": kV},
+        "theorem1": f"not covered: Theorem 1 and the bounds (54), (59), (60) are proved for the paper's 3-link gymnast"
+                    f" without damping and its folded goal (UDD); {why}. kD_min (41) here is its definition"
+                    " computed for this robot (beyond the paper).",
+    }
+
+
+def chain_theory_table(name, r) -> str:
+    """A plain-text table of :func:`chain_theory_report`."""
+    g = r["gains"]
+    lines = [
+        f"Theory for robot {name}: {r['links']} links, {r['goal']} goal (beyond the paper)",
+        "  b_k (gravity constants)    " + "  ".join(f"{v:.4f}" for v in r["beta"]) + "  J",
+        f"  E_r = P(q*)                {r['E_r']:.4f} J   {'> 0' if r['E_r_positive'] else '<= 0'}",
+        f"  kD_min (41), by definition {r['kD_min']:.6g}   at q_a = ({', '.join(f'{v:.4f}' for v in r['kD_min_at'])});"
+        f" kD = {g['kD']:g} {'above' if r['kD_above_kD_min'] else 'NOT above'}",
+        f"  goal linearly controllable {_yes(r['goal_controllable'])} (rank {r['goal_controllability']['rank']} of"
+        f" {r['state_dimension']}; python-control ctrb rank {r['ctrb_rank']}; PBH margin"
+        f" {r['goal_controllability']['pbh_min']:.3g})",
+        f"  merged acrobot (30)        deltabar in [{r['deltabar_min']:.6g}, {r['deltabar_max']:.6g}]:"
+        f" up-down controllable for every frozen posture: {_yes(r['merged_acrobot_ud_controllable'])}",
+        f"  LQR gain K at the goal     Q = 1e4 I{r['state_dimension']}, R = I{r['links'] - 1}",
+    ]
+    for row in r["lqr_K"]:
+        lines.append("      [" + "  ".join(f"{v:10.3f}" for v in row) + " ]")
+    lines.append(f"  gains                      kD = {g['kD']:g}, kP = {g['kP']:g}, kV = {g['kV']:g}")
+    lines.append(f"  Theorem 1                  {r['theorem1']}")
+    return "\n".join(lines)
+
+
 def _yes(flag):
     return "yes" if flag else "NO"
 

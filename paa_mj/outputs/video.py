@@ -34,7 +34,7 @@ def _ffmpeg():
 
 def states_at(traj: Trajectory, times):
     """Joint angles (interpolated) and controller modes (of the last sample) at ``times``."""
-    q = np.column_stack([np.interp(times, traj.t, traj.q[:, i]) for i in range(3)])
+    q = np.column_stack([np.interp(times, traj.t, traj.q[:, i]) for i in range(traj.q.shape[1])])
     idx = np.clip(np.searchsorted(traj.t, times, side="right") - 1, 0, len(traj.t) - 1)
     return q, traj.mode[idx]
 
@@ -65,7 +65,9 @@ class GymnastRenderer:
             raise PaaError(f"no camera named {camera!r} in the model (cameras: {', '.join(cams) or 'none'})")
         self.camera = camera
         self.data = mujoco.MjData(self.model)
-        self.feet = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_SITE, "feet")
+        # the tip of the last link: the gymnast's feet, another chain's tip site (the last body's origin else)
+        tips = [mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_SITE, name) for name in ("feet", "tip")]
+        self.feet = max(tips)
         self.materials = [mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_MATERIAL, n) for n in LINK_MATERIALS]
         self.swing_rgba = np.array([self.model.mat_rgba[m] for m in self.materials if m >= 0])
         self.trace_size = 0.012 * float(np.sum(robot.params.l))
@@ -90,7 +92,7 @@ class GymnastRenderer:
         for i, qi in enumerate(q):
             self.data.qpos[:] = qi
             mujoco.mj_kinematics(self.model, self.data)
-            out[i] = self.data.site_xpos[self.feet] if self.feet >= 0 else self.data.xpos[3]
+            out[i] = self.data.site_xpos[self.feet] if self.feet >= 0 else self.data.xpos[-1]
         return out
 
     def render(self, q, mode=0, trace=()):

@@ -21,7 +21,7 @@ from ..limits import check_memory, check_steps, positive_finite
 from ..model.robot import Robot
 from ..model.states import start_state
 from .engine import MAX_SPEED, NONFINITE_TORQUE, RUNAWAY, STATUS_TEXT
-from .batch import check_initial_state, controllers_for, sample_interval, steps_for
+from .batch import check_initial_state, check_robot, controllers_for, sample_interval, steps_for
 from .rollout import describe_controller, trajectory_quantities
 from .trajectory import Trajectory
 
@@ -95,6 +95,7 @@ def simulate_analytic(robot: Robot, controller="vcl", x0=None, t_final: float = 
     integrators = {"DOP853": DOP853, "RK45": RK45, "Radau": Radau, "LSODA": LSODA}
     if method not in integrators:
         raise PaaError(f"unknown method {method!r}: use one of {', '.join(integrators)}")
+    check_robot(robot)
     n = robot.params.n_links
     x0 = check_initial_state(start_state(n, goal) if x0 is None else x0, n)[0]
     t_final = positive_finite("final time", t_final, allow_none=False)

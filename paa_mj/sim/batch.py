@@ -181,6 +181,12 @@ def sample_interval(sample_dt, dt, t_final):
     return int(round(steps))
 
 
+def check_robot(robot):
+    """A :class:`~paa_mj.model.robot.Robot` of :func:`~paa_mj.model.load_robot`, or a one-line error."""
+    if not isinstance(robot, Robot):
+        raise PaaError(f"controllers are built for a robot of load_robot(), got {type(robot).__name__}")
+
+
 def controllers_for(robot: Robot, controller, n, goal="folded") -> list:
     """One controller object per rollout from a name, a spec, a controller or a list of those (names are built
     for ``goal``)."""
@@ -367,6 +373,7 @@ def simulate_batch(robot: Robot, x0: ArrayLike, t_final: float = 30.0, controlle
         The task: the goal the controllers named here aim at, and around which region (68), success and
         balance are judged (:mod:`paa_mj.model.states`); default the paper's folded UDD.
     """
+    check_robot(robot)
     x0 = check_initial_states(x0, robot.params.n_links)
     n = len(x0)
     controllers = controllers_for(robot, controller, n, goal)

@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 
 import mujoco
 import numpy as np
-from numba import njit, types
+from numba import njit, typeof, types
 from numba.extending import register_jitable
 
 from .mujoco_lib import COMPILED_PHYSICS, WARNINGS, mj_reset as _mj_reset, mj_step as _mj_step
@@ -282,6 +282,24 @@ def finish_step(r, step, mode, tau_cmd, model_ptr, data_ptr, qpos, qvel, ctrl, q
         _record_last(r, step, dt, every, istate, fstate, nu, rec_t, rec_q, rec_qd, rec_tau, rec_mode)
         return True
     st[I_STEP] = step + 1
+    return False
+
+
+@njit(nogil=True, cache=True)
+def python_step(step, mode, tau_cmd, r, model_ptr, data_ptr, qpos, qvel, ctrl, qfrc, warnings, dt, n_steps, every,
+                retire, setup, cert, pushes, delay_line, istate, fstate, rollout_ids, seed,
+                rec_t, rec_q, rec_qd, rec_tau, rec_mode, seen):
+    """A step under a Python controller, after its ``torque`` (``tau_cmd`` [N m]): :func:`finish_step`, then
+    :func:`measure` of the next step into ``seen``; True when the rollout ends.
+
+    One call from Python a step instead of two: numba checks the type of every argument of a call, which
+    costs about a microsecond here, and a small ``mj_step`` a few.
+    """
+    if finish_step(r, step, mode, tau_cmd, model_ptr, data_ptr, qpos, qvel, ctrl, qfrc, warnings, dt, n_steps, every,
+                   retire, setup, cert, pushes, delay_line, istate, fstate, rollout_ids, seed,
+                   rec_t, rec_q, rec_qd, rec_tau, rec_mode):
+        return True
+    measure(r, step + 1, qpos, qvel, setup, rollout_ids, seed, seen)
     return False
 
 
@@ -630,7 +648,7 @@ def _run_python(plan, controller, rows, arrays, bar):
     """Rollouts of a controller without a compiled form, stepped together; returns True if interrupted.
 
     The controller's ``torque`` is called once per step on the batch of measured states. Everything
-    else of a step runs in :func:`measure` and :func:`finish_step`, their arguments bound once: the
+    else of a step runs in one call of :func:`python_step` per rollout, its arguments bound once: the
     Python between two physics steps is what a hand-written ``mj_step`` loop would have, and little more.
     """
     rows = [int(r) for r in rows]
@@ -643,25 +661,29 @@ def _run_python(plan, controller, rows, arrays, bar):
     seen = np.zeros((len(rows), 2 * links))
     seen_q, seen_qd = seen[:, :links], seen[:, links:]
     step_args, state_args = arrays.step_args(plan), arrays.state_args(plan)
-    seed, dt, status = int(plan.seed), plan.dt, arrays.istate[:, I_STATUS]
-    measure_args = [(r, views[k][0], views[k][1], plan.setup, plan.rollout_ids, seed, seen[k])
-                    for k, r in enumerate(rows)]
-    step_tails = [(plan.models[plan.model_index[r]]._address, datas[k]._address, *views[k], *step_args,
-                   arrays.delay_line, *state_args) for k, r in enumerate(rows)]
+    dt, status = plan.dt, arrays.istate[:, I_STATUS]
+    bound = [(r, plan.models[plan.model_index[r]]._address, datas[k]._address, *views[k], *step_args,
+              arrays.delay_line, *state_args, seen[k]) for k, r in enumerate(rows)]
+    # python_step as compiled for exactly these arguments (step, mode, torques, the bound ones): called
+    # without numba's look at the type of every argument, which would cost as much as the rest of the call
+    torques = np.zeros((len(rows), links - 1))
+    steppers = [python_step.compile(tuple(typeof(a) for a in (0, 0, torques[0], *args))) for args in bound]
     active = list(range(len(rows)))
     batch = (len(rows),)
     try:
+        for k, r in enumerate(rows):
+            measure(r, 0, views[k][0], views[k][1], plan.setup, plan.rollout_ids, int(plan.seed), seen[k])
         for step in range(plan.n_steps + 1):
+            # copied into the engine's own array: the controller may reuse or change its output later
+            torques[:] = torque_of(controller, seen_q.copy(), seen_qd.copy(), step * dt, copy=False)
+            modes = mode_of(controller, batch, plain=True)  # one int for every rollout, or one per rollout
+            ended = False
             for k in active:
-                r, qpos, qvel, setup, ids, seed_, out = measure_args[k]
-                measure(r, step, qpos, qvel, setup, ids, seed_, out)
-            tau = torque_of(controller, seen_q, seen_qd, step * dt)
-            modes = mode_of(controller, batch)
-            for k in active:
-                finish_step(rows[k], step, int(modes[k]), tau[k], *step_tails[k])
+                if steppers[k](step, modes if type(modes) is int else int(modes[k]), torques[k], *bound[k]):
+                    ended = True
             if step % SEGMENT == 0:
                 bar.refresh()
-            if any(status[rows[k]] != RUNNING for k in active):
+            if ended:
                 active = [k for k in active if status[rows[k]] == RUNNING]
                 if not active:
                     break

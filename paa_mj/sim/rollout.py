@@ -16,7 +16,7 @@ from ..model.robot import Robot
 from ..model.states import X0_HANGING, start_state
 from . import engine
 from ..control.region import SUCCESS_DEFINITION
-from .batch import _lyapunov, build_plan, check_initial_state, controllers_for, outcome_arrays, sample_interval
+from .batch import _lyapunov, build_plan, check_initial_state, check_robot, controllers_for, outcome_arrays, sample_interval
 from .integrators import integrator_name, mujoco_model_for
 from .trajectory import Trajectory
 
@@ -69,6 +69,7 @@ def simulate_mujoco(robot: Robot, controller="vcl", x0: ArrayLike | None = None,
         Non-finite state or torque, runaway speeds or a MuJoCo warning; the
         exception carries the trajectory recorded up to the last good state.
     """
+    check_robot(robot)
     links = robot.params.n_links
     x0 = check_initial_state(start_state(links, goal) if x0 is None else x0, links)
     controllers = controllers_for(robot, controller, 1, goal)

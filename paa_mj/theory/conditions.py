@@ -53,8 +53,8 @@ def kd_min(am: AnalyticModel) -> Maximum:
 
 
 def chain_mu(am: AnalyticModel, q_a):
-    """max over q1 of -P(q) = |sum_k b_k e(phi_k - phi_1)| [J], for the actuated angles ``q_a`` (..., n - 1):
-    (42) for the gymnast."""
+    """max over q1 of -P(q), the length of sum_k b_k e(phi_k - phi_1) [J], for the actuated angles ``q_a``
+    (..., n - 1): (42) for the gymnast."""
     q_a = np.asarray(q_a, float)
     relative = np.concatenate([np.zeros(q_a.shape[:-1] + (1,)), np.cumsum(q_a, axis=-1)], axis=-1)
     b = am.gravity_constants
@@ -224,3 +224,40 @@ def frozen_acrobot_controllable(am: AnalyticModel, n=20001) -> tuple[bool, float
     db = deltabar(am, np.linspace(0, TWO_PI, n))
     ok = bool(np.min(np.abs(db)) > 1e-9 * np.max(np.abs(db)) and (np.all(db > 0) or np.all(db < 0)))
     return ok, float(db.min()), float(db.max())
+
+
+def merged_acrobot_deltabar(am: AnalyticModel, n_samples=20001, seed=0):
+    """deltabar of (30) for the acrobot made by freezing joints 3..n at z (Sect. 2.4), over the frozen postures z.
+
+    The frozen links 2..n are one rigid link about joint 2: abar1 = A_11, abar2(z) its inertia about joint 2,
+    bbar2(z) the length of sum_{k>=2} b_k e(alpha_k) (alpha_k = q3 + ... + qk, alpha_2 = 0), abar3 = l1 bbar2 / g,
+    bbar1 = b1;
+    deltabar = (abar2 - abar3) bbar1 + (abar1 - abar3) bbar2, and the up-down point is linearly controllable iff
+    deltabar != 0 (Lemma 1). For the gymnast these are (26)-(30); for two links the acrobot is the robot itself
+    (no z); for more, z runs over a grid (n <= 4) or ``n_samples`` random postures.
+
+    Returns
+    -------
+    (controllable_everywhere, deltabar_min, deltabar_max)
+    """
+    A, b, p = am.inertia_constants, am.gravity_constants, am.params
+    frozen = am.n_links - 2
+    if frozen == 0:
+        z = np.zeros((1, 0))
+    elif frozen == 1:
+        z = np.linspace(0, TWO_PI, n_samples)[:, None]
+    elif frozen == 2:
+        axis = np.linspace(0, TWO_PI, 201)
+        z = np.stack(np.meshgrid(axis, axis, indexing="ij"), -1).reshape(-1, 2)
+    else:
+        z = np.random.default_rng(seed).uniform(0, TWO_PI, (n_samples, frozen))
+    alpha = np.concatenate([np.zeros((len(z), 1)), np.cumsum(z, axis=1)], axis=1)  # links 2..n, from link 2
+    tail = A[1:, 1:]
+    abar2 = np.einsum("ij,rij->r", tail, np.cos(alpha[:, :, None] - alpha[:, None, :]))
+    bbar2 = np.hypot(np.sum(b[1:] * np.cos(alpha), 1), np.sum(b[1:] * np.sin(alpha), 1))
+    abar3 = p.l[0] * bbar2 / p.g
+    values = (abar2 - abar3) * b[0] + (A[0, 0] - abar3) * bbar2
+    crosses = bool(np.any(np.sign(values[:-1]) * np.sign(values[1:]) < 0)) if frozen == 1 else False
+    everywhere = bool(np.all(values > 0) or np.all(values < 0)) and not crosses
+    return everywhere, float(values.min()), float(values.max())
+

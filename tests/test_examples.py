@@ -53,3 +53,100 @@ def test_dask_basin_on_a_cluster_the_script_starts(tmp_path):
         cwd=tmp_path)
     summary = json.loads((tmp_path / "basin" / "summary.json").read_text())
     assert summary["cells"] == 4 and summary["completed_fraction"] == 1.0
+
+
+# --- reinforcement learning on the balance task ----------------------------------------------------------------
+
+def _ppo_example():
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("rl_balance_ppo", EXAMPLES / "rl_balance_ppo.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+class _Zero:
+    """A stand-in for a trained model: no torque."""
+
+    def predict(self, obs, deterministic=True):
+        return np.zeros((len(obs), 2), np.float32), None
+
+
+def test_the_ppo_examples_evaluation_is_seeded_episodes_of_the_env():
+    """The evaluation's episodes, run side by side, are those of gym.make(BALANCE_ID) from the seeds 10000, ..."""
+    gym = pytest.importorskip("gymnasium")
+    from paa_mj.gym_env import BALANCE_ID
+
+    success, length = _ppo_example().evaluate(_Zero(), 3)
+    env = gym.make(BALANCE_ID)
+    for i in range(3):
+        obs, info = env.reset(seed=10_000 + i)
+        steps, done = 0, False
+        while not done:
+            obs, _, terminated, truncated, info = env.step(np.zeros(2, np.float32))
+            steps, done = steps + 1, terminated or truncated
+        assert (length[i], success[i]) == (steps, info["is_success"])
+    assert np.all(length < 1000) and not success.any()  # no torque falls within seconds
+    assert len(set(length.tolist())) > 1  # the starts differ
+
+
+POLICY_FILE = '''
+from paa_mj.control.policy import SB3Policy
+
+
+class Balance(SB3Policy):
+    path = {path!r}
+'''
+
+
+def test_the_ppo_example_trains_and_its_policy_runs_as_a_controller(tmp_path):
+    pytest.importorskip("gymnasium")
+    import importlib.util
+
+    if importlib.util.find_spec("stable_baselines3") is None:
+        proc = subprocess.run([sys.executable, str(EXAMPLES / "rl_balance_ppo.py"), "--timesteps", "16"],
+                              capture_output=True, text=True, cwd=tmp_path, timeout=120)
+        assert proc.returncode == 1 and proc.stdout == ""
+        assert proc.stderr.strip().splitlines() == [
+            'rl_balance_ppo.py: stable-baselines3 is not installed (it brings torch): pip install "paa_mj[rl]"']
+        pytest.skip("stable-baselines3 is not installed (pip install \"paa_mj[rl]\"): the one-line message is"
+                    " checked, not the training")
+    proc = run("rl_balance_ppo.py", "--timesteps", "512", "--envs", "2", "--eval-episodes", "4",
+               "--out", tmp_path / "ppo.zip", cwd=tmp_path)
+    result = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert result["episodes"] == 4 and result["timesteps"] >= 512 and 0 <= result["success_rate"] <= 1
+    assert result["successes"] == round(4 * result["success_rate"]) and 1 <= result["mean_length"] <= 1000
+
+    # the saved model through the package's engine, as every command runs it, and through the env: the same states
+    from paa_mj.control.registry import make_controller
+    from paa_mj.gym_env import GymnastEnv
+    from paa_mj.model import load_robot
+    from paa_mj.sim.rollout import simulate_mujoco
+
+    (tmp_path / "mine.py").write_text(POLICY_FILE.format(path=str(tmp_path / "ppo.zip")))
+    robot = load_robot("gymnast")
+    controller = make_controller(f"{tmp_path / 'mine.py'}:Balance", robot)
+    x0 = [0.02, -np.pi + 0.01, -0.01, 0.0, 0.02, 0.0]
+    traj = simulate_mujoco(robot, controller, x0, t_final=0.3, sample_dt=0.01)
+    env = GymnastEnv(task="balance", init_noise=0.0, init_speed_noise=0.0)
+    obs, info = env.reset(options={"x0": x0})
+    states = [np.concatenate([info["q"], info["qd"]])]
+    for _ in range(30):
+        action, _ = controller.model.predict(obs, deterministic=True)
+        obs, _, terminated, _, info = env.step(action)
+        states.append(np.concatenate([info["q"], info["qd"]]))
+        if terminated:
+            break
+    n = len(states)
+    np.testing.assert_allclose(np.hstack([traj.q, traj.qd])[:n], states, rtol=0, atol=1e-9)
+    assert np.any(traj.tau != 0)  # the policy acts
+
+
+def test_the_ppo_example_refuses_bad_arguments_in_one_line(capsys):
+    example = _ppo_example()
+    for args in (["--timesteps", "0"], ["--envs", "x"], ["--seed", "-1"]):
+        with pytest.raises(SystemExit) as caught:
+            example.main(args)
+        err = capsys.readouterr().err.strip().splitlines()
+        assert caught.value.code == 2 and len(err) == 1 and err[0].startswith("rl_balance_ppo.py: error:")

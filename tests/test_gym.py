@@ -1,6 +1,6 @@
 """The Gymnasium environments: v0 (checker, seeding, determinism, the paper's controller as a policy), the v1 tasks
 (defaults, success, rewards, termination), the vector environment against single ones bit for bit, a trained
-policy as a controller (a stand-in for a Stable-Baselines3 model), and the PPO example."""
+policy as a controller (a stand-in for a Stable-Baselines3 model); the PPO example is in test_examples.py."""
 import numpy as np
 import pytest
 
@@ -453,24 +453,22 @@ def test_the_observation_and_action_maps_are_the_envs():
                                                         env.torque_limits), actions[1], rtol=1e-6)
 
 
-# --- the PPO example -----------------------------------------------------------------------------------------
+def test_a_policy_whose_spaces_are_not_the_envs_is_one_line(gymnast):
+    from gymnasium import spaces
 
-def test_the_ppo_example(tmp_path):
-    import importlib.util
-    import subprocess
-    import sys
-    from pathlib import Path
+    from paa_mj.control.policy import SB3Policy
+    from paa_mj.errors import PaaError
 
-    script = Path(__file__).resolve().parents[1] / "examples" / "rl_balance_ppo.py"
-    have_sb3 = importlib.util.find_spec("stable_baselines3") is not None
-    args = ["--timesteps", "256", "--envs", "2", "--eval-episodes", "1", "--out", str(tmp_path / "ppo.zip")]
-    proc = subprocess.run([sys.executable, str(script), *args], capture_output=True, text=True, cwd=tmp_path,
-                          timeout=300)
-    if have_sb3:
-        assert proc.returncode == 0, proc.stderr[-2000:]
-        assert "success rate" in proc.stdout and (tmp_path / "ppo.zip").is_file()
-    else:
-        assert proc.returncode == 1 and proc.stdout == ""
-        assert proc.stderr.strip().splitlines() == [
-            'rl_balance_ppo.py: stable-baselines3 is not installed (it brings torch): pip install "paa_mj[rl]"']
-        pytest.skip("stable-baselines3 is not installed: the one-line message is checked, not the training")
+    class Model:
+        def __init__(self, obs, low, high):
+            self.observation_space = spaces.Box(-1, 1, (obs,), np.float32)
+            self.action_space = spaces.Box(np.float32(low), np.float32(high), (2,), np.float32)
+
+        def predict(self, obs, deterministic=True):
+            return np.zeros((len(obs), 2), np.float32), None
+
+    SB3Policy(gymnast, model=Model(9, -1, 1))  # the v1 environments' spaces
+    for model, match in ((Model(6, -1, 1), "observes"), (Model(9, -579, 579), "not in \\[-1, 1\\]")):
+        with pytest.raises(PaaError, match=match) as caught:
+            SB3Policy(gymnast, model=model)
+        assert "\n" not in str(caught.value)

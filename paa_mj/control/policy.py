@@ -103,6 +103,7 @@ class SB3Policy:
         self.model = self.load_model() if model is None else model
         if not callable(getattr(self.model, "predict", None)):
             raise PaaError(f"{type(self).__name__}: the model has no method predict(obs, deterministic=True)")
+        self._check_spaces(self.model)
         self.reset()
 
     def load_model(self):
@@ -114,9 +115,32 @@ class SB3Policy:
         if cls is None or not hasattr(cls, "load"):
             raise PaaError(f"{type(self).__name__}.algorithm {self.algorithm!r} is no algorithm of stable_baselines3")
         path = Path(self.path).expanduser()
-        if not path.is_file() and not path.with_suffix(".zip").is_file():
+        # as Stable-Baselines3 reads it: the path, else the path with ".zip" appended (not a suffix replaced)
+        if not path.is_file() and not Path(f"{path}.zip").is_file():
             raise PaaError(f"policy file not found: {self.path}")
-        return cls.load(str(path), device="cpu")
+        try:
+            model = cls.load(str(path), device="cpu")
+        except Exception as err:  # not a model file, another algorithm's, an incompatible version...
+            raise PaaError(f"cannot load policy file {self.path} as {self.algorithm}: {type(err).__name__}:"
+                           f" {' '.join(str(err).split())[:300]}") from None
+        return model
+
+    def _check_spaces(self, model):
+        """A one-line error when the model's spaces are not those of the v1 environments this adapter feeds it."""
+        name = type(self).__name__
+        obs_space, action_space = getattr(model, "observation_space", None), getattr(model, "action_space", None)
+        if obs_space is not None and getattr(obs_space, "shape", None) != (9,):
+            raise PaaError(f"{name}: the model observes {getattr(obs_space, 'shape', obs_space)}, not the 9"
+                           " observations of the gymnast's environments")
+        if action_space is None:
+            return
+        if getattr(action_space, "shape", None) != (2,):
+            raise PaaError(f"{name}: the model acts in {getattr(action_space, 'shape', action_space)}, not the 2"
+                           " torques of the gymnast's environments")
+        if self.normalize_actions and not (np.all(np.asarray(action_space.high) == 1)
+                                           and np.all(np.asarray(action_space.low) == -1)):
+            raise PaaError(f"{name}: the model's actions are not in [-1, 1] (a model of paa_mj/GymnastKip-v0, torques"
+                           " as actions?): set normalize_actions = False")
 
     def reset(self):
         """Forget the held torques (before a new rollout)."""

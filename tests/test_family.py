@@ -145,3 +145,133 @@ def test_non_physical_chains_are_refused(field, value, message):
     base[field] = value
     with pytest.raises(PaaError, match=re.escape(message)):
         RobotParams(**base)
+
+
+# --- controllers and theory over the family ---------------------------------------------------------------
+
+def _energy_run(n, goal, damping, seed):
+    """A random chain of n links under (40) alone, integrated exactly (DOP853), with its controller."""
+    from paa_mj.control.energy import EnergyVCLController
+    from paa_mj.model.robot import robot_from_xml
+    from paa_mj.sim.analytic import simulate_analytic
+    from paa_mj.theory.conditions import chain_kd_min
+
+    rng = np.random.default_rng(seed)
+    m, l = rng.uniform(0.5, 3.0, n), rng.uniform(0.3, 1.0, n)
+    params = RobotParams(m=m, l=l, lc=l * rng.uniform(0.3, 0.7, n), J=m * l**2 / 12,
+                         damping=rng.uniform(0.05, 0.3, n) if damping else None)
+    robot = robot_from_xml(mjcf_from_params(params, name=f"chain{n}"))
+    kD = 1.5 * chain_kd_min(robot.analytic, goal).value
+    controller = EnergyVCLController(robot.analytic, kD, kD, kD, goal=goal)
+    traj = simulate_analytic(robot, controller, t_final=1.5, sample_dt=0.002, rtol=1e-11, atol=1e-11, goal=goal)
+    return robot, controller, traj
+
+
+@pytest.mark.parametrize("n", [2, 3, 4, 5])
+@pytest.mark.parametrize("goal", ["folded", "stretched"])
+def test_the_lyapunov_function_falls_as_36_says_along_simulated_chains(n, goal):
+    """V(t) - V(0) = -kV int |qd_a|^2 dt along the closed loop of (40), for any chain and either goal."""
+    robot, controller, traj = _energy_run(n, goal, damping=False, seed=10 * n + len(goal))
+    V = controller.lyapunov(traj.q, traj.qd)
+    rate = -controller.kV * np.sum(traj.qd[:, 1:] ** 2, axis=1)
+    integral = np.concatenate([[0.0], np.cumsum(0.5 * (rate[1:] + rate[:-1]) * np.diff(traj.t))])
+    assert V[-1] < V[0]  # the run moves: the identity is not checked on a resting robot
+    assert np.max(np.abs((V - V[0]) - integral)) < 1e-4 * (V[0] - V[-1])
+    # the rate from the chain rule equals -kV |qd_a|^2 at every sample
+    assert np.allclose(controller.lyapunov_rate(traj.q, traj.qd), rate, rtol=1e-7, atol=1e-7 * np.max(np.abs(rate)))
+
+
+@pytest.mark.parametrize("n", [2, 4])
+def test_with_damping_the_lyapunov_rate_has_the_damping_term(n):
+    """dV/dt = -kV |qd_a|^2 - (E - E_r) qd^T D qd: the law compensates damping in the accelerations only."""
+    robot, controller, traj = _energy_run(n, "folded", damping=True, seed=n)
+    damping = robot.params.damping
+    energy_error = robot.analytic.energy(traj.q, traj.qd) - controller.E_r
+    rate = -controller.kV * np.sum(traj.qd[:, 1:] ** 2, 1) - energy_error * np.sum(damping * traj.qd**2, 1)
+    V = controller.lyapunov(traj.q, traj.qd)
+    integral = np.concatenate([[0.0], np.cumsum(0.5 * (rate[1:] + rate[:-1]) * np.diff(traj.t))])
+    assert np.max(np.abs((V - V[0]) - integral)) < 1e-4 * np.max(np.abs(integral))
+    without = -controller.kV * np.sum(traj.qd[:, 1:] ** 2, 1)
+    assert np.max(np.abs(rate - without)) > 1e-3 * np.max(np.abs(without))  # the term is there, not negligible
+
+
+def test_the_chain_law_is_the_papers_law_for_the_gymnast(gymnast, rng):
+    from paa_mj.control.energy import _chain_torque_rows, chain_parameters, EnergyVCLController
+
+    gains = gymnast.gains
+    paper = EnergyVCLController(gymnast.analytic, **gains)
+    params = chain_parameters(gymnast.analytic, "folded", gains["kD"], gains["kP"], gains["kV"], True)
+    x = np.ascontiguousarray(np.concatenate([rng.uniform(-3, 3, (50, 3)), rng.uniform(-2, 2, (50, 3))], 1))
+    out = np.empty((50, 2))
+    _chain_torque_rows(params, x, out)
+    assert np.allclose(out, paper.torque(x[:, :3], x[:, 3:]), rtol=1e-11, atol=1e-9)
+
+
+def test_the_singularity_bound_by_its_definition_is_41_for_the_gymnast(gymnast, example2):
+    from paa_mj.theory.conditions import chain_kd_min, frozen_acrobot_controllable, kd_min, merged_acrobot_deltabar
+
+    for robot in (gymnast, example2):
+        assert chain_kd_min(robot.analytic).value == pytest.approx(kd_min(robot.analytic).value, rel=1e-9)
+        ok, low, high = frozen_acrobot_controllable(robot.analytic)
+        merged = merged_acrobot_deltabar(robot.analytic)
+        assert merged[0] == ok and merged[1] == pytest.approx(low, rel=1e-6) and merged[2] == pytest.approx(high,
+                                                                                                             rel=1e-6)
+
+
+def test_gains_at_the_bound_are_refused_for_a_chain():
+    from paa_mj.control.energy import EnergyVCLController
+    from paa_mj.control.gains import chain_singularity_bound
+
+    acrobot = load_robot("acrobot")
+    bound = chain_singularity_bound(acrobot.analytic, "stretched")
+    with pytest.raises(PaaError, match=r"kD = .* is not above kD_min = .* of \(41\)"):
+        EnergyVCLController(acrobot.analytic, 0.99 * bound, 10.0, 10.0, goal="stretched")
+
+
+@pytest.mark.parametrize("robot, goal", [("acrobot", "folded"), ("acrobot", "stretched"), ("chain4", "folded")])
+def test_the_named_robots_swing_up_and_balance_with_their_stored_gains(robot, goal):
+    from paa_mj.sim.rollout import simulate_mujoco
+
+    traj = simulate_mujoco(load_robot(robot), "vcl", t_final=30.0, goal=goal)
+    assert traj.meta["success"], traj.meta["status"]
+    assert traj.switch_time is not None and traj.meta.get("goal", "folded") == goal
+
+
+def test_the_lqr_balances_any_chain_at_either_goal():
+    from paa_mj.model.states import goal_angles
+    from paa_mj.sim.batch import simulate_batch
+
+    for name in ("acrobot", "chain4"):
+        robot = load_robot(name)
+        n = robot.params.n_links
+        for goal in ("folded", "stretched"):
+            x0 = np.concatenate([goal_angles(goal, n) + 0.02, np.zeros(n)])
+            result = simulate_batch(robot, x0[None], 3.0, controller="lqr", goal=goal)
+            assert result.success[0], (name, goal)
+            moved = simulate_batch(robot, x0[None], 3.0, controller="lqr", goal="stretched" if goal == "folded"
+                                   else "folded")
+            assert not moved.success[0], (name, goal)  # judged against the other goal, the same start fails
+
+
+def test_every_command_takes_a_robot_of_the_family_and_either_goal(tmp_path):
+    import json
+
+    theory = cli("theory", "--robot", "acrobot", "--goal", "stretched", "--json")
+    assert theory.returncode == 0, theory.stderr
+    report = json.loads(theory.stdout)
+    assert report["links"] == 2 and report["goal_controllable"] and "not covered" in report["theorem1"]
+    check = cli("check", "--robot", "chain4", "--samples", 50, "--json")
+    assert check.returncode == 0 and json.loads(check.stdout)["max_rel_err_qacc"] < 1e-9
+    sim = cli("simulate", "--robot", "chain4", "--goal", "stretched", "--controller", "lqr", "--x0", 0.02, 0, 0, 0,
+              0, 0, 0, 0, "--t-final", 2, "--json", "--out", tmp_path / "sim")
+    assert sim.returncode == 0, sim.stderr
+    assert json.loads(sim.stdout)["success"] and json.loads(sim.stdout)["goal"] == "stretched"
+    assert (tmp_path / "sim" / "trajectory.csv").read_text().startswith("t,q1,q2,q3,q4,d1,d2,d3,d4,tau2,tau3,tau4,")
+    basin = cli("basin", "--robot", "acrobot", "--goal", "stretched", "--axes", "q2,d1", "--grid", 3, "--t-final", 2,
+                "--json", "--scheduler", "inline")
+    assert basin.returncode == 0, basin.stderr
+    assert json.loads(basin.stdout)["axes"] == ["q2", "d1"]
+    bad = cli("basin", "--robot", "acrobot", "--axes", "q3,q1", "--grid", 3, "--scheduler", "inline")
+    assert bad.returncode == 2 and "out of q1, q2, d1, d2" in bad.stderr
+    short = cli("simulate", "--robot", "acrobot", "--x0", 0, 0, 0, 0, 0, 0)
+    assert short.returncode == 2 and "--x0 needs 4 numbers for robot acrobot (q1 q2 d1 d2), got 6" in short.stderr

@@ -2,8 +2,9 @@
 from __future__ import annotations
 
 from ..errors import PaaError
-from .common import (controller_parent, finish, non_negative, note, output_lock, output_parent, positive,
-                     positive_int, print_json, robot_parent, seed, spec_from_args, study_parent, whole_number)
+from .common import (controller_parent, finish, goal_parent, non_negative, note, output_lock, output_parent,
+                     positive, positive_int, print_json, robot_parent, seed, spec_from_args, study_parent,
+                     whole_number)
 
 
 def _finish_study(summary, args, what):
@@ -38,9 +39,9 @@ def cmd_basin(args):
     from ..outputs.results import write_basin
     from ..studies.basin import basin, parse_axes
 
-    axes = parse_axes(args.axes)
-    summary = _study(args, "basin", lambda robot, spec, common: basin(robot, axes, args.grid, args.t_final, controller=spec,
-                                                            **common), write_basin)
+    summary = _study(args, "basin", lambda robot, spec, common: basin(
+        robot, parse_axes(args.axes, robot.params.n_links), args.grid, args.t_final, controller=spec, goal=args.goal,
+        **common), write_basin)
     if not args.json and summary["completed_fraction"] > 0:
         done = summary["completed_fraction"]
         print(f"{summary['cells']} starts over ({', '.join(summary['axes'])}), {summary['controller']}:"
@@ -99,7 +100,7 @@ def cmd_compare(args):
         summary, trajectories, _ = compare(robot, names, torque_limit=args.torque_limit, trials=args.trials,
                                            quick=args.quick, t_final=args.t_final, seed=args.seed,
                                            scheduler=scheduler, out_dir=args.out, fresh=args.fresh,
-                                           progress=not args.json, grid=args.grid, chunk=args.chunk)
+                                           progress=not args.json, grid=args.grid, chunk=args.chunk, goal=args.goal)
         if args.out:
             write_compare(args.out, summary, trajectories, robot, video=video and not summary["interrupted"])
     if args.json:
@@ -147,7 +148,7 @@ def cmd_atlas(args):
 def cmd_bench(args):
     from ..studies.bench import format_bench, run_bench
 
-    result = run_bench(batch_size=args.batch_size, progress=not args.json)
+    result = run_bench(batch_size=args.batch_size, progress=not args.json, robot=args.robot, goal=args.goal)
     print_json(result) if args.json else print(format_bench(result))
     return 0
 
@@ -158,21 +159,22 @@ def register(sub, parser_class):
                                     FACTOR_ORDER, ROBUSTNESS_DEFAULT_FACTORS as DEFAULT_FACTORS,
                                     ROBUSTNESS_FACTORS as FACTORS, STARTS)
 
-    p = sub.add_parser("basin", parents=[robot_parent(), controller_parent(), study_parent(),
+    p = sub.add_parser("basin", parents=[robot_parent(), goal_parent(), controller_parent(), study_parent(),
                                          output_parent("basin.png, basin.svg, basin.npz, summary.json and the"
                                                        " finished chunks (a rerun resumes)")],
                        help="outcome over a grid of initial states (two coordinates, the others zero)",
                        description="Run the controller from every start of a grid over two coordinates and map"
                                    " how each run ends.")
     p.add_argument("--axes", default="q1,q2", metavar="A,B",
-                   help=f"two of {', '.join(COORDINATES)} (angles over [-pi, pi], speeds over [-5, 5] rad/s)")
+                   help=f"two of {', '.join(COORDINATES)} for the gymnast, of q1..qn, d1..dn for a chain of n links"
+                        " (angles over [-pi, pi], speeds over [-5, 5] rad/s)")
     p.add_argument("--grid", type=positive_int, default=64, help=f"points per axis, 2..{MAX_GRID} (starts = grid^2)")
     p.add_argument("--t-final", type=positive, default=30.0, help="duration of each run [s]")
     p.add_argument("--torque-limit", type=positive, metavar="T",
                    help="saturate each torque of every run at T [N m] (the model's actuator ranges also apply)")
     p.set_defaults(func=cmd_basin)
 
-    p = sub.add_parser("robustness", parents=[robot_parent(), controller_parent(), study_parent(),
+    p = sub.add_parser("robustness", parents=[robot_parent(), goal_parent(), controller_parent(), study_parent(),
                                               output_parent("one chart per factor (PNG, SVG), robustness.npz,"
                                                             " summary.json and the finished chunks")],
                        help="success rate against noise, limits, model error, delay, pushes and starts",
@@ -192,7 +194,7 @@ def register(sub, parser_class):
                    help="saturate each torque of every run at T [N m] (the torque_limit factor goes below it)")
     p.set_defaults(func=cmd_robustness)
 
-    p = sub.add_parser("compare", parents=[robot_parent(), study_parent(),
+    p = sub.add_parser("compare", parents=[robot_parent(), goal_parent(), study_parent(),
                                            output_parent("leaderboard.md, leaderboard.json, the charts, kips.npz,"
                                                          " the video and the studies (a rerun resumes)")],
                        help="a leaderboard of kip controllers: performance, robustness and reach",
@@ -239,7 +241,8 @@ def register(sub, parser_class):
     p.add_argument("--seed", type=seed, help="seed of the random starts with --simulate (default 0)")
     p.set_defaults(func=cmd_atlas)
 
-    p = sub.add_parser("bench", help="costs per step: bare mj_step, closed loop, batch, basin, analytic reference",
+    p = sub.add_parser("bench", parents=[robot_parent(), goal_parent()],
+                       help="costs per step: bare mj_step, closed loop, batch, basin, analytic reference",
                        description="Costs measured in one process, reported as ratios of things measured together.")
     p.add_argument("--batch-size", type=positive_int, default=1024, help="rollouts in the batch measurement")
     p.add_argument("--json", action="store_true", help="one JSON object on stdout")

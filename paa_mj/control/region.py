@@ -29,7 +29,8 @@ SUCCESS_WINDOW = 1.0
 #: What success means, in every study and every column (:func:`succeeded`).
 SUCCESS_DEFINITION = (
     "balanced at the goal at the end: no divergence, and the true state (whatever the controller reports or"
-    f" measures) inside region (68) of UDD, every angle error < pi/6 rad and every speed < {SWITCH_SPEED:g} rad/s,"
+    f" measures) inside region (68) around the goal (UDD for the paper's task), every angle error < pi/6 rad and"
+    f" every speed < {SWITCH_SPEED:g} rad/s,"
     f" throughout the last {SUCCESS_WINDOW:g} s of the run (or stopped early as balanced for good)")
 
 

@@ -312,7 +312,8 @@ def _hashable(value):
     return tuple(float(v) for v in np.ravel(value)) if np.ndim(value) else value
 
 
-def make_controller(name: str, robot, gains: dict | None = None, check: bool = True, **options) -> Controller:
+def make_controller(name: str, robot, gains: dict | None = None, check: bool = True, goal: str = "folded",
+                    **options) -> Controller:
     """The controller ``name`` (built-in or ``file.py:ClassName``) for ``robot``.
 
     ``gains`` ({"kD", "kP", "kV"}, any subset) override the robot's stored gains;
@@ -327,4 +328,4 @@ def make_controller(name: str, robot, gains: dict | None = None, check: bool = T
         if not isinstance(gains, dict) or set(gains) - {"kD", "kP", "kV"}:
             raise PaaError(f"gains must be a dict with some of kD, kP, kV, got {gains!r}")
         values = tuple(robot.resolve_gains(**gains).values())
-    return ControllerSpec(name, values, check=check, options=tuple(options.items())).build(robot)
+    return ControllerSpec(name, values, check=check, options=tuple(options.items()), goal=goal).build(robot)

@@ -293,20 +293,26 @@ def leaderboard_figure(summary):
 
 
 def overlay_figure(trajectories, summary):
-    """All controllers' angles and torques against time, overlaid."""
+    """All controllers' angles (from the goal: q1, q2 + pi, q3 for the gymnast's UDD) and torques against time."""
+    from ..model.states import goal_angles
+
     names = list(trajectories)
-    fig, axes = new_figure(5, 1, figsize=(8, 10), sharex=True, constrained_layout=True)
-    labels = ["q$_1$ [rad]", "q$_2$ + $\\pi$ [rad]", "q$_3$ [rad]", "$\\tau_2$ [N m]", "$\\tau_3$ [N m]"]
+    n = next(iter(trajectories.values()))["q"].shape[1]
+    goal = goal_angles(summary.get("goal", "folded"), n)
+    fig, axes = new_figure(2 * n - 1, 1, figsize=(8, 10 * (2 * n - 1) / 5), sharex=True, constrained_layout=True)
+    labels = [f"q$_{k + 1}$ + $\\pi$ [rad]" if goal[k] == -np.pi else f"q$_{k + 1}$ [rad]" for k in range(n)]
+    labels += [f"$\\tau_{k + 2}$ [N m]" for k in range(n - 1)]
     for i, name in enumerate(names):
         traj = trajectories[name]
-        series = [traj["q"][:, 0], traj["q"][:, 1] + np.pi, traj["q"][:, 2], traj["tau"][:, 0], traj["tau"][:, 1]]
+        series = [traj["q"][:, k] - goal[k] if goal[k] else traj["q"][:, k] for k in range(n)]
+        series += [traj["tau"][:, k] for k in range(n - 1)]
         for ax, values in zip(axes, series):
             ax.plot(traj["t"], values, color=f"C{i}", ls=LINESTYLES[i % len(LINESTYLES)], lw=1.2, label=name)
     for ax, label in zip(axes, labels):
         ax.set_ylabel(label)
     axes[0].legend(ncol=len(names), fontsize=8, loc="upper right")
     axes[0].set_title(f"{summary['robot']}: the kips from (65), torque limit"
-                      f" [{summary['torque_limit'][0]:.0f}, {summary['torque_limit'][1]:.0f}] N m")
+                      f" [{', '.join(f'{v:.0f}' for v in summary['torque_limit'])}] N m")
     axes[-1].set_xlabel("t [s]")
     return fig
 

@@ -34,22 +34,25 @@ def leaderboard_markdown(summary) -> str:
     """``leaderboard.md``: controllers as rows, as RealAIGym lays its leaderboards out."""
     from ..control.registry import BUILTIN
 
-    lines = [f"# Kip leaderboard: {summary['robot']}", "",
+    goal = summary.get("goal", "folded")
+    limits = ", ".join(f"{v:.1f}" for v in summary["torque_limit"])
+    peaks = ", ".join(f"\\|tau{k + 2}\\|" for k in range(len(summary["torque_limit"])))
+    lines = [f"# Kip leaderboard: {summary['robot']}" + (f", {goal} goal" if goal != "folded" else ""), "",
              f"From (65) in MuJoCo (RK4, 1 ms), {summary['t_final']:g} s, every controller under the torque limit"
-             f" [{summary['torque_limit'][0]:.1f}, {summary['torque_limit'][1]:.1f}] N m, in every run (reach included)."
+             f" [{limits}] N m, in every run (reach included)."
              f" Success, in every column: {summary['success']}. Robustness from (65): {summary['trials']} independent"
              " draws per random factor, with a 95 % Wilson interval; one run per level of a swept deterministic factor,"
              " whose rate is the share of levels that succeed (no interval: nothing is drawn). Reach: the share of a"
              f" {summary['grid']} x {summary['grid']} grid of starts over (q1, q2) that succeed.", "",
              "## Performance", "",
-             "| controller | what | success | t_region [s] | t_balanced [s] | max \\|tau2\\|, \\|tau3\\| [N m] |"
+             f"| controller | what | success | t_region [s] | t_balanced [s] | max {peaks} [N m] |"
              " int \\|tau\\|^2 dt [N^2 m^2 s] | work [J] | smoothness [N m/s] | max speed [rad/s] |",
              "|---|---|---|---|---|---|---|---|---|---|"]
     for name, row in summary["controllers"].items():
         what = BUILTIN[name][1] if name in BUILTIN else "user's controller"
         success = "yes" if row["success"] else f"no: {row['why']}"
         lines.append(f"| {name} | {what} | {success} | {_cell(row['t_region'], '.3f')} |"
-                     f" {_cell(row['t_balanced'], '.3f')} | {row['max_tau'][0]:.1f}, {row['max_tau'][1]:.1f} |"
+                     f" {_cell(row['t_balanced'], '.3f')} | {', '.join(f'{v:.1f}' for v in row['max_tau'])} |"
                      f" {row['int_tau2']:.4g} | {row['work']:.4g} | {row['smoothness']:.4g} | {row['max_speed']:.2f} |")
     factors = list(summary["factors"])
     lines += ["", "## Robustness (success rate [95 % Wilson interval] over random draws; share of levels over sweeps)",
@@ -71,7 +74,7 @@ def leaderboard_markdown(summary) -> str:
                          " of its work.")
     lines += ["", "Robustness levels: " + "; ".join(f"{v['label']}" for v in summary["factors"].values()) + ".",
               "Peak torques applied over every run: " + "; ".join(
-                  f"{name} {row['max_abs_tau'][0]:.1f}, {row['max_abs_tau'][1]:.1f} N m"
+                  f"{name} {', '.join(f'{v:.1f}' for v in row['max_abs_tau'])} N m"
                   for name, row in summary["controllers"].items()) + ".",
               "Every number is in `leaderboard.json`; the runs are in `studies/`.", ""]
     return "\n".join(lines)

@@ -23,7 +23,7 @@ from ..errors import PaaError
 from ..limits import check_memory, check_seed, check_steps, positive_finite
 from ..model.params import RobotParams
 from ..model.robot import Robot
-from ..model.states import MAX_INITIAL_ANGLE, MAX_INITIAL_SPEED, goal_angles, goal_error, hanging_state
+from ..model.states import MAX_INITIAL_ANGLE, MAX_INITIAL_SPEED, goal_angles, goal_error, start_state
 from . import engine
 from .engine import (DIVERGED, F_INT_TAU2, F_SMOOTH, F_SPEED, F_WORK, I_LEFT_GOAL, I_OUTSIDE, I_REGION, I_STATUS,
                      I_STEP, I_SWITCH, RETIRED, FINISHED, S_DELAY, S_LEVEL, S_NOISE_Q, S_PUSH_END, S_TAU_NOISE,
@@ -398,10 +398,11 @@ def simulate_batch(robot: Robot, x0: ArrayLike, t_final: float = 30.0, controlle
                              "status_text": STATUS_TEXT, "completed": completed})
 
 
-def kip_peak_torques(robot: Robot, controller="vcl", torque_limit=None, t_final: float = 30.0) -> np.ndarray:
+def kip_peak_torques(robot: Robot, controller="vcl", torque_limit=None, t_final: float = 30.0,
+                     goal: str = "folded") -> np.ndarray:
     """Peak torques :math:`|\\tau_2|, |\\tau_3|` [N m] of a controller's kip from (65), over every step (the scale of torque limits)."""
-    result = simulate_batch(robot, hanging_state(robot.params.n_links)[None], t_final, controller=controller,
-                            torque_limit=torque_limit,
+    result = simulate_batch(robot, start_state(robot.params.n_links, goal)[None], t_final, controller=controller,
+                            torque_limit=torque_limit, goal=goal,
                             retire=False)
     if result.interrupted:
         raise KeyboardInterrupt

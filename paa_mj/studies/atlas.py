@@ -155,6 +155,11 @@ def atlas(robot: Robot, vary=("l1", "m1"), factor_range=DEFAULT_RANGE, grid=32, 
     (default :data:`THEORY_CHUNK` and :data:`~paa_mj.studies.runner.CHUNK`);
     ``torque_limit`` [N m] saturates every simulated kip.
     """
+    if not robot.analytic.paper_shape:
+        raise PaaError(f"the atlas maps Theorem 1's conditions over the gymnast's proportions, proved for three links"
+                       f" without damping or armature; robot {robot.name} has {robot.params.n_links} links"
+                       + (" and damping or armature" if robot.params.n_links == 3 else "")
+                       + " (its theory: paa-mj theory --robot ...)")
     if not (isinstance(grid, (int, np.integer)) and 2 <= grid <= MAX_GRID):
         raise PaaError(f"--grid must be an integer in [2, {MAX_GRID}], got {grid}")
     vary = parse_vary(",".join(map(str, vary)) if isinstance(vary, (tuple, list)) else vary)

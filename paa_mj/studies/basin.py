@@ -17,7 +17,7 @@ from ..model.robot import Robot
 from ..model.states import Q_DUU, wrap_angle
 from ..control.region import SUCCESS_DEFINITION
 from .runner import CHUNK, RolloutSet, applied_limit, peak_torques, run_study
-from .settings import BASIN_COORDINATES as COORDINATES, BASIN_MAX_GRID as MAX_GRID, BASIN_RANGE as DEFAULT_RANGE
+from .settings import BASIN_MAX_GRID as MAX_GRID, BASIN_RANGE as DEFAULT_RANGE
 from .store import ChunkStore, study_key
 
 #: How a rollout ended, by code.
@@ -27,30 +27,47 @@ BALANCED, LOST, STUCK_DUU, NEVER, DIVERGED = range(len(OUTCOME_NAMES))
 DUU_TOL = 0.05
 
 
-def parse_axes(text: str) -> tuple[int, int]:
+def coordinates(n_links=3):
+    """The names of a chain's state coordinates: q1..qn, d1..dn (for the gymnast q1, q2, q3, d1, d2, d3)."""
+    return tuple(f"q{i + 1}" for i in range(n_links)) + tuple(f"d{i + 1}" for i in range(n_links))
+
+
+def coordinate_range(name):
+    """The default range of a coordinate on the grid: an angle over a full turn [rad], a speed +-5 rad/s."""
+    return DEFAULT_RANGE["q1" if name.startswith("q") else "d1"]
+
+
+def parse_axes(text: str, n_links=3) -> tuple[int, int]:
     names = [a.strip() for a in str(text).split(",")]
-    if len(names) != 2 or any(n not in COORDINATES for n in names) or names[0] == names[1]:
-        raise PaaError(f"--axes needs two different coordinates out of {', '.join(COORDINATES)}, got {text!r}")
-    return COORDINATES.index(names[0]), COORDINATES.index(names[1])
+    allowed = coordinates(n_links)
+    if len(names) != 2 or any(n not in allowed for n in names) or names[0] == names[1]:
+        raise PaaError(f"--axes needs two different coordinates out of {', '.join(allowed)}, got {text!r}")
+    return allowed.index(names[0]), allowed.index(names[1])
 
 
-def basin_grid(axes, grid):
-    """Initial states (grid^2, 6) and the two axis value vectors."""
+def basin_grid(axes, grid, n_links=3):
+    """Initial states (grid^2, 2n) and the two axis value vectors."""
     if not (isinstance(grid, (int, np.integer)) and 2 <= grid <= MAX_GRID):
         raise PaaError(f"--grid must be an integer in [2, {MAX_GRID}], got {grid}")
     i, j = axes
-    xs = np.linspace(*DEFAULT_RANGE[COORDINATES[i]], grid)
-    ys = np.linspace(*DEFAULT_RANGE[COORDINATES[j]], grid)
+    names = coordinates(n_links)
+    xs = np.linspace(*coordinate_range(names[i]), grid)
+    ys = np.linspace(*coordinate_range(names[j]), grid)
     X, Y = np.meshgrid(xs, ys, indexing="ij")
-    x0 = np.zeros((grid * grid, 6))
+    x0 = np.zeros((grid * grid, 2 * n_links))
     x0[:, i], x0[:, j] = X.ravel(), Y.ravel()
     return x0, xs, ys
 
 
-def classify(result) -> np.ndarray:
-    """The outcome code of each rollout (:data:`OUTCOME_NAMES`)."""
+def classify(result, goal="folded") -> np.ndarray:
+    """The outcome code of each rollout (:data:`OUTCOME_NAMES`); "stuck at DUU" only for the gymnast's folded goal,
+    where DUU is the other limit of Theorem 1."""
     final = np.nan_to_num(result.final_state, nan=1e9)
-    near_duu = np.max(np.abs(np.concatenate([wrap_angle(final[:, :3] - Q_DUU), final[:, 3:]], axis=1)), axis=1) < DUU_TOL
+    if final.shape[1] == 6 and goal == "folded":
+        near_duu = np.max(np.abs(np.concatenate([wrap_angle(final[:, :3] - Q_DUU), final[:, 3:]], axis=1)),
+                          axis=1) < DUU_TOL
+    else:
+        near_duu = np.zeros(len(final), bool)
     switched = np.isfinite(result.switch_time)
     code = np.where(switched, LOST, np.where(near_duu, STUCK_DUU, NEVER))
     code = np.where(result.success, BALANCED, code)
@@ -59,7 +76,8 @@ def classify(result) -> np.ndarray:
 
 def basin(robot: Robot, axes: tuple[int, int] = (0, 1), grid: int = 64, t_final: float = 30.0,
           controller: ControllerSpec | str = "vcl", progress: bool = False, scheduler: str = "inline",
-          out_dir=None, fresh: bool = False, chunk: int = CHUNK, torque_limit=None) -> tuple[dict, dict]:
+          out_dir=None, fresh: bool = False, chunk: int = CHUNK, torque_limit=None,
+          goal: str = "folded") -> tuple[dict, dict]:
     """Run the basin study; returns (summary dict, arrays dict).
 
     ``torque_limit`` [N m] (one value or one per motor) saturates every run, on top of
@@ -67,22 +85,24 @@ def basin(robot: Robot, axes: tuple[int, int] = (0, 1), grid: int = 64, t_final:
 
     ``scheduler``: "inline", "local" (a local Dask cluster) or a Dask scheduler
     address; the results are identical whichever (:mod:`paa_mj.studies.runner`).
-    With ``out_dir``, finished chunks are kept there and a rerun resumes.
+    With ``out_dir``, finished chunks are kept there and a rerun resumes. ``goal`` is the task
+    (:mod:`paa_mj.model.states`): what named controllers aim at and what success means.
     """
-    spec = ControllerSpec(controller) if isinstance(controller, str) else controller
-    if not (len(axes) == 2 and all(isinstance(a, (int, np.integer)) and 0 <= a < len(COORDINATES) for a in axes)
+    spec = ControllerSpec(controller, goal=goal) if isinstance(controller, str) else controller
+    names = coordinates(robot.params.n_links)
+    if not (len(axes) == 2 and all(isinstance(a, (int, np.integer)) and 0 <= a < len(names) for a in axes)
             and axes[0] != axes[1]):
-        raise PaaError(f"axes must be two different coordinates out of {', '.join(COORDINATES)} (indices 0 to"
-                       f" {len(COORDINATES) - 1}), got {axes!r}")
+        raise PaaError(f"axes must be two different coordinates out of {', '.join(names)} (indices 0 to"
+                       f" {len(names) - 1}), got {axes!r}")
     if not (isinstance(grid, (int, np.integer)) and 2 <= grid <= MAX_GRID):
         raise PaaError(f"--grid must be an integer in [2, {MAX_GRID}], got {grid}")
     check_memory(grid * grid * 400.0, "basin results", "--grid")
     if scheduler in ("inline", "local"):
         check_steps(grid * grid * t_final / float(robot.model.opt.timestep), f"{grid * grid} rollouts of {t_final:g} s",
                     "--grid or --t-final")
-    x0, xs, ys = basin_grid(axes, grid)
+    x0, xs, ys = basin_grid(axes, grid, robot.params.n_links)
     spec.build(robot)  # checks the gains (one line) before any work
-    rollouts = RolloutSet(x0, spec, torque_limit=torque_limit)
+    rollouts = RolloutSet(x0, spec, torque_limit=torque_limit, goal=goal)
     key = study_key({"study": "basin", "robot": robot.xml, "axes": list(axes), "grid": grid, "t_final": t_final,
                      "chunk": chunk, **rollouts.definition()})
     result = run_study(robot, rollouts, t_final, scheduler=scheduler, store=ChunkStore(out_dir, key, fresh, "basin"),
@@ -90,14 +110,14 @@ def basin(robot: Robot, axes: tuple[int, int] = (0, 1), grid: int = 64, t_final:
     completed = result.meta["completed"]
     success = result.success
     switched = result.switch_time[np.isfinite(result.switch_time)]
-    outcome = classify(result)
+    outcome = classify(result, goal)
 
     def fraction(mask):  # over the finished runs: an interrupted study says nothing of the others
         return float(np.mean(mask[completed])) if completed.any() else None
 
     summary = {
         "robot": robot.name, "robot_sha256": text_sha256(robot.xml), "controller": spec.short_name,
-        "axes": [COORDINATES[a] for a in axes], "grid": grid,
+        "axes": [names[a] for a in axes], "grid": grid, **({"goal": goal} if goal != "folded" else {}),
         "cells": int(grid * grid), "t_final": t_final, "t_reached": result.t_reached,
         "interrupted": result.interrupted, "completed_fraction": float(np.mean(completed)),
         "success": SUCCESS_DEFINITION, "success_fraction": fraction(success),

@@ -1,6 +1,6 @@
 """``paa-mj bench``: costs measured in one process, reported as ratios of things measured together.
 
-* bare: ``mj_step`` alone from a Python loop (RK4, 1 ms, Table 1 robot), one thread;
+* bare: ``mj_step`` alone from a Python loop (RK4, 1 ms, the Table 1 robot unless ``--robot`` names another), one thread;
 * single: a closed-loop MuJoCo rollout of the compiled ``vcl`` (controller + step + recording), per step;
 * python: the same with the controller called through ``torque`` from Python every step;
 * batch: :func:`paa_mj.sim.batch.simulate_batch` of random states, all cores, no early stop, per state-step;
@@ -27,7 +27,7 @@ import numpy as np
 
 from ..control.registry import make_controller
 from ..model.robot import load_robot
-from ..model.states import X0_HANGING
+from ..model.states import start_state
 from ..sim.analytic import simulate_analytic
 from ..sim.batch import simulate_batch
 from ..sim.rollout import simulate_mujoco
@@ -54,7 +54,7 @@ class _HoldStraight:
     """A two-line PD law in plain NumPy: the user's controller of the README, as a hand-written loop would run it."""
 
     def __init__(self, robot):
-        self.gain = 0.05 * robot.analytic.b1
+        self.gain = 0.05 * robot.analytic.gravity_constants[0]
 
     def torque(self, q, qd, t):
         return -self.gain * (q[..., 1:] + 0.5 * qd[..., 1:])
@@ -72,15 +72,17 @@ def python_loop_costs(robot, seconds=2.0, repeats=3):
     model = robot.model.__copy__()
     data = mujoco.MjData(model)
     steps = round(seconds / model.opt.timestep)
+    n = robot.params.n_links
+    start = start_state(n)
 
     def by_hand():
-        data.qpos[:], data.qvel[:] = X0_HANGING[:3], X0_HANGING[3:]
+        data.qpos[:], data.qvel[:] = start[:n], start[n:]
         for k in range(steps):
             data.ctrl[:] = controller.torque(data.qpos, data.qvel, k * model.opt.timestep)
             mujoco.mj_step(model, data)
 
     def through_engine(length):
-        return lambda: simulate_batch(robot, X0_HANGING[None], length, controller=controller, retire=False)
+        return lambda: simulate_batch(robot, start[None], length, controller=controller, retire=False)
 
     through_engine(seconds)()  # its compiled parts loaded before the clock
     long, short = (_best_of(through_engine(length), repeats, time.process_time) for length in (seconds, seconds / 10))
@@ -171,49 +173,59 @@ def vector_env_costs(n_envs=64, steps=50, repeats=3, frame_skip=10):
 
 
 def run_bench(batch_size=1024, batch_seconds=2.0, repeats=3, basin_grid=16, basin_seconds=30.0, progress=False,
-              vector_envs=64, vector_steps=50):
-    """Measure every cost of the module docstring; each is the best of ``repeats`` runs (the basin: of 2)."""
+              vector_envs=64, vector_steps=50, robot="gymnast", goal="folded"):
+    """Measure every cost of the module docstring; each is the best of ``repeats`` runs (the basin: of 2).
+
+    ``robot`` (a name or MJCF path) and ``goal`` choose the robot and task measured; the vector environment is
+    the gymnast's, measured for it alone.
+    """
     from .basin import basin
 
-    robot = load_robot("gymnast")
+    name = robot
+    robot = load_robot(robot)
     model = robot.model
     data = mujoco.MjData(model)
     dt = model.opt.timestep
     n_bare = 20000
+    n = robot.params.n_links
+    start = start_state(n, goal)
+    bare_start = np.resize([-2.0, -1.0, 0.5], n), np.resize([1.0, -2.0, 0.5], n)
 
     def bare():
-        data.qpos[:], data.qvel[:] = [-2.0, -1.0, 0.5], [1.0, -2.0, 0.5]
+        data.qpos[:], data.qvel[:] = bare_start
         for _ in range(n_bare):
             mujoco.mj_step(model, data)
 
-    ctrl = make_controller("vcl", robot)
+    ctrl = make_controller("vcl", robot, goal=goal)
     t_single = 30.0
-    simulate_mujoco(robot, ctrl, X0_HANGING, 0.01)  # compile (or load) the kernels first
+    simulate_mujoco(robot, ctrl, start, 0.01, goal=goal)  # compile (or load) the kernels first
     bare_step = _best_of(bare, repeats) / n_bare
-    single = _best_of(lambda: simulate_mujoco(robot, ctrl, X0_HANGING, t_single), repeats)
+    single = _best_of(lambda: simulate_mujoco(robot, ctrl, start, t_single, goal=goal), repeats)
     single_step = single / round(t_single / dt)
     t_python = 2.0
-    simulate_mujoco(robot, _Uncompiled(ctrl), X0_HANGING, 0.01)  # its own compiled parts too, before the clock
-    python_step = _best_of(lambda: simulate_mujoco(robot, _Uncompiled(ctrl), X0_HANGING, t_python), 1) \
+    simulate_mujoco(robot, _Uncompiled(ctrl), start, 0.01, goal=goal)  # its compiled parts too, before the clock
+    python_step = _best_of(lambda: simulate_mujoco(robot, _Uncompiled(ctrl), start, t_python, goal=goal), 1) \
         / round(t_python / dt)
 
     hand_step, engine_step = python_loop_costs(robot, repeats=repeats)
 
     rng = np.random.default_rng(0)
-    x0 = np.zeros((batch_size, 6))
-    x0[:, :3] = rng.uniform(-np.pi, np.pi, (batch_size, 3))
-    simulate_batch(robot, x0[:4], 0.01)
-    batch = _best_of(lambda: simulate_batch(robot, x0, batch_seconds, retire=False, progress=progress), repeats)
+    x0 = np.zeros((batch_size, 2 * n))
+    x0[:, :n] = rng.uniform(-np.pi, np.pi, (batch_size, n))
+    simulate_batch(robot, x0[:4], 0.01, controller=ctrl)
+    batch = _best_of(lambda: simulate_batch(robot, x0, batch_seconds, controller=ctrl, retire=False,
+                                            progress=progress, goal=goal), repeats)
     batch_state_step = batch / (batch_size * round(batch_seconds / dt))
 
     basin_seconds_taken = _best_of(lambda: basin(robot, (0, 1), basin_grid, basin_seconds, progress=progress,
-                                                 scheduler="inline"), min(repeats, 2))
+                                                 scheduler="inline", goal=goal), min(repeats, 2))
     basin_cell_steps = basin_grid**2 * round(basin_seconds / dt)
 
-    simulate_analytic(robot, make_controller("vcl", robot), X0_HANGING, 0.01)
-    analytic = _best_of(lambda: simulate_analytic(robot, make_controller("vcl", robot), X0_HANGING, t_single), 1)
+    simulate_analytic(robot, make_controller("vcl", robot, goal=goal), start, 0.01, goal=goal)
+    analytic = _best_of(lambda: simulate_analytic(robot, make_controller("vcl", robot, goal=goal), start, t_single,
+                                                  goal=goal), 1)
     vector = {}
-    costs = vector_env_costs(vector_envs, vector_steps, repeats)
+    costs = vector_env_costs(vector_envs, vector_steps, repeats) if name == "gymnast" and goal == "folded" else None
     if costs is not None:
         vector = {"vector_env_num_envs": vector_envs}
         for suffix, c in (("", costs), ("_frame_skip_1", vector_env_costs(vector_envs, vector_steps, repeats, 1))):
@@ -226,6 +238,7 @@ def run_bench(batch_size=1024, batch_seconds=2.0, repeats=3, basin_grid=16, basi
                        f"vector_env_speedup_bound{suffix}": c["single"] / c["physics"],
                        f"vector_env_physics_share{suffix}": c["physics"] / c["vector"]}
     return {
+        "robot": robot.name, **({"goal": goal} if goal != "folded" else {}),
         "machine_cores": os.cpu_count(),
         "mujoco_version": mujoco.__version__,
         "bare_mj_step_us": bare_step * 1e6,
@@ -252,7 +265,8 @@ def run_bench(batch_size=1024, batch_seconds=2.0, repeats=3, basin_grid=16, basi
 
 def format_bench(r) -> str:
     return "\n".join([
-        f"paa-mj bench ({r['machine_cores']} cores, MuJoCo {r['mujoco_version']}, Table 1 robot, RK4 1 ms)",
+        f"paa-mj bench ({r['machine_cores']} cores, MuJoCo {r['mujoco_version']}, robot {r.get('robot', 'gymnast')}"
+        f"{', ' + r['goal'] + ' goal' if 'goal' in r else ''}, RK4 1 ms)",
         f"  bare mj_step (Python loop)         {r['bare_mj_step_us']:8.2f} us/step        = 1",
         f"  closed loop, compiled controller   {r['single_step_us']:8.2f} us/step        single_step_ratio = {r['single_step_ratio']:.2f}",
         f"  closed loop, controller in Python  {r['python_controller_step_us']:8.2f} us/step        ratio = {r['python_step_ratio']:.1f}",

@@ -40,7 +40,7 @@ from ..errors import PaaError
 from ..provenance import text_sha256
 from ..progress import stage
 from ..model.robot import Robot
-from ..model.states import X0_HANGING
+from ..model.states import start_state
 from ..sim.batch import kip_peak_torques, simulate_batch
 from ..control.region import SUCCESS_DEFINITION
 from .basin import basin
@@ -52,9 +52,9 @@ from .settings import (BASIN_MAX_GRID, COMPARE_CONTROLLERS as DEFAULT_CONTROLLER
 METRICS = ("t_region", "t_balanced", "max_tau", "int_tau2", "work", "smoothness", "max_speed", "success")
 
 
-def _spec(name, limit):
+def _spec(name, limit, goal="folded"):
     options = (("limit", tuple(limit)),) if name in OPTIONS else ()
-    return ControllerSpec(name, options=options)
+    return ControllerSpec(name, options=options, goal=goal)
 
 
 def _why(result, i, t_final):
@@ -77,10 +77,10 @@ def sweep_levels(factor, quick=False):
     return levels[1::2] if quick else levels
 
 
-def performance(robot: Robot, controller, limit, t_final=30.0):
-    """The metrics of one kip from (65), and its trajectory (t, q, qd, tau, mode)."""
-    result = simulate_batch(robot, X0_HANGING[None], t_final, controller=controller, torque_limit=limit,
-                            retire=False, record=True, sample_dt=0.01)
+def performance(robot: Robot, controller, limit, t_final=30.0, goal="folded"):
+    """The metrics of one kip from (65) (the task's start), and its trajectory (t, q, qd, tau, mode)."""
+    result = simulate_batch(robot, start_state(robot.params.n_links, goal)[None], t_final, controller=controller,
+                            torque_limit=limit, retire=False, record=True, sample_dt=0.01, goal=goal)
     if result.interrupted:  # a truncated kip would give wrong metrics: stop the study here
         raise KeyboardInterrupt
     n = int(result.trajectories["count"][0])
@@ -96,7 +96,7 @@ def performance(robot: Robot, controller, limit, t_final=30.0):
 
 def compare(robot: Robot, controllers=DEFAULT_CONTROLLERS, torque_limit=None, trials=None, quick=False,
             t_final=None, seed=0, scheduler="inline", out_dir=None, fresh=False, progress=False, grid=None,
-            chunk=CHUNK):
+            chunk=CHUNK, goal="folded"):
     """The leaderboard; returns (summary, trajectories by controller, basins by controller).
 
     Parameters
@@ -105,6 +105,8 @@ def compare(robot: Robot, controllers=DEFAULT_CONTROLLERS, torque_limit=None, tr
         Built-in names or ``file.py:ClassName``.
     torque_limit : float, optional
         The same saturation [N m] for every controller (default: vcl's peak torques from (65)).
+    goal : {"folded", "stretched"}
+        The task every controller aims at and is judged by.
     """
     sizes = dict(SIZES["quick" if quick else "full"])
     if trials is not None:
@@ -127,10 +129,11 @@ def compare(robot: Robot, controllers=DEFAULT_CONTROLLERS, torque_limit=None, tr
             raise PaaError(f"controllers {other} and {name} would share the name {folder_name(name)} in the results:"
                            " rename one file or class")
     specs = {name: None for name in names}
-    limit = np.minimum(np.full(2, float(torque_limit)) if torque_limit is not None else
-                       kip_peak_torques(robot, "vcl"), robot.torque_limits)
+    motors = robot.params.n_links - 1
+    limit = np.minimum(np.full(motors, float(torque_limit)) if torque_limit is not None else
+                       kip_peak_torques(robot, ControllerSpec("vcl", goal=goal), goal=goal), robot.torque_limits)
     for name in names:
-        specs[name] = _spec(name, limit)
+        specs[name] = _spec(name, limit, goal)
         if name in OPTIONS:
             stage(f"compare: planning the {name} kip (collocation, IPOPT; cached after the first solve)", progress)
         specs[name].build(robot)  # gains, files and solves checked (one line) before any study runs
@@ -138,7 +141,8 @@ def compare(robot: Robot, controllers=DEFAULT_CONTROLLERS, torque_limit=None, tr
     if not np.all(np.isfinite(limit)):
         raise PaaError("the leaderboard needs a finite torque limit: give --torque-limit (the default, vcl's peak"
                        " torques from (65), is not finite here)")
-    summary = {"robot": robot.name, "robot_sha256": text_sha256(robot.xml), "torque_limit": limit.tolist(),
+    summary = {"robot": robot.name, "robot_sha256": text_sha256(robot.xml), **({"goal": goal} if goal != "folded" else {}),
+               "torque_limit": limit.tolist(),
                "t_final": sizes["t_final"], "trials": sizes["trials"], "grid": sizes["grid"], "seed": seed,
                "success": SUCCESS_DEFINITION,
                "intervals": "95 % Wilson intervals over the independent draws of a random factor (random: true);"
@@ -154,7 +158,7 @@ def compare(robot: Robot, controllers=DEFAULT_CONTROLLERS, torque_limit=None, tr
         spec = specs[name]
         controller = spec.build(robot)
         stage(f"compare [{number}/{len(names)}] {name}: the kip from (65), then robustness and reach", progress)
-        metrics, trajectories[name] = performance(robot, controller, limit, sizes["t_final"])
+        metrics, trajectories[name] = performance(robot, controller, limit, sizes["t_final"], goal)
         folder = None if out_dir is None else f"{out_dir}/studies/{folder_name(name)}"
         levels = {k: [v] for k, v in FACTORS.items()} | {k: list(v) for k, v in sweeps.items()}
         rob, _ = robustness(robot, trials=sizes["trials"], t_final=sizes["t_final"], seed=seed, controller=spec,
@@ -165,7 +169,7 @@ def compare(robot: Robot, controllers=DEFAULT_CONTROLLERS, torque_limit=None, tr
         complete = [r["rate"] for r in rates.values() if r["rate"] is not None]
         basin_summary, basins[name] = basin(robot, (0, 1), sizes["grid"], sizes["t_final"], controller=spec,
                                             progress=progress, scheduler=scheduler, out_dir=folder, fresh=fresh,
-                                            chunk=chunk, torque_limit=limit)
+                                            chunk=chunk, torque_limit=limit, goal=goal)
         peaks = [p for p in (metrics["max_tau"], rob["max_abs_tau"], basin_summary["max_abs_tau"]) if p is not None]
         description = controller.describe() if hasattr(controller, "describe") else {}
         summary["controllers"][name] = {

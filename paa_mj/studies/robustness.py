@@ -42,7 +42,7 @@ from ..errors import PaaError
 from ..provenance import text_sha256
 from ..limits import check_memory, check_seed, check_steps
 from ..model.robot import Robot
-from ..model.states import X0_HANGING
+from ..model.states import start_state
 from ..sim.batch import kip_peak_torques
 from .runner import CHUNK, RolloutSet, applied_limit, peak_torques, run_study
 from ..control.region import SUCCESS_DEFINITION
@@ -92,14 +92,15 @@ def rate_entry(successes, runs, random) -> dict:
             "random": bool(random)}
 
 
-def initial_states(trials, seed=0, start="random"):
-    """The trials' initial states: random over a full turn (speeds +-1 rad/s), or (65) for every trial."""
+def initial_states(trials, seed=0, start="random", n_links=3, goal="folded"):
+    """The trials' initial states: random over a full turn (speeds +-1 rad/s), or the task's start for every
+    trial ((65) for the gymnast; see :func:`~paa_mj.model.states.start_state`)."""
     if start == "hanging":
-        return np.tile(X0_HANGING, (trials, 1))
+        return np.tile(start_state(n_links, goal), (trials, 1))
     rng = np.random.default_rng(seed)
-    x0 = np.empty((trials, 6))
-    x0[:, :3] = rng.uniform(-np.pi, np.pi, (trials, 3))
-    x0[:, 3:] = rng.uniform(-1.0, 1.0, (trials, 3))
+    x0 = np.empty((trials, 2 * n_links))
+    x0[:, :n_links] = rng.uniform(-np.pi, np.pi, (trials, n_links))
+    x0[:, n_links:] = rng.uniform(-1.0, 1.0, (trials, n_links))
     return x0
 
 
@@ -108,10 +109,10 @@ def random_initial_states(trials, seed=0):
     return initial_states(trials, seed, "random")
 
 
-def _pushes(rng, level, b1):
+def _pushes(rng, level, b1, n_links=3):
     times = rng.uniform(*PUSH_WINDOW, PUSHES_PER_RUN)
     signs = rng.choice([-1.0, 1.0], PUSHES_PER_RUN)
-    out = np.zeros((PUSHES_PER_RUN, 5))
+    out = np.zeros((PUSHES_PER_RUN, 2 + n_links))
     out[:, 0], out[:, 1], out[:, 2] = times, PUSH_WIDTH, signs * level * b1
     return out
 
@@ -127,7 +128,8 @@ def nominal_peak(robot: Robot, spec: ControllerSpec, torque_limit=None, t_final=
 
 def robustness(robot: Robot, trials=64, t_final=30.0, seed=0, controller: ControllerSpec | str = "vcl",
                factors=DEFAULT_FACTORS, levels=None, start="random", progress=False, scheduler="inline",
-               out_dir=None, fresh=False, model_error=None, chunk=CHUNK, torque_limit=None, torque_scale=None):
+               out_dir=None, fresh=False, model_error=None, chunk=CHUNK, torque_limit=None, torque_scale=None,
+               goal="folded"):
     """Success rate against each factor; returns (summary dict, arrays dict).
 
     Parameters
@@ -142,8 +144,10 @@ def robustness(robot: Robot, trials=64, t_final=30.0, seed=0, controller: Contro
         The torque [N m] the ``torque_limit`` and ``torque_noise`` levels are fractions of
         (default: the peak torque of the controller's own kip from (65)); a leaderboard gives
         every controller the same scale, so that each meets the same disturbance.
+    goal : {"folded", "stretched"}
+        The task, for a controller given by name (a ControllerSpec carries its own).
     """
-    spec = ControllerSpec(controller) if isinstance(controller, str) else controller
+    spec = ControllerSpec(controller, goal=goal) if isinstance(controller, str) else controller
     if not (isinstance(trials, (int, np.integer)) and 1 <= trials <= MAX_TRIALS):
         raise PaaError(f"--trials must be an integer in [1, {MAX_TRIALS}], got {trials}")
     check_seed(seed, "--seed")
@@ -176,14 +180,15 @@ def robustness(robot: Robot, trials=64, t_final=30.0, seed=0, controller: Contro
         check_steps(total * t_final / float(robot.model.opt.timestep), f"{total} rollouts of {t_final:g} s",
                     "--trials, the levels or --t-final")
     spec.build(robot)  # checks the gains (one line) before any work
-    quiet = ControllerSpec(spec.name, spec.gains, spec.believed, check=False, options=spec.options)
-    base_limit = np.broadcast_to(np.inf if torque_limit is None else np.asarray(torque_limit, float), (2,))
+    goal, links = spec.goal, robot.params.n_links
+    quiet = ControllerSpec(spec.name, spec.gains, spec.believed, check=False, options=spec.options, goal=goal)
+    base_limit = np.broadcast_to(np.inf if torque_limit is None else np.asarray(torque_limit, float), (links - 1,))
     if torque_scale is not None and not (math.isfinite(torque_scale) and torque_scale > 0):
         raise PaaError(f"the torque scale must be finite and > 0 [N m], got {torque_scale}")
     peak = None
     if {"torque_limit", "torque_noise"} & set(chosen):
         peak = float(torque_scale) if torque_scale is not None else nominal_peak(robot, spec, base_limit)
-    base = initial_states(trials, seed, start)
+    base = initial_states(trials, seed, start, links, goal)
     dt = robot.model.opt.timestep
     x0, specs, limit, noise, tau_noise, delay, pushes, index, noise_ids = [], [], [], [], [], [], [], [], []
     for factor, fspec in chosen.items():
@@ -193,25 +198,26 @@ def robustness(robot: Robot, trials=64, t_final=30.0, seed=0, controller: Contro
                 # The draws of a trial depend on (seed, factor, trial) alone: the same whatever other factors
                 # run beside it, and shared by the levels of the factor (common random numbers).
                 rng = np.random.default_rng([seed, code, trial])
-                start_state = base[trial].copy()
+                x_start = base[trial].copy()
                 if factor == "initial_state" and level > 0:
-                    start_state += rng.uniform(-level, level, 6)
-                x0.append(start_state)
+                    x_start += rng.uniform(-level, level, 2 * links)
+                x0.append(x_start)
                 e = level / 100 if factor == "model_error" else 0.0
                 specs.append(ControllerSpec(spec.name, spec.gains, robot.params.scaled(1 + e, 1 - e), check=False,
-                                            options=spec.options)
+                                            options=spec.options, goal=goal)
                              if e else quiet)
                 limit.append(np.minimum(base_limit, level * peak if factor == "torque_limit" else math.inf))
                 noise.append([level, level] if factor == "noise" else [0.0, 0.0])
                 tau_noise.append(level * peak if factor == "torque_noise" else 0.0)
                 delay.append(int(round(level * 1e-3 / dt)) if factor == "delay" else 0)
-                pushes.append(_pushes(rng, level, robot.analytic.b1) if factor == "pushes" and level > 0
-                              else np.zeros((PUSHES_PER_RUN, 5)))
+                pushes.append(_pushes(rng, level, robot.analytic.gravity_constants[0], links)
+                              if factor == "pushes" and level > 0 else np.zeros((PUSHES_PER_RUN, 2 + links)))
                 index.append((factor, level_i))
                 noise_ids.append(code << 32 | trial)
     rollouts = RolloutSet(np.array(x0), specs, torque_limit=np.array(limit),
                           noise_std=np.array(noise), torque_noise=np.array(tau_noise), delay_steps=np.array(delay),
-                          pushes=np.array(pushes) if "pushes" in chosen else None, noise_ids=np.array(noise_ids))
+                          pushes=np.array(pushes) if "pushes" in chosen else None, noise_ids=np.array(noise_ids),
+                          goal=goal)
     key = study_key({"study": "robustness", "robot": robot.xml, "t_final": t_final, "seed": seed, "chunk": chunk,
                      **rollouts.definition()})
     result = run_study(robot, rollouts, t_final, seed=seed, scheduler=scheduler, chunk=chunk,
@@ -222,7 +228,8 @@ def robustness(robot: Robot, trials=64, t_final=30.0, seed=0, controller: Contro
     summary = {"robot": robot.name, "robot_sha256": text_sha256(robot.xml), "controller": spec.short_name,
                "trials": trials, "t_final": t_final, "seed": seed,
                "torque_limit": applied_limit(robot, base_limit),
-               "start": start, "runs": total, "completed_fraction": float(np.mean(completed)),
+               "start": start, **({"goal": goal} if goal != "folded" else {}), "runs": total,
+               "completed_fraction": float(np.mean(completed)),
                "success": SUCCESS_DEFINITION,
                "intervals": "95 % Wilson intervals over independent draws only (random: true); a deterministic"
                             " setting is one run (random: false) and has none",

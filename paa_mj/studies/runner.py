@@ -127,17 +127,19 @@ class RolloutSet:
 
     Attributes
     ----------
-    x0 : ndarray (N, 6)
+    x0 : ndarray (N, 2n)
     controllers : list of ControllerSpec (N)
     plants : list of RobotParams or None (N), or None for the nominal robot everywhere
-    torque_limit : ndarray (N, 2) [N m], inf for none
+    torque_limit : ndarray (N, n - 1) [N m], inf for none
     noise_std : ndarray (N, 2) on q [rad] and qd [rad/s]
     torque_noise : ndarray (N,) [N m]
     delay_steps : ndarray (N,) of int
-    pushes : ndarray (N, K, 5) or None
+    pushes : ndarray (N, K, 2 + n) or None
     noise_ids : ndarray (N,) of int, optional
         The number that keys each rollout's noise stream with the seed (default: its
         index); a study gives a rollout the same number whatever runs beside it.
+    goal : {"folded", "stretched"}
+        The task every rollout is judged by (the controllers' specs aim at it too).
     """
 
     x0: np.ndarray
@@ -150,14 +152,17 @@ class RolloutSet:
     pushes: np.ndarray | None = None
     noise_ids: np.ndarray | None = None
     labels: dict = field(default_factory=dict)
+    goal: str = "folded"
 
     def __post_init__(self):
         n = len(self.x0)
         self.x0 = np.asarray(self.x0, dtype=float)
+        motors = self.x0.shape[1] // 2 - 1 if self.x0.ndim == 2 else 2
         if isinstance(self.controllers, (str, ControllerSpec)):
-            spec = ControllerSpec(self.controllers) if isinstance(self.controllers, str) else self.controllers
+            spec = ControllerSpec(self.controllers, goal=self.goal) if isinstance(self.controllers, str) \
+                else self.controllers
             self.controllers = [spec] * n
-        defaults = {"torque_limit": ((n, 2), np.inf), "noise_std": ((n, 2), 0.0), "torque_noise": ((n,), 0.0),
+        defaults = {"torque_limit": ((n, motors), np.inf), "noise_std": ((n, 2), 0.0), "torque_noise": ((n,), 0.0),
                     "delay_steps": ((n,), 0.0)}
         for name, (shape, value) in defaults.items():
             current = getattr(self, name)
@@ -179,7 +184,7 @@ class RolloutSet:
                 "torque_limit": self.torque_limit[part], "noise_std": self.noise_std[part],
                 "torque_noise": self.torque_noise[part], "delay_steps": self.delay_steps[part],
                 "pushes": None if self.pushes is None else self.pushes[part],
-                "rollout_ids": self.noise_ids[part]}
+                "rollout_ids": self.noise_ids[part], "goal": self.goal}
 
     def definition(self) -> dict:
         """What identifies these rollouts (for the chunk store's key)."""
@@ -187,24 +192,27 @@ class RolloutSet:
         return {"x0": self.x0, "controllers": [_spec_dict(s) for s in self.controllers], "plants": plants,
                 "torque_limit": np.where(np.isinf(self.torque_limit), -1.0, self.torque_limit),
                 "noise_std": self.noise_std, "torque_noise": self.torque_noise, "delay_steps": self.delay_steps,
-                "pushes": self.pushes, "noise_ids": self.noise_ids}
+                "pushes": self.pushes, "noise_ids": self.noise_ids,
+                **({"goal": self.goal} if self.goal != "folded" else {})}
 
 
 def _spec_dict(spec: ControllerSpec):
     return {"name": spec.name, "gains": spec.gains, "check": spec.check, "options": [list(o) for o in spec.options],
-            "believed": None if spec.believed is None else spec.believed.as_dict(), "source": spec.source_digest()}
+            "believed": None if spec.believed is None else spec.believed.as_dict(), "source": spec.source_digest(),
+            **({"goal": spec.goal} if spec.goal != "folded" else {})}
 
 
 def applied_limit(robot, torque_limit):
     """The torque limits a study's runs get [N m]: ``torque_limit`` capped by the model's actuator ranges,
-    as a list of two, or None when neither limits."""
-    limits = np.minimum(np.broadcast_to(np.inf if torque_limit is None else np.asarray(torque_limit, float), (2,)),
+    as a list of one per motor, or None when neither limits."""
+    motors = robot.torque_limits.shape
+    limits = np.minimum(np.broadcast_to(np.inf if torque_limit is None else np.asarray(torque_limit, float), motors),
                         robot.torque_limits)
     return None if np.all(np.isinf(limits)) else limits.tolist()
 
 
 def peak_torques(max_abs_tau, completed):
-    """The largest :math:`|\\tau_2|, |\\tau_3|` applied over the finished runs [N m] (None if none finished)."""
+    """The largest :math:`|\\tau_k|` of each motor applied over the finished runs [N m] (None if none finished)."""
     done = np.asarray(max_abs_tau)[np.asarray(completed, bool)]
     return np.max(done, axis=0).tolist() if len(done) else None
 
@@ -322,14 +330,11 @@ def run_study(robot: Robot, rollouts: RolloutSet, t_final: float, *, seed=0, sch
     return _merge(rollouts, starts, finished, chunk, n, interrupted, scheduler)
 
 
-#: The width of each per-rollout outcome of a chunk (1: one value per rollout).
-_WIDTHS = {"x0": 6, "final_state": 6, "max_abs_tau": 2}
-
-
 def _chunk_fits(payload, result) -> bool:
     """A kept chunk is this payload's: every outcome, one row per rollout, from the same initial states."""
-    rows = len(payload["x0"])
-    shapes = {name: (rows, _WIDTHS[name]) if name in _WIDTHS else (rows,) for name in (*OUTCOMES, "completed")}
+    rows, width = np.shape(payload["x0"])
+    widths = {"x0": width, "final_state": width, "max_abs_tau": width // 2 - 1}  # the others: one value per rollout
+    shapes = {name: (rows, widths[name]) if name in widths else (rows,) for name in (*OUTCOMES, "completed")}
     return check_arrays(result, shapes) and np.array_equal(result["x0"], payload["x0"])
 
 
@@ -436,7 +441,8 @@ def _merge(rollouts, starts, finished, chunk, n, interrupted, scheduler) -> Batc
              "V_final": np.nan, "max_abs_tau": np.nan, "diverged": False, "success": False, "t_end": np.nan,
              "status": -1, "t_region": np.nan, "t_balanced": np.nan, "int_tau2": np.nan, "work": np.nan,
              "smoothness": np.nan, "max_speed": np.nan}
-    widths = {"final_state": 6, "max_abs_tau": 2}
+    width = rollouts.x0.shape[1]
+    widths = {"final_state": width, "max_abs_tau": width // 2 - 1}
     out = {"x0": rollouts.x0.copy()}
     for key, fill in empty.items():
         shape = (n, widths[key]) if key in widths else (n,)

@@ -21,6 +21,40 @@ def example2():
     return load_robot("example2")
 
 
+class Result:
+    """What a finished ``paa-mj`` run left: its exit code, standard output and standard error."""
+
+    def __init__(self, returncode, stdout, stderr):
+        self.returncode, self.stdout, self.stderr = returncode, stdout, stderr
+
+
+@pytest.fixture
+def run(capsys, monkeypatch):
+    """``paa-mj ARGS`` in this process (no interpreter start-up, no numba cache load), as a completed process.
+
+    The GL variables a ``render`` sets are put back afterwards, so later tests and their subprocesses see
+    the environment they started with.
+    """
+    import os
+
+    from paa_mj.cli import main
+
+    for name in ("MUJOCO_GL", "PYOPENGL_PLATFORM"):
+        if name in os.environ:
+            monkeypatch.setenv(name, os.environ[name])
+        else:
+            monkeypatch.delenv(name, raising=False)
+
+    def call(*args, cwd=None):
+        if cwd is not None:
+            monkeypatch.chdir(cwd)
+        code = main([str(a) for a in args])
+        out, err = capsys.readouterr()
+        return Result(code, out, err)
+
+    return call
+
+
 @pytest.fixture
 def rng():
     return np.random.default_rng(1234)

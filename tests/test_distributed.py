@@ -159,6 +159,7 @@ def test_losing_every_worker_stops_with_one_line_and_keeps_chunks(gymnast, tmp_p
     script = tmp_path / "kill.py"
     script.write_text(f'''
 import os, signal, sys, threading, time
+os.environ["DASK_DISTRIBUTED__SCHEDULER__ALLOWED_FAILURES"] = "0"  # the first lost task stops the study
 sys.argv = ["paa-mj", "basin", "--grid", "12", "--t-final", "2", "--chunk", "16", "--json", "--out",
             {str(tmp_path / "out")!r}]
 import distributed

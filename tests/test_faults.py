@@ -16,26 +16,6 @@ from .helpers import cli
 GYMNAST = (MODEL_DIR / "gymnast.xml").read_text()
 
 
-class Result:
-    def __init__(self, returncode, stdout, stderr):
-        self.returncode, self.stdout, self.stderr = returncode, stdout, stderr
-
-
-@pytest.fixture
-def run(capsys, monkeypatch):
-    """``paa-mj ARGS`` in this process (fast), as a completed process."""
-    from paa_mj.cli import main
-
-    def call(*args, cwd=None):
-        if cwd is not None:
-            monkeypatch.chdir(cwd)
-        code = main([str(a) for a in args])
-        out, err = capsys.readouterr()
-        return Result(code, out, err)
-
-    return call
-
-
 def _one_line_error(proc, fragment, code=2):
     assert proc.returncode == code, proc.stderr
     lines = proc.stderr.strip().splitlines()

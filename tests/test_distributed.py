@@ -18,6 +18,7 @@ from paa_mj.studies.runner import RolloutSet, run_study  # noqa: E402
 from paa_mj.studies.store import ChunkStore  # noqa: E402
 
 
+
 @pytest.fixture(scope="module")
 def scheduler_address():
     from distributed import LocalCluster
@@ -104,8 +105,9 @@ def _files(out):
 
 @pytest.fixture(scope="module")
 def uninterrupted(tmp_path_factory):
+    """The files of the whole study, computed in this process (the command's ``main``, no start-up to pay)."""
     reference = tmp_path_factory.mktemp("reference")
-    assert subprocess.run(_basin_cmd(reference), capture_output=True).returncode == 0
+    assert main(_basin_cmd(reference)[3:]) == 0
     return _files(reference)
 
 
@@ -127,7 +129,7 @@ def test_signal_then_rerun_is_byte_identical_to_an_uninterrupted_run(tmp_path, s
     summary = json.loads(stdout)
     assert summary["interrupted"] is True and 0 < summary["completed_fraction"] < 1
     assert not [p for p in os.listdir(out) if p.startswith(".") and p not in (".chunks", ".paa-mj.lock")]
-    assert subprocess.run(_basin_cmd(out), capture_output=True).returncode == 0
+    assert main(_basin_cmd(out)[3:]) == 0  # the same command resumes (in this process: the stop was the real one)
     assert _files(out) == uninterrupted
 
 

@@ -11,6 +11,30 @@ GAINS1 = dict(kD=4550.0, kP=16000.0, kV=5000.0)
 GAINS2 = dict(kD=31.0, kP=90.0, kV=90.0)
 
 
+# Modules whose tests share an expensive module-scoped fixture: the reproduction, the atlas of 36 robots, the Dask
+# cluster and the uninterrupted basin. Under ``pytest -n N`` each would be computed again on every worker that draws
+# one of their tests.
+SHARED_FIXTURE_MODULES = ("tests/test_reproduce.py", "tests/test_atlas.py", "tests/test_distributed.py")
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_xdist_make_scheduler(config, log):
+    """``-n N`` as usual (one test at a time to a free worker), but each module above whole to one worker.
+
+    (xdist's own ``--dist loadgroup`` marks do not reach pytest 9's test ids, hence this scheduler.)
+    """
+    if config.getvalue("dist") != "load":
+        return None
+    from xdist.scheduler import LoadScopeScheduling
+
+    class SharedFixturesTogether(LoadScopeScheduling):
+        def _split_scope(self, nodeid):
+            module = nodeid.split("::", 1)[0]
+            return module if module in SHARED_FIXTURE_MODULES else nodeid
+
+    return SharedFixturesTogether(config, log)
+
+
 @pytest.fixture(scope="session")
 def gymnast():
     return load_robot("gymnast")
@@ -19,6 +43,40 @@ def gymnast():
 @pytest.fixture(scope="session")
 def example2():
     return load_robot("example2")
+
+
+class Result:
+    """What a finished ``paa-mj`` run left: its exit code, standard output and standard error."""
+
+    def __init__(self, returncode, stdout, stderr):
+        self.returncode, self.stdout, self.stderr = returncode, stdout, stderr
+
+
+@pytest.fixture
+def run(capsys, monkeypatch):
+    """``paa-mj ARGS`` in this process (no interpreter start-up, no numba cache load), as a completed process.
+
+    The GL variables a ``render`` sets are put back afterwards, so later tests and their subprocesses see
+    the environment they started with.
+    """
+    import os
+
+    from paa_mj.cli import main
+
+    for name in ("MUJOCO_GL", "PYOPENGL_PLATFORM"):
+        if name in os.environ:
+            monkeypatch.setenv(name, os.environ[name])
+        else:
+            monkeypatch.delenv(name, raising=False)
+
+    def call(*args, cwd=None):
+        if cwd is not None:
+            monkeypatch.chdir(cwd)
+        code = main([str(a) for a in args])
+        out, err = capsys.readouterr()
+        return Result(code, out, err)
+
+    return call
 
 
 @pytest.fixture

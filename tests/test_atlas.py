@@ -8,6 +8,7 @@ from paa_mj.cli import main
 from paa_mj.studies.atlas import scale
 
 
+
 def run(capsys, *args):
     code = main([str(a) for a in args])
     out, err = capsys.readouterr()
@@ -16,13 +17,16 @@ def run(capsys, *args):
 
 @pytest.fixture(scope="module")
 def atlas6():
-    import subprocess
-    import sys
+    """The command's JSON, from its ``main`` in this process (test_json_output_of_every_command... runs atlas too)."""
+    import contextlib
+    import io
 
-    proc = subprocess.run([sys.executable, "-m", "paa_mj.cli", "atlas", "--robot", "example2", "--vary", "l1,m1",
-                           "--grid", "6", "--json", "--scheduler", "inline"], capture_output=True, text=True, timeout=300)
-    assert proc.returncode == 0, proc.stderr
-    return json.loads(proc.stdout)
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = main(["atlas", "--robot", "example2", "--vary", "l1,m1", "--grid", "6", "--json", "--scheduler",
+                     "inline"])
+    assert code == 0, err.getvalue()
+    return json.loads(out.getvalue())
 
 
 def test_atlas_json_has_every_key(atlas6):

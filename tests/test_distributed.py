@@ -18,6 +18,7 @@ from paa_mj.studies.runner import RolloutSet, run_study  # noqa: E402
 from paa_mj.studies.store import ChunkStore  # noqa: E402
 
 
+
 @pytest.fixture(scope="module")
 def scheduler_address():
     from distributed import LocalCluster
@@ -93,7 +94,7 @@ def test_interrupt_keeps_the_chunks_already_finished_and_a_rerun_resumes(gymnast
     np.testing.assert_array_equal(resumed.final_state, whole.final_state)
 
 
-def _basin_cmd(out, grid=8, t_final=4, chunk=4):  # 16 chunks: a signal lands long before the last
+def _basin_cmd(out, grid=6, t_final=4, chunk=2):  # 18 chunks: a signal lands long before the last
     return [sys.executable, "-m", "paa_mj.cli", "basin", "--grid", str(grid), "--t-final", str(t_final),
             "--chunk", str(chunk), "--scheduler", "inline", "--json", "--out", str(out)]
 
@@ -104,8 +105,9 @@ def _files(out):
 
 @pytest.fixture(scope="module")
 def uninterrupted(tmp_path_factory):
+    """The files of the whole study, computed in this process (the command's ``main``, no start-up to pay)."""
     reference = tmp_path_factory.mktemp("reference")
-    assert subprocess.run(_basin_cmd(reference), capture_output=True).returncode == 0
+    assert main(_basin_cmd(reference)[3:]) == 0
     return _files(reference)
 
 
@@ -127,7 +129,7 @@ def test_signal_then_rerun_is_byte_identical_to_an_uninterrupted_run(tmp_path, s
     summary = json.loads(stdout)
     assert summary["interrupted"] is True and 0 < summary["completed_fraction"] < 1
     assert not [p for p in os.listdir(out) if p.startswith(".") and p not in (".chunks", ".paa-mj.lock")]
-    assert subprocess.run(_basin_cmd(out), capture_output=True).returncode == 0
+    assert main(_basin_cmd(out)[3:]) == 0  # the same command resumes (in this process: the stop was the real one)
     assert _files(out) == uninterrupted
 
 
@@ -154,12 +156,13 @@ def test_fresh_starts_over(tmp_path, capsys):
     assert chunk.stat().st_mtime_ns != stamp
 
 
-def test_losing_every_worker_stops_with_one_line_and_keeps_chunks(gymnast, tmp_path):
+def test_losing_every_worker_stops_with_one_line_and_keeps_chunks(gymnast, tmp_path, run):
     """Every worker of a local cluster killed mid-study: one line, finished chunks kept, a rerun resumes."""
     script = tmp_path / "kill.py"
     script.write_text(f'''
 import os, signal, sys, threading, time
-sys.argv = ["paa-mj", "basin", "--grid", "12", "--t-final", "2", "--chunk", "16", "--json", "--out",
+os.environ["DASK_DISTRIBUTED__SCHEDULER__ALLOWED_FAILURES"] = "0"  # the first lost task stops the study
+sys.argv = ["paa-mj", "basin", "--grid", "8", "--t-final", "2", "--chunk", "8", "--json", "--out",
             {str(tmp_path / "out")!r}]
 import distributed
 from paa_mj.cli import main
@@ -195,8 +198,7 @@ if __name__ == "__main__":  # Dask's worker processes import this file again
     assert len(lines) == 1 and "run the same command again to resume" in lines[0]
     kept = list((tmp_path / "out" / ".chunks").glob("*/chunk-*.npz"))
     assert kept
-    rerun = subprocess.run([sys.executable, "-m", "paa_mj.cli", "basin", "--grid", "12", "--t-final", "2", "--chunk",
-                            "16", "--json", "--out", str(tmp_path / "out"), "--scheduler", "inline"],
-                           capture_output=True, text=True)
+    rerun = run("basin", "--grid", "8", "--t-final", "2", "--chunk", "8", "--json", "--out", tmp_path / "out",
+                "--scheduler", "inline")  # in this process: the exit code that matters was the killed run's
     assert rerun.returncode == 0, rerun.stderr
     assert json.loads(rerun.stdout)["completed_fraction"] == 1.0

@@ -49,11 +49,13 @@ def test_success_does_not_depend_on_the_controllers_mode(gymnast, tmp_path):
     (tmp_path / "nomode.py").write_text(NO_MODE)
     wrapped = ControllerSpec(f"{tmp_path}/nomode.py:NoMode")
     direct = simulate_batch(gymnast, X0_HANGING[None], 25.0, controller="vcl")
-    bare = simulate_batch(gymnast, X0_HANGING[None], 25.0, controller=wrapped)
-    assert direct.success[0] and bare.success[0]
-    assert np.isnan(bare.switch_time[0])  # it never said it switched, and still counts as balanced
-    summary, _ = robustness(gymnast, trials=2, t_final=25.0, controller=wrapped, factors=["delay"],
-                            levels={"delay": [0.0]}, start="hanging")
+    # the wrapped controller's one rollout (from hanging, no delay: one run however many trials), seen both as
+    # the study's arrays and as its summary
+    summary, bare = robustness(gymnast, trials=2, t_final=25.0, controller=wrapped, factors=["delay"],
+                               levels={"delay": [0.0]}, start="hanging")
+    np.testing.assert_array_equal(bare["x0"], X0_HANGING[None])
+    assert direct.success[0] and bare["success"][0]
+    assert np.isnan(bare["switch_time"][0])  # it never said it switched, and still counts as balanced
     assert summary["factors"]["delay"]["levels"][0]["success_rate"] == 1.0
 
 

@@ -6,6 +6,7 @@ import pytest
 
 from paa_mj.cli import main
 
+
 FIGURES = ["fig05_f54_table1", "fig06_energy_table1", "fig07_angles_table1", "fig08_torques_table1",
            "fig09_angles_switch_table1", "fig10_torques_switch_table1", "fig11_f54_table2", "fig12_energy_table2",
            "fig13_angles_table2", "fig14_torques_table2", "switch_time_vs_dt", "switch_sensitivity", "basin_table1"]
@@ -13,10 +14,19 @@ FIGURES = ["fig05_f54_table1", "fig06_energy_table1", "fig07_angles_table1", "fi
 PAPER_DUU = [1.0, -0.2265, 16.10, -12.74, -1000.88, -1366.68, -8640.19]
 
 
+# Smaller still than --quick's studies: the statistics of the report need only be there, with their shape.
+SMALL = {"sensitivity_runs": 4, "reading_runs": 2, "reading_sizes": (1e-9,), "reading_cases": 1, "basin_grid": 4,
+         "basin_t_final": 25.0}
+
+
 @pytest.fixture(scope="module")
 def reproduction(tmp_path_factory):
+    from paa_mj.outputs import reproduce
+
     out = tmp_path_factory.mktemp("reproduction")
-    assert main(["reproduce", "--out", str(out), "--quick", "--no-video"]) == 0
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setitem(reproduce.SIZES, "quick", SMALL)
+        assert main(["reproduce", "--out", str(out), "--quick", "--no-video"]) == 0
     return out
 
 
@@ -79,6 +89,7 @@ def test_results_json_and_runs(reproduction, results):
     assert results["runs"]["example2_swingup"]["switch_time"] is None
     engines = {r["engine"] for r in results["discretisation_study"]}
     assert engines == {"mujoco", "analytic"}
-    assert results["basin_table1"]["cells"] == 36
+    assert results["basin_table1"]["cells"] == SMALL["basin_grid"] ** 2
+    assert results["sizes"]["sensitivity_runs"] == SMALL["sensitivity_runs"]  # the sizes the report states
     for run in ("gymnast_swingup", "gymnast_switch", "example2_swingup"):
         assert (reproduction / "runs" / run / "trajectory.npz").exists()

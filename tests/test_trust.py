@@ -58,15 +58,25 @@ CASES = [
 ]
 
 
-@pytest.mark.parametrize("what, args, fragment", CASES, ids=[c[0] for c in CASES])
-def test_bad_input_table(what, args, fragment, bad_files):
-    proc = _cli(*[a.format(d=bad_files) for a in args])
+def _assert_one_error_line(what, proc, fragment):
     assert proc.returncode == 2, (what, proc.stderr)
     lines = proc.stderr.strip().splitlines()
     assert lines[-1].startswith("paa-mj: error:") and fragment in lines[-1], (what, proc.stderr)
     assert "paa-mj: error: paa-mj" not in lines[-1]  # one prefix, not two
     assert all(line.startswith("paa-mj: ") for line in lines)  # warnings, then one error line
     assert "Traceback" not in proc.stderr
+
+
+@pytest.mark.parametrize("what, args, fragment", CASES, ids=[c[0] for c in CASES])
+def test_bad_input_table(what, args, fragment, bad_files, run):
+    """Each case in this process (the same ``main`` the command runs); the next test starts a real one."""
+    _assert_one_error_line(what, run(*[a.format(d=bad_files) for a in args]), fragment)
+
+
+@pytest.mark.parametrize("what, args, fragment", [CASES[2], CASES[16]], ids=[CASES[2][0], CASES[16][0]])
+def test_bad_input_from_a_real_command(what, args, fragment, bad_files):
+    """The exit code and stderr of a fresh ``python -m paa_mj.cli`` process, not only of ``main``."""
+    _assert_one_error_line(what, _cli(*[a.format(d=bad_files) for a in args]), fragment)
 
 
 def test_files_are_whole_or_absent(tmp_path, monkeypatch):

@@ -48,8 +48,8 @@ def test_render_short_clip(backend, tmp_path):
     assert np.abs(frames[-1].astype(int) - frames[0].astype(int)).mean() > 0.5  # it moves
 
 
-def test_replay_saved_trajectory_as_gif(backend, tmp_path):
-    assert _cli("simulate", "--t-final", "0.5", "--out", str(tmp_path / "run"), "--json").returncode == 0
+def test_replay_saved_trajectory_as_gif(backend, tmp_path, run):
+    assert run("simulate", "--t-final", "0.5", "--out", str(tmp_path / "run"), "--json").returncode == 0
     out = tmp_path / "clip.gif"
     proc = _cli("render", "--from", str(tmp_path / "run" / "trajectory.npz"), "--fps", "10", "--width", "96",
                 "--height", "80", "--gl", backend, "--out", str(out))
@@ -68,23 +68,23 @@ def test_replay_saved_trajectory_as_gif(backend, tmp_path):
     (["--fps", "nan"], "must be a positive finite number"),
     (["--camera", "top"], "no camera named 'top'"),
 ])
-def test_render_bad_input(args, fragment, tmp_path):
+def test_render_bad_input(args, fragment, tmp_path, run):
     base = {"--out": str(tmp_path / "clip.mp4"), "--t-final": "0.1"}
     flags = list(args)
     for key, value in base.items():
         if key not in flags:
             flags += [key, value]
-    proc = _cli("render", *flags)
+    proc = run("render", *flags)  # in this process; test_render_short_clip runs the command for real
     assert proc.returncode == 2
     assert fragment in proc.stderr, proc.stderr
     assert len(proc.stderr.strip().splitlines()) == 1
     assert not (tmp_path / "clip.mp4").exists()
 
 
-def test_render_corrupted_trajectory(tmp_path):
+def test_render_corrupted_trajectory(tmp_path, run):
     bad = tmp_path / "trajectory.npz"
     bad.write_bytes(b"not a zip file at all")
-    proc = _cli("render", "--from", str(bad), "--out", str(tmp_path / "c.mp4"))
+    proc = run("render", "--from", str(bad), "--out", str(tmp_path / "c.mp4"))
     assert proc.returncode == 2
     assert "corrupted or foreign trajectory file" in proc.stderr
     assert len(proc.stderr.strip().splitlines()) == 1

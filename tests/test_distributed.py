@@ -23,7 +23,8 @@ from paa_mj.studies.store import ChunkStore  # noqa: E402
 def scheduler_address():
     from distributed import LocalCluster
 
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+    # one worker process: the chunks still cross a process boundary (pickled, run apart from this process)
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, host="127.0.0.1",
                       dashboard_address=None) as cluster:
         yield cluster.scheduler_address
 

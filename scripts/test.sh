@@ -6,4 +6,7 @@ bash scripts/setup.sh
 # One pytest worker per core, 2 to 4: the suite's heavy tests are independent, and more workers
 # would each compile and hold their own copy of the numba kernels.
 workers=$(.venv/bin/python -c "import os; print(max(2, min(4, len(os.sched_getaffinity(0)))))")
+# The suite starts about a hundred paa-mj processes: with bytecode kept, each loads the package's
+# compiled modules instead of compiling its source again (some environments set this variable).
+unset PYTHONDONTWRITEBYTECODE
 exec .venv/bin/python -m pytest -q -n "$workers" "$@"

@@ -162,6 +162,8 @@ def load_user_class(spec: str):
     module_name = "paa_mj_user_" + hashlib.sha1(str(path).encode() + b"\0" + source).hexdigest()[:16]
     module = sys.modules.get(module_name)
     if module is None:
+        # no __pycache__ written beside the user's file: loading a controller leaves their folder as it was
+        writes_bytecode, sys.dont_write_bytecode = sys.dont_write_bytecode, True
         try:
             loader_spec = importlib.util.spec_from_file_location(module_name, path)
             module = importlib.util.module_from_spec(loader_spec)
@@ -170,6 +172,8 @@ def load_user_class(spec: str):
         except (Exception, SystemExit) as err:  # the user's file may fail in any way, sys.exit() at import included
             sys.modules.pop(module_name, None)
             raise PaaError(f"cannot load controller file {path_text}: {type(err).__name__}: {' '.join(str(err).split())}") from None
+        finally:
+            sys.dont_write_bytecode = writes_bytecode
     cls = getattr(module, class_name, None)
     if cls is None or not callable(cls):
         raise PaaError(f"controller file {path_text} has no class {class_name!r}")

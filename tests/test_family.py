@@ -108,9 +108,9 @@ def test_the_acrobot_is_drakes():
     assert am.E_r == pytest.approx((0.5 * 1 + 1 * 1 - 1 * 1) * 9.81)
 
 
-def test_make_model_takes_every_parameter_per_link(tmp_path):
+def test_make_model_takes_every_parameter_per_link(tmp_path, run):
     out = tmp_path / "five.xml"
-    result = cli("make-model", "--links", 5, "--m", 1, 2, 3, 4, 5, "--l", 0.5, 0.6, 0.7, 0.8, 0.9,
+    result = run("make-model", "--links", 5, "--m", 1, 2, 3, 4, 5, "--l", 0.5, 0.6, 0.7, 0.8, 0.9,
                  "--damping", 0.05, "--armature", 0.01, 0, 0, 0, 0.02, "--gravity", 3.7, "--torque-limit", 7,
                  "--out", out)
     assert result.returncode == 0, result.stderr
@@ -120,10 +120,10 @@ def test_make_model_takes_every_parameter_per_link(tmp_path):
     assert np.allclose(p.lc, p.l / 2) and np.allclose(p.J, p.m * p.l**2 / 12)
     assert p.damping.tolist() == [0.05] * 5 and p.armature.tolist() == [0.01, 0, 0, 0, 0.02]
     assert robot.torque_limits.tolist() == [7.0] * 4
-    bad = cli("make-model", "--links", 4, "--m", 1, 2, 3, "--l", 1, 1, 1, 1, "--out", tmp_path / "x.xml")
+    bad = run("make-model", "--links", 4, "--m", 1, 2, 3, "--l", 1, 1, 1, 1, "--out", tmp_path / "x.xml")
     assert bad.returncode == 2 and "--m needs 4 values (one per link) for --links 4, got 3" in bad.stderr
     assert not (tmp_path / "x.xml").exists()
-    bad = cli("make-model", "--links", 1, "--m", 1, "--l", 1, "--out", tmp_path / "x.xml")
+    bad = cli("make-model", "--links", 1, "--m", 1, "--l", 1, "--out", tmp_path / "x.xml")  # a real process too
     assert bad.returncode == 2 and "from 2 to 64" in bad.stderr
 
 
@@ -253,25 +253,25 @@ def test_the_lqr_balances_any_chain_at_either_goal():
             assert not moved.success[0], (name, goal)  # judged against the other goal, the same start fails
 
 
-def test_every_command_takes_a_robot_of_the_family_and_either_goal(tmp_path):
+def test_every_command_takes_a_robot_of_the_family_and_either_goal(tmp_path, run):
     import json
 
-    theory = cli("theory", "--robot", "acrobot", "--goal", "stretched", "--json")
+    theory = run("theory", "--robot", "acrobot", "--goal", "stretched", "--json")
     assert theory.returncode == 0, theory.stderr
     report = json.loads(theory.stdout)
     assert report["links"] == 2 and report["goal_controllable"] and "not covered" in report["theorem1"]
-    check = cli("check", "--robot", "chain4", "--samples", 50, "--json")
+    check = run("check", "--robot", "chain4", "--samples", 50, "--json")
     assert check.returncode == 0 and json.loads(check.stdout)["max_rel_err_qacc"] < 1e-9
-    sim = cli("simulate", "--robot", "chain4", "--goal", "stretched", "--controller", "lqr", "--x0", 0.02, 0, 0, 0,
+    sim = run("simulate", "--robot", "chain4", "--goal", "stretched", "--controller", "lqr", "--x0", 0.02, 0, 0, 0,
               0, 0, 0, 0, "--t-final", 2, "--json", "--out", tmp_path / "sim")
     assert sim.returncode == 0, sim.stderr
     assert json.loads(sim.stdout)["success"] and json.loads(sim.stdout)["goal"] == "stretched"
     assert (tmp_path / "sim" / "trajectory.csv").read_text().startswith("t,q1,q2,q3,q4,d1,d2,d3,d4,tau2,tau3,tau4,")
-    basin = cli("basin", "--robot", "acrobot", "--goal", "stretched", "--axes", "q2,d1", "--grid", 3, "--t-final", 2,
+    basin = run("basin", "--robot", "acrobot", "--goal", "stretched", "--axes", "q2,d1", "--grid", 3, "--t-final", 2,
                 "--json", "--scheduler", "inline")
     assert basin.returncode == 0, basin.stderr
     assert json.loads(basin.stdout)["axes"] == ["q2", "d1"]
-    bad = cli("basin", "--robot", "acrobot", "--axes", "q3,q1", "--grid", 3, "--scheduler", "inline")
+    bad = run("basin", "--robot", "acrobot", "--axes", "q3,q1", "--grid", 3, "--scheduler", "inline")
     assert bad.returncode == 2 and "out of q1, q2, d1, d2" in bad.stderr
-    short = cli("simulate", "--robot", "acrobot", "--x0", 0, 0, 0, 0, 0, 0)
+    short = run("simulate", "--robot", "acrobot", "--x0", 0, 0, 0, 0, 0, 0)
     assert short.returncode == 2 and "--x0 needs 4 numbers for robot acrobot (q1 q2 d1 d2), got 6" in short.stderr

@@ -34,5 +34,8 @@ if [ ! -x .venv/bin/python ]; then
   "$python" -m venv .venv
 fi
 .venv/bin/python -m pip install -q --disable-pip-version-check --upgrade pip 2>&1 | grep -v '^WARNING: Location' || true
-.venv/bin/python -m pip install -q --disable-pip-version-check -e ".[dev]" 2>&1 | grep -v '^WARNING: Location' || true
+# --no-compile: Python compiles the modules a run imports when it imports them; compiling every module of
+# every package at install time costs more CPU than the suite's own work saves
+.venv/bin/python -m pip install -q --disable-pip-version-check --no-compile -e ".[dev]" 2>&1 \
+  | grep -v '^WARNING: Location' || true
 .venv/bin/python -c "import paa_mj, mujoco" || { echo "setup: the install failed" >&2; exit 1; }

@@ -8,6 +8,7 @@ a study that lost its workers (finished chunks are kept), 130 after Ctrl-C and
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import os
 import signal
 import sys
@@ -121,6 +122,12 @@ def main(argv=None):
         note(f"error: {err}")
         return EXIT_BAD_INPUT
     except KeyboardInterrupt:
+        note(interrupt_name())
+        return interrupt_code()
+    except ctypes.ArgumentError as err:
+        # Ctrl-C or SIGTERM while ctypes converts the arguments of a C call (EGL's, say) comes as this error
+        if "KeyboardInterrupt" not in str(err):
+            raise
         note(interrupt_name())
         return interrupt_code()
     except BrokenPipeError:

@@ -275,3 +275,21 @@ def test_every_command_takes_a_robot_of_the_family_and_either_goal(tmp_path, run
     assert bad.returncode == 2 and "out of q1, q2, d1, d2" in bad.stderr
     short = run("simulate", "--robot", "acrobot", "--x0", 0, 0, 0, 0, 0, 0)
     assert short.returncode == 2 and "--x0 needs 4 numbers for robot acrobot (q1 q2 d1 d2), got 6" in short.stderr
+
+
+@pytest.mark.parametrize("goal", ["folded", "stretched"])
+def test_a_planned_kip_tracked_by_tvlqr_balances_the_acrobot(goal):
+    """trajopt over a chain: collocation on the chain's dynamics (CasADi), TVLQR along it, then (67) at the goal."""
+    from paa_mj.control.registry import make_controller
+    from paa_mj.sim.rollout import simulate_mujoco
+
+    robot = load_robot("acrobot")
+    controller = make_controller("trajopt", robot, goal=goal)
+    plan = controller.describe()["plan"]
+    assert 0.2 < plan["duration"] < 20 and plan["torque_bounds"] == pytest.approx([0.9 * 20.0])
+    kip = controller.first.kip
+    assert kip.x.shape == (101, 4) and kip.u.shape == (101, 1)
+    assert kip.defects(robot.analytic) < 1e-6  # the NumPy chain model agrees with the CasADi one it was solved on
+    assert np.max(np.abs(kip.u)) <= 0.9 * 20.0 + 1e-6
+    traj = simulate_mujoco(robot, controller, t_final=plan["duration"] + 3.0, goal=goal)
+    assert traj.meta["success"], traj.meta["status"]

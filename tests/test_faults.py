@@ -1967,7 +1967,7 @@ API_FRAGMENTS = {
     "make_controller robot None": "controllers are built for a robot of load_robot(), got NoneType",
     "make_controller robot a name": "controllers are built for a robot of load_robot(), got str",
     "make_controller limit as text": "the option limit must be a torque limit",
-    "make_controller limit of 3 values": "the option limit needs one number or two (T2, T3)",
+    "make_controller limit of 3 values": "the option limit needs one number or one per motor (2)",
     "make_controller limit negative": "torque bounds of the kip must be finite and > 0",
     "make_controller unknown option": "option(s) bogus do not apply to the controller trajopt",
     "ControllerSpec 4 gains": "gains must be three numbers (kD, kP, kV)",

@@ -243,11 +243,13 @@ def spec_from_args(args, robot, name=None):
     options = []
     if name in OPTIONS:
         if getattr(args, "torque_limit", None) is not None:
-            options.append(("limit", (args.torque_limit, args.torque_limit)))
+            options.append(("limit", (args.torque_limit,) * len(robot.torque_limits)))
         elif not all(math.isfinite(limit) for limit in robot.torque_limits):
             from ..sim.batch import kip_peak_torques
 
-            options.append(("limit", tuple(kip_peak_torques(robot, "vcl").tolist())))
+            goal = getattr(args, "goal", "folded")
+            options.append(("limit", tuple(kip_peak_torques(robot, ControllerSpec("vcl", goal=goal), goal=goal)
+                                           .tolist())))
         if getattr(args, "kip_duration", None) is not None:
             options.append(("duration", args.kip_duration))
     elif getattr(args, "kip_duration", None) is not None:

@@ -65,8 +65,10 @@ def _kip_bound(robot, limit):
         except (TypeError, ValueError):
             raise PaaError(f"the option limit must be a torque limit [N m], one number or (T2, T3), got {limit!r}") \
                 from None
-        if limit.shape not in ((), (1,), (2,)):
-            raise PaaError(f"the option limit needs one number or two (T2, T3) [N m], got shape {limit.shape}")
+        motors = robot.torque_limits.shape
+        if limit.shape not in ((), (1,), motors):
+            raise PaaError(f"the option limit needs one number or one per motor ({motors[0]}) [N m], got shape"
+                           f" {limit.shape}")
     limits = np.minimum(robot.torque_limits, np.inf if limit is None else limit)
     if not np.all(np.isfinite(limits)):
         raise PaaError("a planned kip needs a torque limit: give limit=(T2, T3) [N m] or a model with actuator ranges"
@@ -74,25 +76,19 @@ def _kip_bound(robot, limit):
     return HEADROOM * limits
 
 
-def _papers_kip(robot, goal, name):
-    if robot.params.n_links != 3 or goal != "folded":
-        raise PaaError(f"{name} plans the gymnast's kip to UDD (three links, the folded goal); this robot has"
-                       f" {robot.params.n_links} links and the goal is {goal}")
-
-
 def build_trajopt(robot, gains=None, check=True, limit=None, duration=None, intervals=INTERVALS, goal="folded"):
     """The minimum-time kip, tracked by TVLQR, then (67)."""
-    _papers_kip(robot, goal, "trajopt")
-    kip = solve_kip(robot.analytic, _kip_bound(robot, limit), "min-time", duration=duration, intervals=intervals)
-    return kip_controller(robot.analytic, kip, name="trajopt")
+    kip = solve_kip(robot.analytic, _kip_bound(robot, limit), "min-time", duration=duration, intervals=intervals,
+                    goal=goal)
+    return kip_controller(robot.analytic, kip, name="trajopt", goal=goal)
 
 
 def build_trajopt_effort(robot, gains=None, check=True, limit=None, duration=EFFORT_DURATION, intervals=INTERVALS,
                         goal="folded"):
     """The kip of least effort over ``duration`` seconds, tracked by TVLQR, then (67)."""
-    _papers_kip(robot, goal, "trajopt-effort")
-    kip = solve_kip(robot.analytic, _kip_bound(robot, limit), "min-effort", duration=duration, intervals=intervals)
-    return kip_controller(robot.analytic, kip, name="trajopt-effort")
+    kip = solve_kip(robot.analytic, _kip_bound(robot, limit), "min-effort", duration=duration, intervals=intervals,
+                    goal=goal)
+    return kip_controller(robot.analytic, kip, name="trajopt-effort", goal=goal)
 
 
 def _switched(robot, swing, goal, name):

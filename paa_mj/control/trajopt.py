@@ -35,7 +35,7 @@ import numpy as np
 from ..errors import PaaError
 from ..model import equations as eq
 from ..model.dynamics import AnalyticModel
-from ..model.states import Q_UDD, X0_HANGING
+from ..model.states import goal_angles, start_state
 from ..provenance import package_digest
 
 OBJECTIVES = ("min-time", "min-effort")
@@ -49,11 +49,36 @@ CACHE_VERSION = 2  # 2: the time range bounds T itself (version 1 held T >= 1 s)
 
 
 def dynamics_function(am: AnalyticModel):
-    """(1) as a CasADi function f(x, u) -> x_dot, x = [q, qd], u = [tau2, tau3]."""
+    """(1) as a CasADi function f(x, u) -> x_dot, x = [q, qd], u = [tau2, ..., tau_n] ([tau2, tau3] for the gymnast,
+    with the paper's closed forms; the chain's formulas of :mod:`paa_mj.model.chain` otherwise)."""
     ca = eq.casadi_module()
-    x, u = ca.SX.sym("x", 6), ca.SX.sym("u", 2)
-    qdd = eq.acceleration(am.constants, x[0], x[1], x[2], x[3], x[4], x[5], u[0], u[1])
-    return ca.Function("f", [x, u], [ca.vertcat(x[3], x[4], x[5], *qdd)])
+    n = am.n_links
+    x, u = ca.SX.sym("x", 2 * n), ca.SX.sym("u", n - 1)
+    if am.paper_shape:
+        qdd = eq.acceleration(am.constants, x[0], x[1], x[2], x[3], x[4], x[5], u[0], u[1])
+        return ca.Function("f", [x, u], [ca.vertcat(x[3], x[4], x[5], *qdd)])
+    return ca.Function("f", [x, u], [ca.vertcat(x[n:], _chain_acceleration(am, ca, x, u))])
+
+
+def _chain_acceleration(am, ca, x, u):
+    """qdd = M^-1 (B u - H - G - D qd) of a chain, symbolically: the formulas of :mod:`paa_mj.model.chain`
+    (absolute angles, M = T^T M^abs T + diag(armature), H + G = T^T (c + grad_phi P)) written for CasADi."""
+    n = am.n_links
+    A, b, p = am.inertia_constants, am.gravity_constants, am.params
+    phi, rate, total, total_rate = [], [], 0, 0
+    for k in range(n):
+        total, total_rate = total + x[k], total_rate + x[n + k]
+        phi.append(total)
+        rate.append(total_rate)
+    absolute = [[A[i, j] * ca.cos(phi[i] - phi[j]) for j in range(n)] for i in range(n)]
+    mass = ca.SX(n, n)
+    for k in range(n):
+        for m in range(n):
+            mass[k, m] = sum(absolute[i][j] for i in range(k, n) for j in range(m, n)) + (p.armature[k] if k == m else 0)
+    c = [sum(A[i, j] * ca.sin(phi[i] - phi[j]) * rate[j] ** 2 for j in range(n)) - b[i] * ca.sin(phi[i])
+         for i in range(n)]
+    force = ca.vertcat(*[(u[k - 1] if k else 0) - sum(c[k:]) - p.damping[k] * x[n + k] for k in range(n)])
+    return ca.solve(mass, force)
 
 
 @dataclass(frozen=True)
@@ -149,20 +174,23 @@ def _key(am, bound, objective, duration, intervals, x0, xN):
     return hashlib.sha256(text.encode()).hexdigest()[:24]
 
 
-def solve_kip(am: AnalyticModel, bound, objective="min-time", duration=None, intervals=INTERVALS, x0=X0_HANGING,
-              xN=None, use_cache=True, max_iter=3000) -> Kip:
-    """Solve (or load from the cache) the kip from ``x0`` to ``xN`` (default UDD at rest).
+def solve_kip(am: AnalyticModel, bound, objective="min-time", duration=None, intervals=INTERVALS, x0=None,
+              xN=None, use_cache=True, max_iter=3000, goal="folded") -> Kip:
+    """Solve (or load from the cache) the kip from ``x0`` to ``xN`` (default: from the task's start to the goal at
+    rest; for the gymnast from (65) to UDD).
 
     Parameters
     ----------
     am : AnalyticModel
-    bound : float or (2,)
+    bound : float or (n - 1,)
         Torque bounds [N m], > 0.
     objective : "min-time" or "min-effort"
     duration : float
         T [s] of a min-effort kip (required there); the initial guess of a min-time one.
     intervals : int
         Collocation intervals N.
+    goal : {"folded", "stretched"}
+        The default start and end (:func:`~paa_mj.model.states.start_state`, the goal at rest).
 
     Raises
     ------
@@ -175,10 +203,12 @@ def solve_kip(am: AnalyticModel, bound, objective="min-time", duration=None, int
         raise PaaError(f"solve_kip needs the robot's AnalyticModel (robot.analytic), got {type(am).__name__}")
     if objective not in OBJECTIVES:
         raise PaaError(f"unknown objective {objective!r}: use {' or '.join(OBJECTIVES)}")
+    links = am.n_links
     bound = _real(bound, "torque bounds of the kip")
-    if bound.shape not in ((), (1,), (2,)):
-        raise PaaError(f"torque bounds of the kip are one number or two (T2, T3) [N m], got shape {bound.shape}")
-    bound = np.broadcast_to(bound, (2,)).copy()
+    if bound.shape not in ((), (1,), (links - 1,)):
+        raise PaaError(f"torque bounds of the kip are one number or {'two (T2, T3)' if links == 3 else links - 1}"
+                       f" [N m], got shape {bound.shape}")
+    bound = np.broadcast_to(bound, (links - 1,)).copy()
     if duration is not None:
         duration = float(_real(duration, "the kip duration").reshape(-1)[0]) if np.size(duration) == 1 else None
         if duration is None:
@@ -195,12 +225,13 @@ def solve_kip(am: AnalyticModel, bound, objective="min-time", duration=None, int
                        " solution stored over the whole duration")
     if not (isinstance(intervals, (int, np.integer)) and 4 <= intervals <= 2000):
         raise PaaError(f"collocation intervals must be an integer in [4, 2000], got {intervals}")
-    x0 = _real(x0, "the kip's initial state x0")
-    xN = np.concatenate([Q_UDD, np.zeros(3)]) if xN is None else _real(xN, "the kip's final state xN")
+    x0 = start_state(links, goal) if x0 is None else _real(x0, "the kip's initial state x0")
+    xN = np.concatenate([goal_angles(goal, links), np.zeros(links)]) if xN is None else \
+        _real(xN, "the kip's final state xN")
     for name, state in (("x0", x0), ("xN", xN)):
-        if state.shape != (6,) or not np.all(np.isfinite(state)):
-            raise PaaError(f"the kip's {name} must be 6 finite numbers (q1 q2 q3 d1 d2 d3), got shape {state.shape}"
-                           + ("" if state.shape != (6,) else f" {state.tolist()}"))
+        if state.shape != (2 * links,) or not np.all(np.isfinite(state)):
+            raise PaaError(f"the kip's {name} must be {2 * links} finite numbers (q and qd), got shape {state.shape}"
+                           + ("" if state.shape != (2 * links,) else f" {state.tolist()}"))
     key = _key(am, bound, objective, duration, intervals, x0, xN)
     path = cache_dir() / f"{key}.npz"
     if use_cache and path.is_file():
@@ -225,9 +256,9 @@ def _load_kept(path, am, bound, objective, duration, intervals, x0, xN):
                       np.array(z["u_mid"]), str(z["objective"]), float(z["cost"]), np.array(z["bound"]))
     except Exception:
         return None
-    n = intervals
-    shapes_fit = (kip.x.shape, kip.u.shape, kip.x_mid.shape, kip.u_mid.shape) == ((n + 1, 6), (n + 1, 2), (n, 6),
-                                                                                    (n, 2))
+    n, nx, nu = intervals, 2 * am.n_links, am.n_links - 1
+    shapes_fit = (kip.x.shape, kip.u.shape, kip.x_mid.shape, kip.u_mid.shape) == ((n + 1, nx), (n + 1, nu), (n, nx),
+                                                                                    (n, nu))
     if not (shapes_fit and kip.objective == objective and np.array_equal(kip.bound, bound)
             and (objective == "min-time" or kip.duration == duration)):
         return None
@@ -264,8 +295,9 @@ def _solve(am, bound, objective, duration, intervals, x0, xN, max_iter) -> Kip:
     f = dynamics_function(am)
     N = intervals
     opti = ca.Opti()
-    X, Xm = opti.variable(6, N + 1), opti.variable(6, N)
-    U, Um = opti.variable(2, N + 1), opti.variable(2, N)
+    nx, nu = 2 * am.n_links, am.n_links - 1
+    X, Xm = opti.variable(nx, N + 1), opti.variable(nx, N)
+    U, Um = opti.variable(nu, N + 1), opti.variable(nu, N)
     T = opti.variable() if objective == "min-time" else float(duration)
     h = T / N
     effort = 0
@@ -276,7 +308,7 @@ def _solve(am, bound, objective, duration, intervals, x0, xN, max_iter) -> Kip:
         effort += h / 6 * (ca.sumsqr(U[:, k]) + 4 * ca.sumsqr(Um[:, k]) + ca.sumsqr(U[:, k + 1]))
     opti.subject_to(X[:, 0] == x0)
     opti.subject_to(X[:, N] == xN)
-    for j in range(2):
+    for j in range(nu):
         opti.subject_to(opti.bounded(-bound[j], U[j, :], bound[j]))
         opti.subject_to(opti.bounded(-bound[j], Um[j, :], bound[j]))
     if objective == "min-time":
@@ -305,6 +337,8 @@ def _solve(am, bound, objective, duration, intervals, x0, xN, max_iter) -> Kip:
     duration_found = float(sol.value(T)) if objective == "min-time" else float(duration)
     if objective == "min-time":
         _check_interior(duration_found, bound)
-    return Kip(duration_found, np.array(sol.value(X)).T, np.array(sol.value(U)).T, np.array(sol.value(Xm)).T,
-               np.array(sol.value(Um)).T, objective, float(sol.value(T if objective == "min-time" else effort)),
+    def values(variable, rows):  # CasADi returns a vector, not a matrix, for a single row
+        return np.array(sol.value(variable)).reshape(rows, -1).T
+
+    return Kip(duration_found, values(X, nx), values(U, nu), values(Xm, nx), values(Um, nu), objective, float(sol.value(T if objective == "min-time" else effort)),
                bound)

@@ -29,7 +29,7 @@ from scipy.linalg import solve_continuous_are
 from ..errors import PaaError
 from ..model.dynamics import AnalyticModel
 from ..model.states import wrap
-from ..theory.linear import LQR_Q, LQR_R, udd_linearization
+from ..theory.linear import LQR_Q, LQR_R, LQR_WEIGHT, goal_linearization
 from .base import CompiledForm, Controller, kernel
 from .combined import CombinedController, TimeCondition
 from .lqr import LQRController
@@ -38,50 +38,56 @@ from .trajopt import Kip, dynamics_function
 
 #: Table step of the tracking controller [s] (the physics step of the named robots).
 TABLE_DT = 1e-3
-_HEADER = 2  # params = [n, dt, x_ref (n x 6), u_ref (n x 2), K (n x 12)]
+_HEADER = 2  # params = [n, dt, x_ref (n x nx), u_ref (n x nu), K (n x nu x nx)], nx = 2 links, nu = links - 1
 
 
 @register_jitable
-def tvlqr_torque(params, t, q1, q2, q3, d1, d2, d3):
-    """tau = u_ref(t) - K(t) (x - x_ref(t)) from the table in ``params`` (linear interpolation, clamped)."""
+def tvlqr_torque(params, t, x, tau):
+    """tau = u_ref(t) - K(t) (x - x_ref(t)) into ``tau`` from the table in ``params`` (linear interpolation,
+    clamped), angles of the error wrapped. Compiled on one state, or in NumPy on a batch laid out along the last
+    axis (x of shape (nx, ...), tau (nu, ...)), the same sums in the same order."""
     n = int(params[0])
     dt = params[1]
+    nx, nu = x.shape[0], tau.shape[0]
     s = t / dt
     i = int(min(max(np.floor(s), 0.0), n - 2.0))
     w = min(max(s - i, 0.0), 1.0)
-    xr, ur, kr = _HEADER, _HEADER + 6 * n, _HEADER + 8 * n
+    xr, ur, kr = _HEADER, _HEADER + nx * n, _HEADER + (nx + nu) * n
     e = []
-    for j, value in enumerate((q1, q2, q3, d1, d2, d3)):
-        ref = (1.0 - w) * params[xr + 6 * i + j] + w * params[xr + 6 * (i + 1) + j]
-        e.append(wrap(value - ref) if j < 3 else value - ref)
-    out = []
-    for row in range(2):
-        u = (1.0 - w) * params[ur + 2 * i + row] + w * params[ur + 2 * (i + 1) + row]
-        for j in range(6):
-            gain = (1.0 - w) * params[kr + 12 * i + 6 * row + j] + w * params[kr + 12 * (i + 1) + 6 * row + j]
+    for j in range(nx):
+        ref = (1.0 - w) * params[xr + nx * i + j] + w * params[xr + nx * (i + 1) + j]
+        e.append(wrap(x[j] - ref) if j < nx // 2 else x[j] - ref)
+    for row in range(nu):
+        u = (1.0 - w) * params[ur + nu * i + row] + w * params[ur + nu * (i + 1) + row]
+        for j in range(nx):
+            gain = (1.0 - w) * params[kr + nu * nx * i + nx * row + j] \
+                + w * params[kr + nu * nx * (i + 1) + nx * row + j]
             u = u - gain * e[j]
-        out.append(u)
-    return out[0], out[1]
+        tau[row] = u
 
 
 @kernel
 def tvlqr_kernel(x, t, params, memory, tau):
-    """Compiled tracking (mode 0: following the stored trajectory); the gymnast's x = [q, qd] (6 numbers)."""
-    tau[0], tau[1] = tvlqr_torque(params, t, x[0], x[1], x[2], x[3], x[4], x[5])
+    """Compiled tracking (mode 0: following the stored trajectory)."""
+    tvlqr_torque(params, t, x, tau)
     return 0
 
 
-def riccati_gains(am: AnalyticModel, times, x_ref, u_ref, Q=LQR_Q, R=LQR_R):
-    """K(t) at ``times`` (n, 2, 6) of the LQR along the reference, S(T) from (67)'s Riccati equation at UDD."""
+def riccati_gains(am: AnalyticModel, times, x_ref, u_ref, Q=None, R=None, goal="folded"):
+    """K(t) at ``times`` (n, nu, nx) of the LQR along the reference, S(T) from (67)'s Riccati equation at the goal
+    (UDD for the gymnast); Q, R default to the paper's weights sized for the robot."""
     ca = casadi_module()
     f = dynamics_function(am)
-    x, u = ca.SX.sym("x", 6), ca.SX.sym("u", 2)
+    nx, nu = 2 * am.n_links, am.n_links - 1
+    Q = LQR_WEIGHT * np.eye(nx) if Q is None else Q
+    R = np.eye(nu) if R is None else R
+    x, u = ca.SX.sym("x", nx), ca.SX.sym("u", nu)
     jac = ca.Function("AB", [x, u], [ca.jacobian(f(x, u), x), ca.jacobian(f(x, u), u)])
     pairs = [jac(x_ref[i], u_ref[i]) for i in range(len(times))]
     A_all = np.array([np.array(a) for a, _ in pairs])
     B_all = np.array([np.array(b) for _, b in pairs])
-    A_udd, B_udd = udd_linearization(am)
-    S_end = solve_continuous_are(A_udd, B_udd, Q, R)
+    A_goal, B_goal = goal_linearization(am, goal)
+    S_end = solve_continuous_are(A_goal, B_goal, Q, R)
     R_inv = np.linalg.inv(R)
 
     def at(t, tables):
@@ -90,7 +96,7 @@ def riccati_gains(am: AnalyticModel, times, x_ref, u_ref, Q=LQR_Q, R=LQR_R):
         return (1 - (s - i)) * tables[i] + (s - i) * tables[min(i + 1, len(times) - 1)]
 
     def rhs(t, s_flat):
-        S = s_flat.reshape(6, 6)
+        S = s_flat.reshape(nx, nx)
         A, B = at(t, A_all), at(t, B_all)
         dS = -(A.T @ S + S @ A - S @ B @ R_inv @ B.T @ S + Q)
         return (0.5 * (dS + dS.T)).reshape(-1)
@@ -99,7 +105,7 @@ def riccati_gains(am: AnalyticModel, times, x_ref, u_ref, Q=LQR_Q, R=LQR_R):
                     dense_output=True)
     if not sol.success:
         raise PaaError(f"the Riccati equation of the tracking controller failed: {sol.message}")
-    S = sol.sol(times).T.reshape(-1, 6, 6)
+    S = sol.sol(times).T.reshape(-1, nx, nx)
     return np.einsum("ij,njk,nkl->nil", R_inv, B_all.transpose(0, 2, 1), S)
 
 
@@ -117,11 +123,11 @@ class TVLQRController(Controller):
 
     name = "tvlqr"
 
-    def __init__(self, model: AnalyticModel, kip: Kip, table_dt=TABLE_DT):
+    def __init__(self, model: AnalyticModel, kip: Kip, table_dt=TABLE_DT, goal="folded"):
         self.model, self.kip = model, kip
         n = int(np.ceil(kip.duration / table_dt)) + 1
         self.times = np.arange(n) * table_dt
-        self.params = _cached_table(model, kip, self.times, table_dt)
+        self.params = _cached_table(model, kip, self.times, table_dt, goal)
 
     @property
     def duration(self):
@@ -133,10 +139,10 @@ class TVLQRController(Controller):
         return x[0], u[0]
 
     def torque(self, q, qd, t=0.0):
-        q, qd = np.asarray(q, float), np.asarray(qd, float)
-        t2, t3 = tvlqr_torque(self.params, float(t), q[..., 0], q[..., 1], q[..., 2], qd[..., 0], qd[..., 1],
-                              qd[..., 2])
-        return np.stack(np.broadcast_arrays(t2, t3), -1)
+        x = np.concatenate(np.broadcast_arrays(np.asarray(q, float), np.asarray(qd, float)), axis=-1)
+        tau = np.empty(x.shape[:-1] + (x.shape[-1] // 2 - 1,))
+        tvlqr_torque(self.params, float(t), np.moveaxis(x, -1, 0), np.moveaxis(tau, -1, 0))
+        return tau
 
     def compiled(self) -> CompiledForm:
         return CompiledForm(tvlqr_kernel, self.params)
@@ -145,7 +151,7 @@ class TVLQRController(Controller):
         return {"controller": self.name, "plan": self.kip.plan()}
 
 
-def _cached_table(model, kip, times, table_dt):
+def _cached_table(model, kip, times, table_dt, goal="folded"):
     """The controller's table [n, dt, x_ref, u_ref, K], from the trajectory cache when it is there."""
     import hashlib
 
@@ -154,7 +160,10 @@ def _cached_table(model, kip, times, table_dt):
 
     from ..provenance import package_digest
 
-    digest = hashlib.sha256(repr((package_digest(), model.key(), table_dt, LQR_Q.tolist(), LQR_R.tolist())).encode()
+    nx, nu = 2 * model.n_links, model.n_links - 1
+    weights = (LQR_Q.tolist(), LQR_R.tolist()) if nx == 6 else (LQR_WEIGHT, nx, nu)
+    digest = hashlib.sha256(repr((package_digest(), model.key(), table_dt, *weights)
+                                 + ((goal,) if goal != "folded" else ())).encode()
                             + b"".join(np.ascontiguousarray(a).tobytes() for a in (kip.x, kip.u, kip.x_mid, kip.u_mid))
                             ).hexdigest()[:24]
     path = cache_dir() / f"tvlqr-{digest}.npz"
@@ -165,11 +174,11 @@ def _cached_table(model, kip, times, table_dt):
         except Exception:  # a damaged entry is computed again
             kept = None
         n = len(times)
-        if kept is not None and kept.shape == (2 + n * (6 + 2 + 12),) and kept[0] == n and kept[1] == table_dt \
+        if kept is not None and kept.shape == (2 + n * (nx + nu + nu * nx),) and kept[0] == n and kept[1] == table_dt \
                 and np.all(np.isfinite(kept)):
             return kept  # else: not this table (damaged, or written by other code), computed again
     x_ref, u_ref = kip.sample(times, model)
-    K = riccati_gains(model, times, x_ref, u_ref)
+    K = riccati_gains(model, times, x_ref, u_ref, goal=goal)
     params = np.concatenate([[len(times), table_dt], x_ref.reshape(-1), u_ref.reshape(-1), K.reshape(-1)])
     try:
         write_npz(path, params=params)
@@ -178,7 +187,7 @@ def _cached_table(model, kip, times, table_dt):
     return params
 
 
-def kip_controller(model: AnalyticModel, kip: Kip, name="trajopt") -> CombinedController:
-    """Track ``kip`` by TVLQR, then balance by the LQR (67) once it has ended (t >= T)."""
-    tracking = TVLQRController(model, kip)
-    return CombinedController(tracking, LQRController.for_model(model), TimeCondition(kip.duration), name=name)
+def kip_controller(model: AnalyticModel, kip: Kip, name="trajopt", goal="folded") -> CombinedController:
+    """Track ``kip`` by TVLQR, then balance by the LQR (67) at the goal once it has ended (t >= T)."""
+    tracking = TVLQRController(model, kip, goal=goal)
+    return CombinedController(tracking, LQRController.for_model(model, goal), TimeCondition(kip.duration), name=name)

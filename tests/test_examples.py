@@ -25,6 +25,10 @@ def test_headless_rollout(tmp_path):
     traj = Trajectory.load(tmp_path / "run" / "trajectory.npz")
     assert traj.t[-1] == pytest.approx(2.0) and np.all(np.isfinite(traj.q))
     assert (tmp_path / "run" / "angles.png").stat().st_size > 1000
+    family = run("headless_rollout.py", "--robot", "acrobot", "--goal", "stretched", "--t-final", "20", "--out",
+                 tmp_path / "acrobot", cwd=tmp_path)
+    assert "success True" in family.stdout  # Drake's acrobot swung up and balanced upright
+    assert (tmp_path / "acrobot" / "trajectory.csv").read_text().startswith("t,q1,q2,d1,d2,tau2,E_minus_Er,V,mode")
 
 
 def test_own_controller_through_simulate_basin_and_compare(tmp_path):

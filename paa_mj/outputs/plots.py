@@ -126,14 +126,20 @@ def series_figure(traj, series, ylabel, title):
 
 
 def angles_figure(traj, title):
-    """Figs. 7, 9 and 13: q1, q2 + pi, q3 against t."""
-    series = [(traj.q[:, 0], "q$_1$"), (traj.q[:, 1] + np.pi, "q$_2$ + $\\pi$"), (traj.q[:, 2], "q$_3$")]
+    """Figs. 7, 9 and 13: q1, q2 + pi, q3 against t (for any chain, each angle from its goal: q_k, or q_k + pi where
+    the goal has link k folded down)."""
+    from ..model.states import goal_angles
+
+    goal = goal_angles(traj.goal, traj.n_links)
+    series = [(traj.q[:, k] + np.pi, f"q$_{k + 1}$ + $\\pi$") if goal[k] == -np.pi else (traj.q[:, k], f"q$_{k + 1}$")
+              for k in range(traj.n_links)]
     return series_figure(traj, series, "angle [rad]", title)
 
 
 def torques_figure(traj, title):
-    """Figs. 8, 10 and 14: tau2, tau3 against t."""
-    series = [(traj.tau[:, 0], "$\\tau_2$ (shoulder)"), (traj.tau[:, 1], "$\\tau_3$ (hip)")]
+    """Figs. 8, 10 and 14: tau2, tau3 against t (the gymnast's shoulders and hips; tau2..tau_n for a chain)."""
+    names = (" (shoulder)", " (hip)") if traj.n_links == 3 else ("",) * (traj.n_links - 1)
+    series = [(traj.tau[:, k], f"$\\tau_{k + 2}${names[k]}") for k in range(traj.n_links - 1)]
     return series_figure(traj, series, "torque [N m]", title)
 
 

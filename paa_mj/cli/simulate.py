@@ -105,12 +105,13 @@ def cmd_simulate(args):
               f" ({summary['integrator']}, dt = {summary['dt']}), {summary['final_time']:.3f} s")
         print(f"  switch to balance    {'never' if st is None else f'{st:.4f} s'}")
         goal = "UDD" if traj.goal == "folded" and traj.n_links == 3 else f"the {traj.goal} goal"
-        print(f"  balanced at {goal:<9}{summary['balanced']}")
+        label = f"balanced at {goal}"
+        print(f"  {label:<20} {summary['balanced']}")
         print(f"  E - E_r at the end   {summary['E_minus_Er_final']:.6g} J")
         print(f"  V at the end         {summary['V_final']:.6g}")
         peaks = summary["max_abs_tau"]
-        names = ", ".join(f"|tau{i + 2}|" for i in range(len(peaks)))
-        print(f"  max {names:<17}{', '.join(f'{v:.2f}' for v in peaks)} N m")
+        label = "max " + ", ".join(f"|tau{i + 2}|" for i in range(len(peaks)))
+        print(f"  {label:<20} {', '.join(f'{v:.2f}' for v in peaks)} N m")
     return finish(traj.meta.get("interrupted", False), f"stopped at t = {summary['final_time']:.3f} s", args.out,
                   kept="kept what was computed in {out}")
 

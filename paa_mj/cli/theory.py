@@ -34,7 +34,8 @@ def cmd_check(args):
     if args.json:
         print_json(result)
     else:
-        print(f"MuJoCo against the analytic model of the paper, robot {robot.name}, {args.samples} random states:")
+        model = "the paper's (1)-(7)" if robot.analytic.paper_shape else f"the {robot.params.n_links}-link chain's"
+        print(f"MuJoCo against the analytic model, {model}, robot {robot.name}, {args.samples} random states:")
         for key in ("max_rel_err_M", "max_rel_err_bias", "max_rel_err_qacc", "max_rel_err_energy"):
             print(f"  {key:<22} {result[key]:.3e}")
     return 0

@@ -15,6 +15,10 @@ Registered ids (importing this module registers them; ``gym.make("paa_mj.gym_env
 The v1 ids also build :class:`paa_mj.gym_vector.GymnastVectorEnv` through
 ``gym.make_vec(id, num_envs=N)``: N robots stepped together by one compiled call.
 
+Any robot of the family and either goal: ``gym.make(id, robot="acrobot", goal="stretched")``. The spaces
+below are the gymnast's; a chain of n links has 3n observations (cos, sin of each angle, then the speeds)
+and n - 1 actions, and its rewards measure the error from its goal (``3`` below becomes n, ``6`` 2n).
+
 Observation space
     ``Box(9,)`` float32: cos q_i, sin q_i for i = 1, 2, 3, then qd [rad/s] (unbounded); the map is
     :func:`observation`, also used by :class:`paa_mj.control.policy.SB3Policy`.
@@ -72,9 +76,9 @@ from gymnasium import spaces
 from numba import njit, types
 from numba.extending import intrinsic, register_jitable
 
-from .control.region import SWITCH_ANGLE, SWITCH_SPEED, inside_region, region_margin, succeeded
+from .control.region import SWITCH_ANGLE, SWITCH_SPEED, succeeded
 from .model.robot import load_robot
-from .model.states import X0_HANGING, Q_UDD, udd_error_components
+from .model.states import GOALS, goal_angles, start_state, wrap
 from .sim.engine import _WARNINGS, MAX_SPEED, _mj_step
 from .sim.mujoco_log import mujoco_log_off
 
@@ -142,13 +146,13 @@ def _whole(name, value, low, high):
     return number
 
 
-def _check_x0(x0, rows=None):
-    """``options["x0"]``: 6 finite numbers, or (with ``rows``) one row of 6 per environment too."""
+def _check_x0(x0, rows=None, width=6):
+    """``options["x0"]``: ``width`` (2n) finite numbers, or (with ``rows``) one row of them per environment too."""
     x0 = _real_array(x0)
-    shapes = [(6,)] if rows is None else [(6,), (rows, 6)]
+    shapes = [(width,)] if rows is None else [(width,), (rows, width)]
     if x0 is None or x0.shape not in shapes or not np.all(np.isfinite(x0)):
-        raise ValueError("options['x0'] must be 6 finite numbers" + ("" if rows is None
-                                                                       else f" or {rows} rows of 6"))
+        raise ValueError(f"options['x0'] must be {width} finite numbers" + ("" if rows is None
+                                                                              else f" or {rows} rows of {width}"))
     return x0
 
 
@@ -168,7 +172,8 @@ def _check_options(options, known):
 
 def torque_limit_for(robot, task="kip", torque_limit=None):
     """The torque limit [N m] asked for: ``torque_limit``, by default 2 b1 / 1 rad (kip) or 0.1 b1 / 1 rad (balance)."""
-    return float(torque_limit if torque_limit is not None else TASKS[task]["torque_b1"] * robot.analytic.b1)
+    return float(torque_limit if torque_limit is not None else
+                 TASKS[task]["torque_b1"] * robot.analytic.gravity_constants[0])
 
 
 def torque_limits_for(robot, task="kip", torque_limit=None):
@@ -195,32 +200,33 @@ def torque_to_action(tau, torque_limits, normalized=True):
 
 
 @register_jitable
-def _observe_into(q1, q2, q3, d1, d2, d3, out):
-    out[0], out[1] = math.cos(q1), math.sin(q1)
-    out[2], out[3] = math.cos(q2), math.sin(q2)
-    out[4], out[5] = math.cos(q3), math.sin(q3)
-    out[6], out[7], out[8] = d1, d2, d3
+def _observe_into(qpos, qvel, n, out):
+    """[cos q1, sin q1, ..., cos qn, sin qn, qd1, ..., qdn] into ``out`` (3n)."""
+    for i in range(n):
+        out[2 * i], out[2 * i + 1] = math.cos(qpos[i]), math.sin(qpos[i])
+        out[2 * n + i] = qvel[i]
 
 
 @njit(cache=True)
 def _observe_rows(q, qd, out):
     for i in range(q.shape[0]):
-        _observe_into(q[i, 0], q[i, 1], q[i, 2], qd[i, 0], qd[i, 1], qd[i, 2], out[i])
+        _observe_into(q[i], qd[i], q.shape[1], out[i])
 
 
 def observation(q, qd):
-    """The observations, float32 (..., 9), of states q, qd (..., 3) [rad, rad/s]:
+    """The observations, float32 (..., 3n), of states q, qd (..., n) [rad, rad/s]: for the gymnast (9)
     [cos q1, sin q1, cos q2, sin q2, cos q3, sin q3, qd1, qd2, qd3].
 
     The one definition of the observation map (the environments compute it with the same compiled code).
     """
     q, qd = np.asarray(q, dtype=float), np.asarray(qd, dtype=float)
+    n = q.shape[-1]
     shape = np.broadcast_shapes(q.shape[:-1], qd.shape[:-1])
-    q = np.ascontiguousarray(np.broadcast_to(q, shape + (3,)).reshape(-1, 3))
-    qd = np.ascontiguousarray(np.broadcast_to(qd, shape + (3,)).reshape(-1, 3))
-    out = np.empty((len(q), OBS_SIZE), np.float32)
+    q = np.ascontiguousarray(np.broadcast_to(q, shape + (n,)).reshape(-1, n))
+    qd = np.ascontiguousarray(np.broadcast_to(qd, shape + (n,)).reshape(-1, n))
+    out = np.empty((len(q), 3 * n), np.float32)
     _observe_rows(q, qd, out)
-    return out.reshape(shape + (OBS_SIZE,))
+    return out.reshape(shape + (3 * n,))
 
 
 # --- compiled stepping of N MjData: one call per environment step ----------------------------------------------
@@ -248,63 +254,84 @@ _DATA, _QPOS, _QVEL, _CTRL, _WARN = range(5)
 
 
 @register_jitable
-def _reward(kind, q1, q2, q3, d1, d2, d3, u2, u3, tau2, tau3):
-    """The reward of a step ending in the state q, qd, with torques tau [N m] = u T (module docstring)."""
-    x1, x2, x3 = udd_error_components(q1, q2, q3)
-    angles = x1 * x1 + x2 * x2 + x3 * x3
-    speeds = d1 * d1 + d2 * d2 + d3 * d3
+def _goal_terms(qpos, qvel, n, goal):
+    """(inside region (68), its margin, |x_angles|^2, |qd|^2) of the state's error x from the goal (angles wrapped)."""
+    inside = True
+    angle_max, speed_max, angles, speeds = 0.0, 0.0, 0.0, 0.0
+    for i in range(n):
+        x, d = wrap(qpos[i] - goal[i]), qvel[i]
+        inside = inside and abs(x) < SWITCH_ANGLE and abs(d) < SWITCH_SPEED
+        angle_max, speed_max = max(angle_max, abs(x)), max(speed_max, abs(d))
+        angles += x * x
+        speeds += d * d
+    return inside, max(angle_max / SWITCH_ANGLE, speed_max / SWITCH_SPEED) - 1.0, angles, speeds
+
+
+@register_jitable
+def _reward(kind, n, inside, angles, speeds, tau, limits, row):
+    """The reward of a step ending with the goal terms of :func:`_goal_terms`, torques tau [N m] = u T (module
+    docstring); ``tau[row]`` and ``limits`` hold the n - 1 torques and limits."""
+    effort, power = 0.0, 0.0
+    for j in range(n - 1):
+        u = tau[row, j] / limits[j]
+        effort += u * u
+        power += tau[row, j] * tau[row, j]
     if kind == 0:
-        return -(angles / (3.0 * math.pi ** 2) + 1e-3 * speeds + 1e-8 * (tau2 * tau2 + tau3 * tau3))
-    alive = 1.0 if inside_region(q1, q2, q3, d1, d2, d3) else 0.0
-    effort = 0.5 * (u2 * u2 + u3 * u3)
+        return -(angles / (float(n) * math.pi ** 2) + 1e-3 * speeds + 1e-8 * power)
+    alive = 1.0 if inside else 0.0
+    effort = 0.5 * effort
     if kind == 1:
-        return alive - angles / (3.0 * math.pi ** 2) - 1e-3 * speeds - 1e-2 * effort
-    scaled = (angles / SWITCH_ANGLE ** 2 + speeds / SWITCH_SPEED ** 2) / 6.0
+        return alive - angles / (float(n) * math.pi ** 2) - 1e-3 * speeds - 1e-2 * effort
+    scaled = (angles / SWITCH_ANGLE ** 2 + speeds / SWITCH_SPEED ** 2) / (2.0 * n)
     return alive - 0.5 * scaled - 0.1 * effort
 
 
 @njit(nogil=True, cache=True)
 def _advance(model_ptr, addresses, warn_stride, rows, tau, limits, frame_skip, kind, diverged_reward,
-             phys_step, last_exit, diverged, q, qd, obs, reward, margin):
+             phys_step, last_exit, diverged, q, qd, obs, reward, margin, goal):
     """One environment step of the environments ``rows``: ``tau[i]`` held over ``frame_skip`` ``mj_step``.
 
-    Per environment: counts the physics steps, the last one whose state was outside region (68), whether
-    it diverged (then the state goes back to the last good one and the step ends), and writes the state,
-    observation, reward and region margin after the step.
+    Per environment: counts the physics steps, the last one whose state was outside region (68) around the
+    ``goal``, whether it diverged (then the state goes back to the last good one and the step ends), and writes
+    the state, observation, reward and region margin after the step. Sized from ``q`` (N, n).
     """
+    n = q.shape[1]
+    good = np.empty(2 * n)
     for k in range(rows.size):
         i = rows[k]
         qpos = _float64_at(addresses[i, _QPOS])
         qvel = _float64_at(addresses[i, _QVEL])
         ctrl = _float64_at(addresses[i, _CTRL])
         warn = _int32_at(addresses[i, _WARN])
-        ctrl[0], ctrl[1] = tau[i, 0], tau[i, 1]
+        for j in range(n - 1):
+            ctrl[j] = tau[i, j]
         bad = False
         for _ in range(frame_skip):
-            g0, g1, g2, g3, g4, g5 = qpos[0], qpos[1], qpos[2], qvel[0], qvel[1], qvel[2]
+            for j in range(n):
+                good[j], good[n + j] = qpos[j], qvel[j]
             _mj_step(model_ptr, addresses[i, _DATA])
-            for j in range(3):
+            for j in range(n):
                 if not (math.isfinite(qpos[j]) and math.isfinite(qvel[j])) or abs(qvel[j]) > MAX_SPEED:
                     bad = True
             for w in _WARNINGS:
                 if warn[w * warn_stride] > 0:
                     bad = True
             if bad:
-                qpos[0], qpos[1], qpos[2], qvel[0], qvel[1], qvel[2] = g0, g1, g2, g3, g4, g5
+                for j in range(n):
+                    qpos[j], qvel[j] = good[j], good[n + j]
                 break
             phys_step[i] += 1
-            if not inside_region(qpos[0], qpos[1], qpos[2], qvel[0], qvel[1], qvel[2]):
+            if not _goal_terms(qpos, qvel, n, goal)[0]:
                 last_exit[i] = phys_step[i]
         diverged[i] = bad
-        q[i, 0], q[i, 1], q[i, 2] = qpos[0], qpos[1], qpos[2]
-        qd[i, 0], qd[i, 1], qd[i, 2] = qvel[0], qvel[1], qvel[2]
-        _observe_into(qpos[0], qpos[1], qpos[2], qvel[0], qvel[1], qvel[2], obs[i])
-        margin[i] = region_margin(qpos[0], qpos[1], qpos[2], qvel[0], qvel[1], qvel[2])
+        for j in range(n):
+            q[i, j], qd[i, j] = qpos[j], qvel[j]
+        _observe_into(qpos, qvel, n, obs[i])
+        inside, margin[i], angles, speeds = _goal_terms(qpos, qvel, n, goal)
         if bad:
             reward[i] = diverged_reward
         else:
-            reward[i] = _reward(kind, qpos[0], qpos[1], qpos[2], qvel[0], qvel[1], qvel[2],
-                                tau[i, 0] / limits[0], tau[i, 1] / limits[1], tau[i, 0], tau[i, 1])
+            reward[i] = _reward(kind, n, inside, angles, speeds, tau, limits, i)
 
 
 class _Robots:
@@ -314,9 +341,11 @@ class _Robots:
     their observations and rewards, so that they agree bit for bit.
     """
 
-    def __init__(self, model, n, frame_skip, kind, torque_limits):
+    def __init__(self, model, n, frame_skip, kind, torque_limits, goal):
         self.model, self.frame_skip, self.kind = model, frame_skip, kind
         self.torque_limits = np.ascontiguousarray(torque_limits, dtype=float)
+        self.goal = np.ascontiguousarray(goal, dtype=float)
+        links = self.goal.size
         self.datas = [mujoco.MjData(model) for _ in range(n)]
         # MuJoCo keeps each array of an mjData where it was allocated: the addresses hold as long as the data lives
         self.addresses = np.array([[d._address, d.qpos.ctypes.data, d.qvel.ctypes.data, d.ctrl.ctypes.data,
@@ -325,23 +354,24 @@ class _Robots:
         self.phys_step = np.zeros(n, np.int64)
         self.last_exit = np.full(n, -1, np.int64)
         self.diverged = np.zeros(n, bool)
-        self.q, self.qd = np.zeros((n, 3)), np.zeros((n, 3))
-        self.obs = np.zeros((n, OBS_SIZE), np.float32)
+        self.q, self.qd = np.zeros((n, links)), np.zeros((n, links))
+        self.obs = np.zeros((n, 3 * links), np.float32)
         self.reward, self.margin = np.zeros(n), np.zeros(n)
-        self.tau = np.zeros((n, 2))
+        self.tau = np.zeros((n, links - 1))
 
     def reset(self, i, x0):
-        """Environment ``i`` to the state ``x0`` (6,), at rest in time."""
+        """Environment ``i`` to the state ``x0`` (2n,), at rest in time."""
         data = self.datas[i]
+        links = self.goal.size
         mujoco.mj_resetData(self.model, data)
-        data.qpos[:], data.qvel[:] = x0[:3], x0[3:]
+        data.qpos[:], data.qvel[:] = x0[:links], x0[links:]
         with mujoco_log_off():
             mujoco.mj_forward(self.model, data)
         self.q[i], self.qd[i] = data.qpos, data.qvel
         self.phys_step[i], self.diverged[i] = 0, False
-        self.last_exit[i] = -1 if inside_region(*self.q[i], *self.qd[i]) else 0
+        inside, self.margin[i], _, _ = _goal_terms(self.q[i], self.qd[i], links, self.goal)
+        self.last_exit[i] = -1 if inside else 0
         _observe_rows(self.q[i:i + 1], self.qd[i:i + 1], self.obs[i:i + 1])
-        self.margin[i] = region_margin(*self.q[i], *self.qd[i])
 
     def step(self, rows, tau, log=True):
         """One environment step of ``rows`` (int array) with the torques ``tau`` (len(rows), 2) [N m].
@@ -350,7 +380,7 @@ class _Robots:
         self.tau[rows] = tau
         args = (self.model._address, self.addresses, self.warn_stride, rows, self.tau, self.torque_limits,
                 self.frame_skip, self.kind, DIVERGED_REWARD[self.kind], self.phys_step, self.last_exit,
-                self.diverged, self.q, self.qd, self.obs, self.reward, self.margin)
+                self.diverged, self.q, self.qd, self.obs, self.reward, self.margin, self.goal)
         if not log:
             _advance(*args)
             return
@@ -399,6 +429,9 @@ class GymnastEnv(gym.Env):
         Actions in [-1, 1] scaled by the torque limits (default), or torques [N m].
     width, height : int
         Size of the rendered frames [pixels], in [16, 4096].
+    goal : "folded" or "stretched"
+        The goal of the tasks (the paper's folded UDD by default); any robot of the family is welcome: the
+        observations are then 3n numbers and the actions n - 1.
 
     Raises
     ------
@@ -413,9 +446,11 @@ class GymnastEnv(gym.Env):
 
     def __init__(self, task="kip", robot="gymnast", render_mode=None, max_episode_seconds=None, frame_skip=FRAME_SKIP,
                  torque_limit=None, init_noise=None, init_speed_noise=None, terminate_margin=None,
-                 normalize_actions=True, width=480, height=360):
+                 normalize_actions=True, width=480, height=360, goal="folded"):
         if not isinstance(task, str) or task not in TASKS:
             raise ValueError(f"task must be {' or '.join(map(repr, TASKS))}, got {task!r}")
+        if not isinstance(goal, str) or goal not in GOALS:
+            raise ValueError(f"goal must be {' or '.join(map(repr, GOALS))}, got {goal!r}")
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
         if not isinstance(normalize_actions, (bool, np.bool_)):
@@ -440,8 +475,9 @@ class GymnastEnv(gym.Env):
             margin = _number("terminate_margin", terminate_margin, lambda v: v >= 0,
                              "must be a number >= 0 (math.inf: never terminate outside region (68))", finite=False)
         width, height = _whole("width", width, 16, 4096), _whole("height", height, 16, 4096)
-        self.task = task
+        self.task, self.goal = task, goal
         self.robot = load_robot(robot)
+        links = self.robot.params.n_links
         self.model = self.robot.model.__copy__()
         self.frame_skip = frame_skip
         self.dt = self.model.opt.timestep * self.frame_skip
@@ -459,12 +495,12 @@ class GymnastEnv(gym.Env):
         self.init_noise, self.init_speed_noise, self.terminate_margin = noise, speed_noise, margin
         self.render_mode, self.width, self.height = render_mode, width, height
         self.normalize_actions = bool(normalize_actions)
-        bound = np.ones(2) if self.normalize_actions else self.torque_limits
-        self.action_space = spaces.Box(-bound.astype(np.float32), bound.astype(np.float32), (2,), np.float32)
-        high = np.array([1, 1, 1, 1, 1, 1, np.inf, np.inf, np.inf], np.float32)
+        bound = np.ones(links - 1) if self.normalize_actions else self.torque_limits
+        self.action_space = spaces.Box(-bound.astype(np.float32), bound.astype(np.float32), (links - 1,), np.float32)
+        high = np.array([1.0] * (2 * links) + [np.inf] * links, np.float32)
         self.observation_space = spaces.Box(-high, high, dtype=np.float32)
         self._robots = _Robots(self.model, 1, frame_skip, 0 if self._legacy else _REWARD_KIND[task],
-                               self.torque_limits)
+                               self.torque_limits, goal_angles(goal, links))
         self.data = self._robots.datas[0]
         self._rows = np.zeros(1, np.intp)
         self._renderer = None
@@ -472,8 +508,11 @@ class GymnastEnv(gym.Env):
 
     @property
     def start(self):
-        """The state the episodes start from before the perturbation: (65) for the kip, UDD for balance."""
-        return X0_HANGING.copy() if self.task == "kip" else np.concatenate([Q_UDD, np.zeros(3)])
+        """The state the episodes start from before the perturbation: (65) for the kip (the task's start,
+        :func:`~paa_mj.model.states.start_state`), the goal at rest (UDD) for balance."""
+        links = self.robot.params.n_links
+        return start_state(links, self.goal) if self.task == "kip" else \
+            np.concatenate([goal_angles(self.goal, links), np.zeros(links)])
 
     def _info(self):
         r = self._robots
@@ -484,7 +523,7 @@ class GymnastEnv(gym.Env):
         """Back to :attr:`start` (or ``options["x0"]``), angles and speeds perturbed uniformly by up to
         ``init_noise`` [rad] and ``init_speed_noise`` [rad/s]."""
         x0 = _check_options(options, ("x0",)).get("x0")
-        x0 = self.start if x0 is None else _check_x0(x0)
+        x0 = self.start if x0 is None else _check_x0(x0, width=2 * self.robot.params.n_links)
         super().reset(seed=seed)
         self._robots.reset(0, perturbed(x0, self.np_random, self.init_noise, self.init_speed_noise))
         self._steps = 0
@@ -500,9 +539,11 @@ class GymnastEnv(gym.Env):
             NaN or infinite one would be clipped or end the episode as a divergence, in silence.
         """
         given, action = action, _real_array(action)
-        if action is None or action.shape != (2,):
+        motors = self.robot.params.n_links - 1
+        if action is None or action.shape != (motors,):
             shown = " ".join(repr(given).split())
-            raise ValueError("an action is two real numbers [tau2, tau3], shape (2,), got "
+            what = "two real numbers [tau2, tau3]" if motors == 2 else f"{motors} real number{'s' * (motors > 1)}"
+            raise ValueError(f"an action is {what}, shape ({motors},), got "
                              + (f"{shown[:60]}" if action is None else f"shape {action.shape}"))
         if not np.all(np.isfinite(action)):
             raise ValueError(f"an action must be finite, got {action.tolist()}")
@@ -542,9 +583,10 @@ class GymnastEnv(gym.Env):
 def perturbed(x0, rng, init_noise, init_speed_noise):
     """``x0`` with the angles and (when ``init_speed_noise`` > 0) the speeds perturbed uniformly."""
     x0 = np.array(x0, dtype=float)
-    x0[:3] += rng.uniform(-init_noise, init_noise, 3)
+    n = x0.size // 2
+    x0[:n] += rng.uniform(-init_noise, init_noise, n)
     if init_speed_noise > 0:  # no draw otherwise: the episodes of v0 start as they always did
-        x0[3:] += rng.uniform(-init_speed_noise, init_speed_noise, 3)
+        x0[n:] += rng.uniform(-init_speed_noise, init_speed_noise, n)
     return x0
 
 
@@ -576,7 +618,7 @@ def controller_policy(controller, env: GymnastEnv):
 
     env = getattr(env, "unwrapped", env)
     if isinstance(controller, str):
-        controller = make_controller(controller, env.robot)
+        controller = make_controller(controller, env.robot, goal=env.goal)
 
     def policy(obs, info):
         return env.torque_to_action(torque_of(controller, info["q"][None], info["qd"][None], info["time"])[0])

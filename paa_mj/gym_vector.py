@@ -49,17 +49,18 @@ _MODES = {mode.value: mode for mode in AutoresetMode}
 
 @njit(nogil=True, cache=True)
 def _first_bad_action(actions):
-    """The first row of ``actions`` (N, 2) with a non-finite number, or -1."""
+    """The first row of ``actions`` (N, n - 1) with a non-finite number, or -1."""
     for i in range(actions.shape[0]):
-        if not (math.isfinite(actions[i, 0]) and math.isfinite(actions[i, 1])):
-            return i
+        for j in range(actions.shape[1]):
+            if not math.isfinite(actions[i, j]):
+                return i
     return -1
 
 
 @njit(nogil=True, cache=True)
 def _vector_step(lo, hi, actions, normalized, restart, terminate_margin, max_steps, window, timestep, steps, ended,
                  model_ptr, addresses, warn_stride, tau, limits, frame_skip, kind, diverged_reward, phys_step,
-                 last_exit, diverged, q, qd, obs, reward, margin,
+                 last_exit, diverged, q, qd, obs, reward, margin, goal,
                  out_obs, out_reward, out_terminated, out_truncated, out_q, out_qd, out_time, out_diverged,
                  out_success):
     """One environment step of the sub-environments lo..hi-1, in one call (the actions checked finite before).
@@ -73,7 +74,7 @@ def _vector_step(lo, hi, actions, normalized, restart, terminate_margin, max_ste
     rows = np.empty(hi - lo, np.intp)
     m = 0
     for i in range(lo, hi):
-        for j in range(2):
+        for j in range(actions.shape[1]):
             a = np.float64(actions[i, j])
             if normalized:
                 a = a * limits[j]
@@ -86,7 +87,7 @@ def _vector_step(lo, hi, actions, normalized, restart, terminate_margin, max_ste
             rows[m] = i
             m += 1
     _advance(model_ptr, addresses, warn_stride, rows[:m], tau, limits, frame_skip, kind, diverged_reward, phys_step,
-             last_exit, diverged, q, qd, obs, reward, margin)
+             last_exit, diverged, q, qd, obs, reward, margin, goal)
     for i in range(lo, hi):
         if restart[i]:
             terminated, truncated, out_reward[i] = False, False, 0.0
@@ -99,7 +100,7 @@ def _vector_step(lo, hi, actions, normalized, restart, terminate_margin, max_ste
         out_terminated[i], out_truncated[i] = terminated, truncated
         for j in range(obs.shape[1]):
             out_obs[i, j] = obs[i, j]
-        for j in range(3):
+        for j in range(q.shape[1]):
             out_q[i, j], out_qd[i, j] = q[i, j], qd[i, j]
         out_time[i] = phys_step[i] * timestep
         out_diverged[i] = diverged[i]
@@ -114,7 +115,8 @@ def physics_only(model_ptr, addresses, tau, frame_skip):
     for k in range(tau.shape[0]):
         for i in range(tau.shape[1]):
             ctrl = _float64_at(addresses[i, _CTRL])
-            ctrl[0], ctrl[1] = tau[k, i, 0], tau[k, i, 1]
+            for j in range(tau.shape[2]):
+                ctrl[j] = tau[k, i, j]
             for _ in range(frame_skip):
                 _mj_step(model_ptr, addresses[i, _DATA])
 
@@ -170,7 +172,9 @@ class GymnastVectorEnv(VectorEnv):
         self.single_action_space = proto.action_space
         self.observation_space = batch_space(proto.observation_space, num_envs)
         self.action_space = batch_space(proto.action_space, num_envs)
-        self._robots = _Robots(self.model, num_envs, proto.frame_skip, proto._robots.kind, self.torque_limits)
+        self._robots = _Robots(self.model, num_envs, proto.frame_skip, proto._robots.kind, self.torque_limits,
+                               proto._robots.goal)
+        self._links = proto._robots.goal.size
         self._rngs = [None] * num_envs
         self._steps = np.zeros(num_envs, np.int64)
         self._ended = np.zeros(num_envs, bool)
@@ -222,8 +226,9 @@ class GymnastVectorEnv(VectorEnv):
             if not self._reset_once and not mask.all():
                 raise ValueError("the first reset resets every sub-environment: drop options['reset_mask']")
         x0 = options.get("x0")
-        x0 = np.broadcast_to(self.prototype.start if x0 is None else _check_x0(x0, self.num_envs),
-                             (self.num_envs, 6))
+        width = 2 * self._links
+        x0 = np.broadcast_to(self.prototype.start if x0 is None else _check_x0(x0, self.num_envs, width),
+                             (self.num_envs, width))
         for i in np.flatnonzero(mask):
             self._reset_one(i, x0[i], seeds[i])
         self._reset_once = True
@@ -233,10 +238,11 @@ class GymnastVectorEnv(VectorEnv):
 
     def _torques(self, actions):
         given, actions = actions, _real_array(actions)
-        shape = (self.num_envs, 2)
+        shape = (self.num_envs, self._links - 1)
         if actions is None or actions.shape != shape:
             shown = " ".join(repr(given).split())[:60] if actions is None else f"shape {actions.shape}"
-            raise ValueError(f"actions are two real numbers per sub-environment, shape {shape}, got {shown}")
+            what = "two real numbers" if shape[1] == 2 else f"{shape[1]} real number{'s' * (shape[1] > 1)}"
+            raise ValueError(f"actions are {what} per sub-environment, shape {shape}, got {shown}")
         if not np.all(np.isfinite(actions)):
             bad = np.flatnonzero(~np.all(np.isfinite(actions), axis=1))
             raise ValueError(f"actions must be finite; sub-environment(s) {bad[:5].tolist()} got non-finite ones")
@@ -246,9 +252,9 @@ class GymnastVectorEnv(VectorEnv):
         """``actions`` as a C-contiguous float32 or float64 array (N, 2) of finite numbers, else the ValueError of
         :meth:`_torques`. The common case, such an array already, costs no copy and no NumPy pass."""
         if not (type(actions) is np.ndarray and actions.dtype in (np.float32, np.float64)
-                and actions.shape == (self.num_envs, 2)):
+                and actions.shape == (self.num_envs, self._links - 1)):
             given, actions = actions, _real_array(actions)
-            if actions is None or actions.shape != (self.num_envs, 2):
+            if actions is None or actions.shape != (self.num_envs, self._links - 1):
                 self._torques(given)  # raises
         actions = np.ascontiguousarray(actions)
         if _first_bad_action(actions) >= 0:
@@ -277,7 +283,7 @@ class GymnastVectorEnv(VectorEnv):
                 self._reset_one(i, self.prototype.start)
         n = self.num_envs
         out = (np.empty((n, self._robots.obs.shape[1]), np.float32), np.empty(n), np.empty(n, bool),
-               np.empty(n, bool), np.empty((n, 3)), np.empty((n, 3)), np.empty(n), np.empty(n, bool),
+               np.empty(n, bool), np.empty((n, self._links)), np.empty((n, self._links)), np.empty(n), np.empty(n, bool),
                np.empty(n, bool))
         self._run_step(actions, restart, out)
         obs, rewards, terminated, truncated, q, qd, time, diverged, success = out
@@ -305,7 +311,7 @@ class GymnastVectorEnv(VectorEnv):
             self._state = (self._steps, self._ended, self.model._address, robots.addresses, robots.warn_stride,
                            robots.tau, robots.torque_limits, robots.frame_skip, robots.kind,
                            DIVERGED_REWARD[robots.kind], robots.phys_step, robots.last_exit, robots.diverged, robots.q,
-                           robots.qd, robots.obs, robots.reward, robots.margin)
+                           robots.qd, robots.obs, robots.reward, robots.margin, robots.goal)
         args = (actions, self.normalize_actions, restart, self.prototype.terminate_margin, float(self.max_steps),
                 self._window, self.model.opt.timestep) + self._state + out
         # a diverging step ends the episode; MuJoCo's warning must not leave MUJOCO_LOG.TXT

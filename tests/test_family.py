@@ -293,3 +293,42 @@ def test_a_planned_kip_tracked_by_tvlqr_balances_the_acrobot(goal):
     assert np.max(np.abs(kip.u)) <= 0.9 * 20.0 + 1e-6
     traj = simulate_mujoco(robot, controller, t_final=plan["duration"] + 3.0, goal=goal)
     assert traj.meta["success"], traj.meta["status"]
+
+
+def test_the_gymnasium_environments_take_the_family():
+    """3n observations and n - 1 actions; the package's controllers balance the acrobot at its folded goal through
+    the environment; a vector environment of the chain equals its single environments bit for bit."""
+    gym = pytest.importorskip("gymnasium")
+    import paa_mj.gym_env as ge
+    from paa_mj.gym_vector import GymnastVectorEnv
+
+    ge.register()
+    env = gym.make(ge.KIP_ID, robot="acrobot", goal="folded")
+    assert env.observation_space.shape == (6,) and env.action_space.shape == (1,)
+    policy = ge.controller_policy("vcl", env)
+    obs, info = env.reset(seed=0)
+    policy.reset()
+    done = False
+    while not done:
+        obs, reward, terminated, truncated, info = env.step(policy(obs, info))
+        done = terminated or truncated
+    assert info["is_success"] and not info["diverged"]
+    with pytest.raises(ValueError, match=r"an action is 3 real numbers, shape \(3,\)"):
+        ge.GymnastEnv(robot="chain4").step(np.zeros(2))
+
+    vector = GymnastVectorEnv(num_envs=3, task="balance", robot="chain4", goal="stretched")
+    singles = [ge.GymnastEnv(task="balance", robot="chain4", goal="stretched") for _ in range(3)]
+    obs, _ = vector.reset(seed=5)
+    assert obs.shape == (3, 12)
+    assert np.array_equal(obs, np.array([s.reset(seed=5 + i)[0] for i, s in enumerate(singles)]))
+    rng = np.random.default_rng(1)
+    running, compared = [True] * 3, 0
+    for _ in range(20):
+        actions = rng.uniform(-0.05, 0.05, (3, 3)).astype(np.float32)  # small: the episodes go on
+        obs, rewards, terminated, truncated, _ = vector.step(actions)
+        for i, single in enumerate(singles):
+            if running[i]:  # until its episode ends (the vector environment then resets it)
+                o, r, done, cut, _ = single.step(actions[i])
+                assert np.array_equal(o, obs[i]) and r == rewards[i] and (done, cut) == (terminated[i], truncated[i])
+                running[i], compared = not (done or cut), compared + 1
+    assert compared >= 20

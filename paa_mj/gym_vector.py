@@ -211,7 +211,7 @@ class GymnastVectorEnv(VectorEnv):
 
     def reset(self, *, seed=None, options=None):
         """Reset every sub-environment, or those of ``options["reset_mask"]`` (bool (N,)); ``options["x0"]``:
-        a start (6,) for all or one per sub-environment (N, 6), perturbed as :meth:`GymnastEnv.reset` does.
+        a start (2n,) for all or one per sub-environment (N, 2n), perturbed as :meth:`GymnastEnv.reset` does.
 
         Returns the observations (N, 9) and the information of the sub-environments reset (masked).
         """

@@ -89,14 +89,14 @@ class Kip:
     ----------
     duration : float
         T [s].
-    x, u : ndarray (N + 1, 6), (N + 1, 2)
+    x, u : ndarray (N + 1, 2n), (N + 1, n - 1)
         States and torques at the knots t_k = k T / N.
-    x_mid, u_mid : ndarray (N, 6), (N, 2)
+    x_mid, u_mid : ndarray (N, 2n), (N, n - 1)
         At the interval midpoints.
     objective : str
     cost : float
         The objective's value (T [s] or the integral of :math:`|\\tau|^2` [N^2 m^2 s]).
-    bound : ndarray (2,)
+    bound : ndarray (n - 1,)
         The torque bounds of the solve [N m].
     """
 

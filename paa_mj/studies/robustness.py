@@ -138,7 +138,7 @@ def robustness(robot: Robot, trials=64, t_final=30.0, seed=0, controller: Contro
     levels : dict, optional
         Levels to use instead of a factor's defaults (``model_error`` also takes ``model_error=``).
     start : "random" or "hanging"
-    torque_limit : float or (2,), optional
+    torque_limit : float or (n - 1,), optional
         A saturation [N m] for every rollout (the torque_limit factor goes below it).
     torque_scale : float, optional
         The torque [N m] the ``torque_limit`` and ``torque_noise`` levels are fractions of

@@ -76,9 +76,9 @@ from gymnasium import spaces
 from numba import njit, types
 from numba.extending import intrinsic, register_jitable
 
-from .control.region import SWITCH_ANGLE, SWITCH_SPEED, succeeded
+from .control.region import SWITCH_ANGLE, SWITCH_SPEED, goal_terms, succeeded
 from .model.robot import load_robot
-from .model.states import GOALS, goal_angles, start_state, wrap
+from .model.states import GOALS, goal_angles, start_state
 from .sim.engine import _WARNINGS, MAX_SPEED, _mj_step
 from .sim.mujoco_log import mujoco_log_off
 
@@ -255,15 +255,9 @@ _DATA, _QPOS, _QVEL, _CTRL, _WARN = range(5)
 
 @register_jitable
 def _goal_terms(qpos, qvel, n, goal):
-    """(inside region (68), its margin, |x_angles|^2, |qd|^2) of the state's error x from the goal (angles wrapped)."""
-    inside = True
-    angle_max, speed_max, angles, speeds = 0.0, 0.0, 0.0, 0.0
-    for i in range(n):
-        x, d = wrap(qpos[i] - goal[i]), qvel[i]
-        inside = inside and abs(x) < SWITCH_ANGLE and abs(d) < SWITCH_SPEED
-        angle_max, speed_max = max(angle_max, abs(x)), max(speed_max, abs(d))
-        angles += x * x
-        speeds += d * d
+    """(inside region (68), its margin, |x_angles|^2, |qd|^2) of the state's error x from the goal, from
+    :func:`~paa_mj.control.region.goal_terms`."""
+    inside, angle_max, speed_max, angles, speeds = goal_terms(qpos, qvel, n, goal)
     return inside, max(angle_max / SWITCH_ANGLE, speed_max / SWITCH_SPEED) - 1.0, angles, speeds
 
 
@@ -423,7 +417,7 @@ class GymnastEnv(gym.Env):
         Half-width of the uniform perturbation of the initial speeds [rad/s], finite and >= 0;
         default 0 (kip), 0.05 (balance).
     terminate_margin : float, optional
-        Terminate when :math:`\\max_i |x_i| / l_i - 1` (:func:`~paa_mj.control.region.region_margin`) reaches it
+        Terminate when :math:`\\max_i |x_i| / l_i - 1` (:func:`~paa_mj.control.region.switch_margin`) reaches it
         after a step, >= 0; ``math.inf``: never. Default inf (kip), 0.5 (balance).
     normalize_actions : bool
         Actions in [-1, 1] scaled by the torque limits (default), or torques [N m].

@@ -16,7 +16,7 @@ import math
 import numpy as np
 from numba.extending import register_jitable
 
-from ..model.states import Q_UDD, goal_error, udd_error_components, wrap
+from ..model.states import Q_UDD, goal_error, wrap
 from .base import kernel
 
 #: Region (68): each angle error within pi/6 [rad] and each speed within 0.5 [rad/s].
@@ -53,30 +53,29 @@ def succeeded(finished, retired, last_exit_step, end_step, dt):
 
 
 @register_jitable
-def region_margin(q1, q2, q3, d1, d2, d3):
-    """:math:`\\max(|x_i| / (\\pi/6), |x_{i+3}| / 0.5) - 1`: negative exactly inside region (68)."""
-    x1, x2, x3 = udd_error_components(q1, q2, q3)
-    angles = np.maximum(np.maximum(np.abs(x1), np.abs(x2)), np.abs(x3)) / SWITCH_ANGLE
-    speeds = np.maximum(np.maximum(np.abs(d1), np.abs(d2)), np.abs(d3)) / SWITCH_SPEED
-    return np.maximum(angles, speeds) - 1.0
+def goal_terms(qpos, qvel, n, goal):
+    """The error x = [wrap(q - q*), qd] of one state from the goal q*, as the compiled code needs it.
 
-
-@register_jitable
-def inside_region(q1, q2, q3, d1, d2, d3):
-    """Region (68): every wrapped angle error below pi/6 and every speed below 0.5 rad/s."""
-    x1, x2, x3 = udd_error_components(q1, q2, q3)
-    return ((np.abs(x1) < SWITCH_ANGLE) & (np.abs(x2) < SWITCH_ANGLE) & (np.abs(x3) < SWITCH_ANGLE)
-            & (np.abs(d1) < SWITCH_SPEED) & (np.abs(d2) < SWITCH_SPEED) & (np.abs(d3) < SWITCH_SPEED))
+    Returns (inside region (68), max |angle error| [rad], max |speed| [rad/s], sum of squared angle errors,
+    sum of squared speeds). The engine, the Gymnasium environments and :func:`region_condition` all judge
+    region (68) here; its margin is max(angles / (pi/6), speeds / 0.5) - 1 (:func:`switch_margin`).
+    """
+    inside = True
+    angle_max, speed_max, angles, speeds = 0.0, 0.0, 0.0, 0.0
+    for i in range(n):
+        x, d = wrap(qpos[i] - goal[i]), qvel[i]
+        inside = inside and abs(x) < SWITCH_ANGLE and abs(d) < SWITCH_SPEED
+        angle_max, speed_max = max(angle_max, abs(x)), max(speed_max, abs(d))
+        angles += x * x
+        speeds += d * d
+    return inside, angle_max, speed_max, angles, speeds
 
 
 @kernel
 def region_condition(x, t, params, memory, tau):
     """Compiled condition: 1 inside region (68) around the goal q* = ``params`` (n angles), x = [q, qd]."""
     n = params.size
-    for i in range(n):
-        if not (abs(wrap(x[i] - params[i])) < SWITCH_ANGLE and abs(x[n + i]) < SWITCH_SPEED):
-            return 0
-    return 1
+    return 1 if goal_terms(x[:n], x[n:], n, params)[0] else 0
 
 
 def in_switch_region(q, qd, goal=Q_UDD):

@@ -42,10 +42,9 @@ from .mujoco_log import mujoco_log_off
 from .noise import gaussian
 from .retirement import RETIRE_FRACTION, certificate_size, modal_bound, retirement_certificate
 from ..control.base import KERNEL_TYPE, CompiledForm, SwitchedForm, kernel, mode_of, reset_controller, torque_of
-from ..control.region import BALANCE_TOL, SWITCH_ANGLE, SWITCH_SPEED
+from ..control.region import BALANCE_TOL, goal_terms
 from ..errors import PaaError
 from ..progress import progress as progress_bar
-from ..model.states import wrap
 
 __all__ = ["COMPILED_PHYSICS", "RETIRE_FRACTION", "certificate_size", "gaussian", "retirement_certificate", "run",
            "evaluate", "pack", "Plan", "Outcome"]
@@ -125,19 +124,6 @@ def _record(r, k, t, qpos, qvel, tau, mode, rec_t, rec_q, rec_qd, rec_tau, rec_m
 
 
 @njit(cache=True)
-def goal_distance(qpos, qvel, goal):
-    """(inside, distance): region (68) around the goal (every wrapped angle error below pi/6 and every speed below
-    0.5 rad/s), and the largest error max(|wrap(q - q*)|, |qd|) [rad, rad/s]."""
-    inside = True
-    distance = 0.0
-    for i in range(qpos.size):
-        angle, speed = abs(wrap(qpos[i] - goal[i])), abs(qvel[i])
-        inside = inside and angle < SWITCH_ANGLE and speed < SWITCH_SPEED
-        distance = max(distance, angle, speed)
-    return inside, distance
-
-
-@njit(cache=True)
 def actuate(r, step, dt, mode, tau_cmd, ctrl, qpos, qvel, setup, cert, delay_line, istate, fstate, rollout_ids, seed,
             every, rec_t, rec_q, rec_qd, rec_tau, rec_mode, retire):
     """Turn the controller's torque into ``ctrl``, account for it, record; returns True to stop here."""
@@ -171,7 +157,8 @@ def actuate(r, step, dt, mode, tau_cmd, ctrl, qpos, qvel, setup, cert, delay_lin
     if mode == 1 and st[I_SWITCH] < 0:
         st[I_SWITCH] = step
     goal = setup[r, s_goal:s_goal + n]
-    inside, distance = goal_distance(qpos, qvel, goal)
+    inside, angle_max, speed_max, _, _ = goal_terms(qpos, qvel, n, goal)
+    distance = max(angle_max, speed_max)  # the largest error max(|wrap(q - q*)|, |qd|) [rad, rad/s]
     if st[I_REGION] < 0 and inside:
         st[I_REGION] = step
     if not inside:  # the success window (:func:`~paa_mj.control.region.succeeded`) starts after the last exit

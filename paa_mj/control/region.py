@@ -56,8 +56,8 @@ def succeeded(finished, retired, last_exit_step, end_step, dt):
 def goal_terms(qpos, qvel, n, goal):
     """The error x = [wrap(q - q*), qd] of one state from the goal q*, as the compiled code needs it.
 
-    Returns (inside region (68), max |angle error| [rad], max |speed| [rad/s], sum of squared angle errors,
-    sum of squared speeds). The engine, the Gymnasium environments and :func:`region_condition` all judge
+    Returns (inside region (68), the largest absolute angle error [rad], the largest absolute speed [rad/s],
+    the sum of squared angle errors, the sum of squared speeds). The engine, the Gymnasium environments and :func:`region_condition` all judge
     region (68) here; its margin is max(angles / (pi/6), speeds / 0.5) - 1 (:func:`switch_margin`).
     """
     inside = True

@@ -332,3 +332,37 @@ def test_the_gymnasium_environments_take_the_family():
                 assert np.array_equal(o, obs[i]) and r == rewards[i] and (done, cut) == (terminated[i], truncated[i])
                 running[i], compared = not (done or cut), compared + 1
     assert compared >= 20
+
+
+def test_the_atlas_maps_the_family_beyond_theorem_1(run):
+    import json
+
+    from paa_mj.theory.conditions import chain_kd_min
+
+    out = run("atlas", "--robot", "acrobot", "--goal", "stretched", "--vary", "m2,l2", "--range", "0.5:1", "--grid", 2,
+              "--simulate", "--starts", 0, "--t-final", 2, "--json", "--scheduler", "inline")
+    assert out.returncode == 0, out.stderr
+    atlas = json.loads(out.stdout)
+    assert atlas["links"] == 2 and atlas["goal"] == "stretched" and not atlas["theorem1_covers"]
+    assert atlas["counts"]["goal controllable"] == 4 and atlas["counts"]["Theorem 1 applies"] == 0
+    assert "(54) holds" not in atlas["counts"] and "Theorem 1 does not cover" in atlas["findings"][0]
+    base = load_robot("acrobot")
+    for row in atlas["robots"]:
+        p = row["params"]
+        params = RobotParams(m=p["m"], l=p["l"], lc=p["lc"], J=p["J"], g=base.params.g, damping=base.params.damping)
+        am = AnalyticModel.from_params(params)
+        assert row["E_r"] == pytest.approx(am.goal_energy("stretched"), rel=1e-12)
+        assert row["kD_min"] == pytest.approx(chain_kd_min(am, "stretched").value, rel=1e-12)
+        gains = row["gains"]
+        assert gains["kD"] == pytest.approx(1.05 * row["kD_min"], rel=1e-12)
+        assert gains["kP"] / gains["kD"] == pytest.approx(base.gains["kP"] / base.gains["kD"], rel=1e-12)
+        assert row["eta1"] is None and row["holds_54"] is False and row["theorem1"] is False
+        assert row["outcome"] is not None
+    scaled = [row for row in atlas["robots"] if row["factors"] == [0.5, 0.5]][0]
+    assert scaled["params"]["m"][1] == pytest.approx(0.5 * base.params.m[1])
+    assert scaled["params"]["l"][1] == pytest.approx(0.5 * base.params.l[1])
+    four = run("atlas", "--robot", "chain4", "--vary", "l4,m3", "--grid", 2, "--json", "--scheduler", "inline")
+    assert four.returncode == 0, four.stderr
+    assert json.loads(four.stdout)["vary"] == ["l4", "m3"]
+    bad = run("atlas", "--robot", "acrobot", "--vary", "m3,l1", "--grid", 2)
+    assert bad.returncode == 2 and "out of m1, m2, l1, l2 (this robot has 2 links)" in bad.stderr

@@ -116,9 +116,9 @@ def cmd_atlas(args):
     from ..studies.atlas import atlas, parse_range, parse_vary
     from ..studies.runner import check_scheduler
 
-    vary = parse_vary(args.vary)
     factor_range = parse_range(args.range)
     robot = load_robot(args.robot)
+    vary = parse_vary(args.vary, robot.params.n_links)
     scheduler = check_scheduler(args.scheduler)
     simulation = {name: value for name, value in (("starts", args.starts), ("t_final", args.t_final),
                                                    ("seed", args.seed), ("torque_limit", args.torque_limit))
@@ -132,14 +132,14 @@ def cmd_atlas(args):
     with output_lock(args.out, "atlas"):
         summary, arrays = atlas(robot, vary, factor_range, args.grid, simulate=args.simulate, **simulation,
                                 scheduler=scheduler, out_dir=args.out, fresh=args.fresh,
-                                progress=not args.json, chunk=args.chunk)
+                                progress=not args.json, chunk=args.chunk, goal=args.goal)
         if args.out:
             write_atlas(args.out, summary, arrays)
     if args.json:
         print_json(summary)
     else:
         print(f"atlas of {summary['robot']} over ({', '.join(summary['vary'])}), {summary['grid']} x {summary['grid']}"
-              " robots" + (f"; wrote {args.out}/atlas_theory.png, atlas.json, atlas.npz" if args.out else ""))
+              f" robots, {summary['goal']} goal" + (f"; wrote {args.out}/atlas_theory.png, atlas.json, atlas.npz" if args.out else ""))
         for line in summary["findings"]:
             print(f"  {line}")
     return finish(summary["interrupted"], "the atlas is incomplete", args.out)
@@ -221,14 +221,18 @@ def register(sub, parser_class):
     p.add_argument("--gl", choices=("auto", "egl", "osmesa"), help="GL backend for the video (default: auto)")
     p.set_defaults(func=cmd_compare)
 
-    p = sub.add_parser("atlas", parents=[robot_parent(), study_parent(),
+    p = sub.add_parser("atlas", parents=[robot_parent(), goal_parent(), study_parent(),
                                          output_parent("atlas.json, atlas.npz, the maps and the finished chunks")],
                        help="which robots can kip: Theorem 1 and the simulated kip over body proportions",
                        description="Scale two parameters of a robot over a log grid of factors and map, for every"
                                    " robot of the family, E_r, constraint (54), deltabar (30), controllability at UDD,"
                                    " kD_min, eta1, eta2 and gains by the rule kD = 1.05 kD_min, kP = 1.05 max(eta1,"
-                                   " eta2), kV = kD x (kV/kD of the base); with --simulate, the kip itself.")
-    p.add_argument("--vary", default="l1,m1", metavar="P1,P2", help=f"two of {', '.join(ATLAS_PARAMETERS)}")
+                                   " eta2), kV = kD x (kV/kD of the base); with --simulate, the kip itself. For other"
+                                   " chains and the stretched goal, which Theorem 1 does not cover: E_r, kD_min (41) by"
+                                   " its definition, controllability at the goal, the merged acrobot's deltabar (30),"
+                                   " and kP, kV in the base robot's ratios to kD.")
+    p.add_argument("--vary", default="l1,m1", metavar="P1,P2",
+                   help=f"two of {', '.join(ATLAS_PARAMETERS)} (on an n-link chain: m1..mn, l1..ln)")
     p.add_argument("--range", default=f"{ATLAS_RANGE[0]:g}:{ATLAS_RANGE[1]:g}", metavar="LOW:HIGH",
                    help="the scale factors' range (log-spaced)")
     p.add_argument("--grid", type=positive_int, default=32, help=f"factors per parameter, 2..{ATLAS_MAX_GRID}")

@@ -20,14 +20,20 @@ MARGIN = 1.05
 
 
 def gain_rule(kd, e1, e2, base_gains=None):
-    """Gains that meet Theorem 1's bounds: kD = 1.05 kD_min (41), kP = 1.05 max(eta1 (59), eta2 (60)),
+    """Gains that meet the bounds: kD = 1.05 kD_min (41), kP = 1.05 max(eta1 (59), eta2 (60)),
     kV = kD x (kV / kD of ``base_gains``, 1 without them).
 
-    Used by the atlas for every robot it maps, and by ``paa-mj make-model`` when no gains are given.
+    Where (59) and (60) are not defined (``e1`` and ``e2`` None: a robot or goal beyond Theorem 1),
+    kP = kD x (kP / kD of ``base_gains``, 2 without them) instead. Used by the atlas for every robot
+    it maps, and by ``paa-mj make-model`` when no gains are given.
     """
-    ratio = base_gains["kV"] / base_gains["kD"] if base_gains else 1.0
     kD = MARGIN * kd
-    return {"kD": kD, "kP": MARGIN * max(e1, e2), "kV": ratio * kD}
+    ratio_v = base_gains["kV"] / base_gains["kD"] if base_gains else 1.0
+    if e1 is None or e2 is None:
+        kP = kD * (base_gains["kP"] / base_gains["kD"] if base_gains else 2.0)
+    else:
+        kP = MARGIN * max(e1, e2)
+    return {"kD": kD, "kP": kP, "kV": ratio_v * kD}
 
 
 class TheoryWarning(UserWarning):

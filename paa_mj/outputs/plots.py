@@ -350,16 +350,29 @@ def _atlas_axes(ax, summary, arrays, field_for_boundary=True):
 
 
 def atlas_theory_figure(summary, arrays):
-    """Maps of the theory over the family: E_r, (54), deltabar, controllability, kD_min, eta1, eta2, Theorem 1."""
+    """Maps of the theory over the family: E_r, (54), deltabar, controllability, kD_min, eta1, eta2, Theorem 1;
+    beyond Theorem 1 (other chains, the stretched goal), what is defined there."""
     f1, f2 = arrays["factors_1"], arrays["factors_2"]
     shape = (len(f1), len(f2))
-    panels = [("E_r", "E_r [J]", "RdBu", True), ("holds_54", "(54) holds", "Greens", False),
-              ("deltabar_min", "min deltabar (30)", "RdBu", True), ("udd_controllable", "UDD controllable", "Greens", False),
-              ("theorem1", "Theorem 1 applies", "Greens", False), ("kD_min", "kD_min (41)", "viridis", False),
-              ("eta1", "eta1 (59)", "viridis", False), ("eta2", "eta2 (60)", "viridis", False),
-              ("duu_growth", "growth rate at DUU [1/s]", "RdBu", True),
-              ("lqr_sampled_stable", "LQR (67) stable at the time step", "Greens", False)]
-    fig, axes = new_figure(2, 5, figsize=(21, 7.6), constrained_layout=True)
+    covered = summary.get("theorem1_covers", True)
+    if covered:
+        panels = [("E_r", "E_r [J]", "RdBu", True), ("holds_54", "(54) holds", "Greens", False),
+                  ("deltabar_min", "min deltabar (30)", "RdBu", True),
+                  ("udd_controllable", "UDD controllable", "Greens", False),
+                  ("theorem1", "Theorem 1 applies", "Greens", False), ("kD_min", "kD_min (41)", "viridis", False),
+                  ("eta1", "eta1 (59)", "viridis", False), ("eta2", "eta2 (60)", "viridis", False),
+                  ("duu_growth", "growth rate at DUU [1/s]", "RdBu", True),
+                  ("lqr_sampled_stable", "LQR (67) stable at the time step", "Greens", False)]
+        fig, axes = new_figure(2, 5, figsize=(21, 7.6), constrained_layout=True)
+    else:
+        goal = summary["goal"]
+        panels = [("E_r", f"E_r at the {goal} goal [J]", "RdBu", True),
+                  ("deltabar_min", "min deltabar (30), merged acrobot", "RdBu", True),
+                  ("deltabar_max", "max deltabar (30), merged acrobot", "RdBu", True),
+                  ("udd_controllable", f"{goal} goal controllable", "Greens", False),
+                  ("kD_min", "kD_min (41), by its definition", "viridis", False),
+                  ("lqr_sampled_stable", "LQR stable at the time step", "Greens", False)]
+        fig, axes = new_figure(2, 3, figsize=(13.5, 7.6), constrained_layout=True)
     for ax, (key, title, cmap, signed) in zip(axes.ravel(), panels):
         values = arrays[key].reshape(shape).astype(float)
         if arrays[key].dtype == bool:
@@ -380,7 +393,8 @@ def atlas_theory_figure(summary, arrays):
         _atlas_axes(ax, summary, arrays)
         ax.set_title(title)
     fig.suptitle(f"Atlas of {summary['robot']} over ({summary['vary'][0]}, {summary['vary'][1]}):"
-                 " dashed, where (54) starts to fail; dotted, E_r = 0; star, the base robot")
+                 + (" dashed, where (54) starts to fail;" if covered else
+                    f" {summary['goal']} goal, beyond Theorem 1;") + " dotted, E_r = 0; star, the base robot")
     return fig
 
 
@@ -403,12 +417,15 @@ def atlas_outcome_figure(summary, arrays):
                 [f"{name} ({counts.get(name, 0)})" for name in OUTCOMES], loc="upper center",
                 bbox_to_anchor=(0.5, -0.12), ncol=2, fontsize=8, frameon=False)
     _atlas_axes(left, summary, arrays)
-    left.set_title("the kip from (65)")
+    left.set_title("the kip from (65)" if summary.get("goal", "folded") == "folded" else
+                   "the swing-up to the stretched goal")
     share = arrays["balanced_starts"].reshape(shape)
     mesh = right.pcolormesh(f1, f2, 100 * share.T, cmap="viridis", vmin=0, vmax=100, shading="nearest")
     fig.colorbar(mesh, ax=right, label="balanced from random starts [%]")
     _atlas_axes(right, summary, arrays)
     right.set_title(f"{summary['starts']} random starts per robot")
     fig.suptitle(f"Simulated kips of {summary['robot']}'s family over ({summary['vary'][0]}, {summary['vary'][1]}),"
-                 f" {summary['t_final']:g} s; dashed: where (54) starts to fail; dotted: E_r = 0")
+                 f" {summary['t_final']:g} s, {summary.get('goal', 'folded')} goal;"
+                 + (" dashed: where (54) starts to fail;" if summary.get("theorem1_covers", True) else "")
+                 + " dotted: E_r = 0")
     return fig

@@ -52,8 +52,13 @@ COMPARE_SIZES = {"quick": {"trials": 6, "grid": 6, "t_final": 30.0},
 
 # --- the atlas (:mod:`paa_mj.studies.atlas`) -----------------------------------------------------------
 
-#: The parameters an atlas can scale.
+#: The parameters an atlas can scale on the gymnast (any chain: :func:`atlas_parameters`).
 ATLAS_PARAMETERS = ("m1", "m2", "m3", "l1", "l2", "l3")
+
+
+def atlas_parameters(n_links=3):
+    """The parameters an atlas can scale on a chain of ``n_links``: m1..mn, then l1..ln."""
+    return tuple(f"m{i + 1}" for i in range(n_links)) + tuple(f"l{i + 1}" for i in range(n_links))
 #: The default range of the scale factors (log-spaced).
 ATLAS_RANGE = (0.25, 4.0)
 #: The most factors per parameter.

@@ -177,7 +177,7 @@ def torque_limit_for(robot, task="kip", torque_limit=None):
 
 
 def torque_limits_for(robot, task="kip", torque_limit=None):
-    """The torque limits T [N m], (2,), of the environments: :func:`torque_limit_for` capped by the model's actuator
+    """The torque limits T [N m], (n - 1,), of the environments: :func:`torque_limit_for` capped by the model's actuator
     ranges (:attr:`Robot.torque_limits <paa_mj.model.robot.Robot.torque_limits>`)."""
     return np.minimum(torque_limit_for(robot, task, torque_limit), np.asarray(robot.torque_limits, float))
 
@@ -484,7 +484,7 @@ class GymnastEnv(gym.Env):
         if self.max_steps < 1:
             raise ValueError(f"max_episode_seconds {shown!r} is shorter than one environment step ({self.dt:g} s)")
         self.torque_limit = torque_limit_for(self.robot, task, torque_limit)
-        #: The torque limits applied [N m], (2,): ``torque_limit`` capped by the model's actuator ranges.
+        #: The torque limits applied [N m], (n - 1,): ``torque_limit`` capped by the model's actuator ranges.
         self.torque_limits = torque_limits_for(self.robot, task, torque_limit)
         self.init_noise, self.init_speed_noise, self.terminate_margin = noise, speed_noise, margin
         self.render_mode, self.width, self.height = render_mode, width, height

@@ -472,3 +472,53 @@ def test_a_policy_whose_spaces_are_not_the_envs_is_one_line(gymnast):
         with pytest.raises(PaaError, match=match) as caught:
             SB3Policy(gymnast, model=model)
         assert "\n" not in str(caught.value)
+
+
+def test_a_policy_adapter_runs_a_chain_as_its_env_runs_it():
+    """The adapter on the acrobot at the stretched goal (6 observations, 1 action) through the package's engine
+    and the same model through the environment: the same states; a gymnast-shaped model is refused."""
+    from gymnasium import spaces
+
+    from paa_mj.control.lqr import LQRController
+    from paa_mj.control.policy import SB3Policy
+    from paa_mj.errors import PaaError
+    from paa_mj.model.robot import load_robot
+    from paa_mj.sim.rollout import simulate_mujoco
+
+    acrobot = load_robot("acrobot")
+    K = LQRController.for_model(acrobot.analytic, goal="stretched").K
+
+    class Linear:
+        def __init__(self, obs, actions, limits):
+            self.observation_space = spaces.Box(-np.inf, np.inf, (obs,), np.float32)
+            self.action_space = spaces.Box(-1, 1, (actions,), np.float32)
+            self.limits = limits
+
+        def predict(self, obs, deterministic=True):
+            obs = np.asarray(obs, float)
+            x = np.stack([np.arctan2(obs[:, 1], obs[:, 0]), np.arctan2(obs[:, 3], obs[:, 2]), obs[:, 4], obs[:, 5]], -1)
+            return -(x @ K.T) / self.limits, None
+
+    class Policy(SB3Policy):
+        torque_limit = 20.0
+
+        def load_model(self):
+            return Linear(6, 1, self.torque_limits)
+
+    policy = Policy(acrobot)
+    x0 = [0.05, -0.04, 0.0, 0.1]
+    traj = simulate_mujoco(acrobot, policy, x0, t_final=1.0, sample_dt=0.01)
+    env = GymnastEnv(task="balance", robot="acrobot", goal="stretched", torque_limit=20.0, init_noise=0.0,
+                     init_speed_noise=0.0)
+    obs, info = env.reset(options={"x0": x0})
+    states = [np.concatenate([info["q"], info["qd"]])]
+    for _ in range(100):
+        action, _ = policy.model.predict(obs[None])
+        obs, _, _, _, info = env.step(action[0])
+        states.append(np.concatenate([info["q"], info["qd"]]))
+    np.testing.assert_allclose(np.hstack([traj.q, traj.qd]), states, rtol=0, atol=1e-12)
+    assert traj.tau.shape[1] == 1 and np.all(np.abs(traj.tau) <= 20.0) and np.any(traj.tau != 0)
+    with pytest.raises(PaaError, match="not the 6 observations of the environments of robot acrobot"):
+        SB3Policy(acrobot, model=Linear(9, 2, 1.0))
+    with pytest.raises(PaaError, match="not the 1 torques"):
+        SB3Policy(acrobot, model=Linear(6, 2, 1.0))

@@ -1,7 +1,7 @@
 """A trained policy as a controller of the package: every command runs it like any other controller.
 
-:class:`SB3Policy` maps the controller interface ``torque(q, qd, t)`` (batches (..., 3) [rad, rad/s]
-to torques (..., 2) [N m]) to ``model.predict(obs, deterministic=True)`` of a Stable-Baselines3 model
+:class:`SB3Policy` maps the controller interface ``torque(q, qd, t)`` (batches (..., n) [rad, rad/s]
+to torques (..., n - 1) [N m]; (..., 3) and (..., 2) for the gymnast) to ``model.predict(obs, deterministic=True)`` of a Stable-Baselines3 model
 trained on the environments of :mod:`paa_mj.gym_env`, through their own maps: the observations are
 :func:`~paa_mj.gym_env.observation` of the state the controller sees and the torques are
 :func:`~paa_mj.gym_env.action_to_torque` of the actions. As in the environment, an action is held over
@@ -96,7 +96,7 @@ class SB3Policy:
         if self.task not in maps.TASKS:
             raise PaaError(f"{type(self).__name__}.task must be one of {', '.join(maps.TASKS)}, got {self.task!r}")
         self._observation, self._action_to_torque = maps.observation, maps.action_to_torque
-        #: The torque limits T [N m], (2,), as the environment computes them.
+        #: The torque limits T [N m], (n - 1,), as the environment computes them.
         self.torque_limits = maps.torque_limits_for(robot, self.task, self.torque_limit)
         self.robot = robot
         self.period = self.frame_skip * robot.model.opt.timestep
@@ -126,17 +126,19 @@ class SB3Policy:
         return model
 
     def _check_spaces(self, model):
-        """A one-line error when the model's spaces are not those of the v1 environments this adapter feeds it."""
+        """A one-line error when the model's spaces are not those of the v1 environments of this robot
+        (3n observations, n - 1 actions for n links) that this adapter feeds it."""
         name = type(self).__name__
+        links = self.robot.params.n_links
         obs_space, action_space = getattr(model, "observation_space", None), getattr(model, "action_space", None)
-        if obs_space is not None and getattr(obs_space, "shape", None) != (9,):
-            raise PaaError(f"{name}: the model observes {getattr(obs_space, 'shape', obs_space)}, not the 9"
-                           " observations of the gymnast's environments")
+        if obs_space is not None and getattr(obs_space, "shape", None) != (3 * links,):
+            raise PaaError(f"{name}: the model observes {getattr(obs_space, 'shape', obs_space)}, not the"
+                           f" {3 * links} observations of the environments of robot {self.robot.name} ({links} links)")
         if action_space is None:
             return
-        if getattr(action_space, "shape", None) != (2,):
-            raise PaaError(f"{name}: the model acts in {getattr(action_space, 'shape', action_space)}, not the 2"
-                           " torques of the gymnast's environments")
+        if getattr(action_space, "shape", None) != (links - 1,):
+            raise PaaError(f"{name}: the model acts in {getattr(action_space, 'shape', action_space)}, not the"
+                           f" {links - 1} torques of the environments of robot {self.robot.name} ({links} links)")
         if self.normalize_actions and not (np.all(np.asarray(action_space.high) == 1)
                                            and np.all(np.asarray(action_space.low) == -1)):
             raise PaaError(f"{name}: the model's actions are not in [-1, 1] (a model of paa_mj/GymnastKip-v0, torques"
@@ -147,18 +149,19 @@ class SB3Policy:
         self._held, self._period_index = None, None
 
     def actions(self, q, qd):
-        """The model's actions (..., 2) at states q, qd (..., 3), through the environment's observation map."""
+        """The model's actions (..., n - 1) at states q, qd (..., n), through the environment's observation map."""
         obs = self._observation(q, qd)
+        motors = np.shape(q)[-1] - 1
         flat = obs.reshape(-1, obs.shape[-1])
         actions, _ = self.model.predict(flat, deterministic=self.deterministic)
         actions = np.asarray(actions, dtype=float)
-        if actions.shape != (len(flat), 2):
+        if actions.shape != (len(flat), motors):
             raise PaaError(f"{type(self).__name__}: predict returned actions of shape {actions.shape} for"
-                           f" {len(flat)} observations; it must return ({len(flat)}, 2)")
-        return actions.reshape(obs.shape[:-1] + (2,))
+                           f" {len(flat)} observations; it must return ({len(flat)}, {motors})")
+        return actions.reshape(obs.shape[:-1] + (motors,))
 
     def torque(self, q, qd, t=0.0):
-        """Torques [N m], (..., 2): the actions of the state at the start of each control period, held over it."""
+        """Torques [N m], (..., n - 1): the actions of the state at the start of each control period, held over it."""
         q, qd = np.asarray(q, dtype=float), np.asarray(qd, dtype=float)
         # the period index by floor with a margin: t = k dt arrives a rounding below k dt now and then
         index = math.floor(float(t) / self.period + 1e-6)

@@ -22,7 +22,7 @@ Autoreset (Gymnasium 1.x, ``metadata["autoreset_mode"]``):
   ``info["final_obs"]`` and ``info["final_info"]`` (masked by ``info["_final_obs"]``);
 - ``DISABLED``: reset ended sub-environments with ``reset(options={"reset_mask": mask})``.
 
-``info`` holds the sub-environments' ``q``, ``qd`` (N, 3), ``time``, ``diverged`` and ``is_success`` (N,),
+``info`` holds the sub-environments' ``q``, ``qd`` (N, n), ``time``, ``diverged`` and ``is_success`` (N,),
 each with its mask ``_key``, as :class:`gymnasium.vector.SyncVectorEnv` would batch them.
 """
 from __future__ import annotations

@@ -2,6 +2,7 @@
 
     python examples/offscreen_video.py --gl egl --out kip.mp4
     python examples/offscreen_video.py --gl osmesa --out kip.gif --t-final 2 --width 160 --height 120
+    python examples/offscreen_video.py --robot acrobot --goal stretched --t-final 25 --out acrobot.mp4
 
 The backend is chosen before MuJoCo makes any GL context (``select_backend``); ``auto``
 tries EGL, then OSMesa. EGL uses the GPU's driver where there is one (NVIDIA), else Mesa.
@@ -14,6 +15,8 @@ from paa_mj.outputs.gl import select_backend
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--gl", choices=("auto", "egl", "osmesa"), default="auto")
+    parser.add_argument("--robot", default="gymnast", help="gymnast, example2, acrobot, chain4 or an MJCF file")
+    parser.add_argument("--goal", default="folded", choices=("folded", "stretched"), help="the task's goal")
     parser.add_argument("--t-final", type=float, default=30.0, help="duration of the kip [s]")
     parser.add_argument("--fps", type=float, default=30.0)
     parser.add_argument("--width", type=int, default=640)
@@ -24,12 +27,13 @@ def main(argv=None):
     backend = select_backend(args.gl)  # first: MuJoCo reads the backend once, when it loads
     from paa_mj.model import load_robot
     from paa_mj.outputs.video import render_trajectory
-    from paa_mj.sim import X0_HANGING, simulate_mujoco
+    from paa_mj.model.states import start_state
+    from paa_mj.sim import simulate_mujoco
 
-    robot = load_robot("gymnast")
-    traj = simulate_mujoco(robot, "vcl", X0_HANGING, args.t_final)
+    robot = load_robot(args.robot)
+    traj = simulate_mujoco(robot, "vcl", start_state(robot.params.n_links, args.goal), args.t_final, goal=args.goal)
     path = render_trajectory(robot, traj, args.out, fps=args.fps, width=args.width, height=args.height)
-    print(f"rendered {args.t_final:g} s of the kip through {backend} into {path}")
+    print(f"rendered {args.t_final:g} s of {robot.name}'s swing-up to the {args.goal} goal through {backend} into {path}")
     return path
 
 

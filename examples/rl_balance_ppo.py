@@ -3,6 +3,7 @@
     pip install "paa_mj[gym,rl]"
     python examples/rl_balance_ppo.py                      # the full size: some minutes on 2 cores
     python examples/rl_balance_ppo.py --timesteps 512 --envs 2 --eval-episodes 4     # seconds (as the tests run it)
+    python examples/rl_balance_ppo.py --robot acrobot --goal stretched --torque-limit 20     # another robot and goal
 
 The environments are stepped together by the package's vector environment (``gym.make_vec``: one compiled
 call steps all of them), seen by Stable-Baselines3 through the small :class:`VectorEnvForSB3` below.
@@ -87,17 +88,17 @@ def make_adapter():
     return VectorEnvForSB3
 
 
-def evaluate(model, episodes, seed=EVAL_SEED):
+def evaluate(model, episodes, seed=EVAL_SEED, **env_options):
     """Success rate and mean length of ``episodes`` episodes from the seeds ``seed``, ``seed + 1``, ...
 
     The episodes run side by side in one vector environment: sub-environment i is seeded as
-    ``gym.make(BALANCE_ID).reset(seed=seed + i)`` would be, and only its first episode counts.
+    ``gym.make(BALANCE_ID, **env_options).reset(seed=seed + i)`` would be, and only its first episode counts.
     """
     import gymnasium as gym
 
     from paa_mj.gym_env import BALANCE_ID
 
-    envs = gym.make_vec(BALANCE_ID, num_envs=episodes)
+    envs = gym.make_vec(BALANCE_ID, num_envs=episodes, **env_options)
     obs, _ = envs.reset(seed=seed)
     success = np.zeros(episodes, bool)
     length = np.zeros(episodes, int)
@@ -123,6 +124,10 @@ class OneLineParser(argparse.ArgumentParser):
 def main(argv=None):
     parser = OneLineParser(prog="rl_balance_ppo.py", description=__doc__.splitlines()[0])
     parser.add_argument("--timesteps", type=int, default=1_000_000, help="environment steps of training")
+    parser.add_argument("--robot", default="gymnast", help="gymnast, example2, acrobot, chain4 or an MJCF file")
+    parser.add_argument("--goal", default="folded", choices=("folded", "stretched"), help="the task's goal")
+    parser.add_argument("--torque-limit", type=float,
+                        help="the torque limit [N m] (default: the balance task's, 0.1 b1 / 1 rad, capped by the model)")
     parser.add_argument("--envs", type=int, default=16, help="environments stepped together while training")
     parser.add_argument("--eval-episodes", type=int, default=100, help="episodes of the evaluation")
     parser.add_argument("--seed", type=int, default=0, help="seed of the training (>= 0)")
@@ -152,7 +157,14 @@ def main(argv=None):
 
     torch.set_num_threads(args.threads)
     start_wall, start_cpu = time.perf_counter(), time.process_time()
-    env = make_adapter()(gym.make_vec(BALANCE_ID, num_envs=args.envs, autoreset_mode="SameStep"))
+    env_options = {"robot": args.robot, "goal": args.goal}
+    if args.torque_limit is not None:
+        env_options["torque_limit"] = args.torque_limit
+    try:
+        vector = gym.make_vec(BALANCE_ID, num_envs=args.envs, autoreset_mode="SameStep", **env_options)
+    except (PaaError, ValueError) as err:
+        sys.exit(f"rl_balance_ppo.py: error: {err}")
+    env = make_adapter()(vector)
     # Returns scaled to about 1 for the learner only (the observations are left alone, so the saved model needs
     # nothing but itself): a return reaches ~900 when the robot stays up, and unscaled value errors of that size
     # would dominate the gradient that PPO clips (one norm for policy and value).
@@ -168,9 +180,10 @@ def main(argv=None):
     model.save(args.out)
     env.close()
 
-    success, length = evaluate(model, args.eval_episodes)
+    success, length = evaluate(model, args.eval_episodes, **env_options)
     result = {"success_rate": float(success.mean()), "successes": int(success.sum()), "episodes": len(success),
               "mean_length": float(length.mean()), "timesteps": int(model.num_timesteps), "envs": args.envs,
+              "robot": args.robot, "goal": args.goal,
               "train_wall_s": round(train_wall, 1), "train_cpu_s": round(train_cpu, 1), "model": args.out}
     print(f"success rate {result['success_rate']:.2f} ({result['successes']} of {result['episodes']} episodes from"
           f" seeds {EVAL_SEED}..{EVAL_SEED + len(success) - 1}), mean length {result['mean_length']:.0f} of 1000"

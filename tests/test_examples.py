@@ -39,24 +39,24 @@ def test_own_controller_through_simulate_basin_and_compare(tmp_path):
     assert set(board["controllers"]) == {"vcl", f"{EXAMPLES / 'pd_controller.py'}:HoldStraight"}
 
 
-@pytest.mark.parametrize("gl", ["egl", "osmesa"])
-def test_offscreen_video(tmp_path, gl):
+@pytest.mark.parametrize("gl, robot, goal", [("egl", "gymnast", "folded"), ("osmesa", "acrobot", "stretched")])
+def test_offscreen_video(tmp_path, gl, robot, goal):
     from paa_mj.outputs.gl import probe
 
     why = probe(gl)
     if why is not None:
         pytest.skip(f"{gl} is not available here: {why}")
-    run("offscreen_video.py", "--gl", gl, "--t-final", "0.5", "--fps", "10", "--width", "64", "--height", "48",
-        "--out", tmp_path / "kip.gif", cwd=tmp_path)
-    assert (tmp_path / "kip.gif").stat().st_size > 100
+    out = run("offscreen_video.py", "--gl", gl, "--robot", robot, "--goal", goal, "--t-final", "0.5", "--fps", "10",
+              "--width", "64", "--height", "48", "--out", tmp_path / "kip.gif", cwd=tmp_path)
+    assert (tmp_path / "kip.gif").stat().st_size > 100 and f"{robot}'s swing-up to the {goal} goal" in out.stdout
 
 
 def test_dask_basin_on_a_cluster_the_script_starts(tmp_path):
     pytest.importorskip("distributed")
-    run("dask_basin.py", "--workers", "1", "--grid", "2", "--t-final", "0.5", "--out", tmp_path / "basin",
-        cwd=tmp_path)
+    run("dask_basin.py", "--workers", "1", "--robot", "chain4", "--goal", "stretched", "--grid", "2", "--t-final", "0.5",
+        "--out", tmp_path / "basin", cwd=tmp_path)
     summary = json.loads((tmp_path / "basin" / "summary.json").read_text())
-    assert summary["cells"] == 4 and summary["completed_fraction"] == 1.0
+    assert summary["cells"] == 4 and summary["completed_fraction"] == 1.0 and summary["goal"] == "stretched"
 
 
 # --- reinforcement learning on the balance task ----------------------------------------------------------------

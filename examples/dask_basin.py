@@ -19,7 +19,7 @@ from paa_mj.cli import main as paa_mj
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--workers", type=int, default=2, help="worker processes")
-    parser.add_argument("--robot", default="gymnast", help="gymnast, example2, acrobot, chain4 or an MJCF file")
+    parser.add_argument("--robot", default="gymnast", help="a named robot (paa-mj simulate --help) or an MJCF file")
     parser.add_argument("--goal", default="folded", choices=("folded", "stretched"), help="the task's goal")
     parser.add_argument("--grid", default="16", help="points per axis")
     parser.add_argument("--t-final", default="30", help="duration of each run [s]")

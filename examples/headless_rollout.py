@@ -16,7 +16,7 @@ from paa_mj.sim import simulate_mujoco
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--robot", default="gymnast", help="gymnast, example2, acrobot, chain4 or an MJCF file")
+    parser.add_argument("--robot", default="gymnast", help="a named robot (paa-mj simulate --help) or an MJCF file")
     parser.add_argument("--goal", default="folded", choices=("folded", "stretched"), help="the task's goal")
     parser.add_argument("--controller", default="vcl", help="a built-in name or FILE.py:Class")
     parser.add_argument("--t-final", type=float, default=30.0, help="duration [s]")

@@ -15,7 +15,7 @@ from paa_mj.outputs.gl import select_backend
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--gl", choices=("auto", "egl", "osmesa"), default="auto")
-    parser.add_argument("--robot", default="gymnast", help="gymnast, example2, acrobot, chain4 or an MJCF file")
+    parser.add_argument("--robot", default="gymnast", help="a named robot (paa-mj simulate --help) or an MJCF file")
     parser.add_argument("--goal", default="folded", choices=("folded", "stretched"), help="the task's goal")
     parser.add_argument("--t-final", type=float, default=30.0, help="duration of the kip [s]")
     parser.add_argument("--fps", type=float, default=30.0)

@@ -124,7 +124,7 @@ class OneLineParser(argparse.ArgumentParser):
 def main(argv=None):
     parser = OneLineParser(prog="rl_balance_ppo.py", description=__doc__.splitlines()[0])
     parser.add_argument("--timesteps", type=int, default=1_000_000, help="environment steps of training")
-    parser.add_argument("--robot", default="gymnast", help="gymnast, example2, acrobot, chain4 or an MJCF file")
+    parser.add_argument("--robot", default="gymnast", help="a named robot (paa-mj simulate --help) or an MJCF file")
     parser.add_argument("--goal", default="folded", choices=("folded", "stretched"), help="the task's goal")
     parser.add_argument("--torque-limit", type=float,
                         help="the torque limit [N m] (default: the balance task's, 0.1 b1 / 1 rad, capped by the model)")

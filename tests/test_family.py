@@ -366,3 +366,28 @@ def test_the_atlas_maps_the_family_beyond_theorem_1(run):
     assert json.loads(four.stdout)["vary"] == ["l4", "m3"]
     bad = run("atlas", "--robot", "acrobot", "--vary", "m3,l1", "--grid", 2)
     assert bad.returncode == 2 and "out of m1, m2, l1, l2 (this robot has 2 links)" in bad.stderr
+
+
+def test_theory_says_when_the_lqr_weights_are_unstable_at_the_time_step(run):
+    """RealAIGym's small acrobot: the LQR of Q = 1e4 I, R = I sampled at 1 ms is unstable (radius > 1), the gymnast's
+    stable; the radius is that of the zero-order-hold discretisation, recomputed here with SciPy."""
+    import json
+
+    from scipy.linalg import expm
+    from scipy.signal import cont2discrete
+
+    from paa_mj.theory.linear import goal_linearization, lqr_gain
+
+    for name, goal, unstable in (("realaigym_acrobot", "stretched", True), ("gymnast", "folded", False)):
+        out = run("theory", "--robot", name, "--goal", goal, "--json")
+        assert out.returncode == 0, out.stderr
+        report = json.loads(out.stdout)
+        am = load_robot(name).analytic
+        A, B = goal_linearization(am, goal)
+        Ad, Bd, *_ = cont2discrete((A, B, np.eye(len(A)), 0 * B), 1e-3, method="zoh")
+        assert np.allclose(Ad, expm(A * 1e-3))
+        radius = np.max(np.abs(np.linalg.eigvals(Ad - Bd @ lqr_gain(am, goal=goal))))
+        assert report["dt"] == 1e-3 and report["lqr_sampled_radius"] == pytest.approx(radius, rel=1e-9)
+        assert (report["lqr_sampled_radius"] > 1) == unstable
+    text = run("theory", "--robot", "realaigym_acrobot", "--goal", "stretched").stdout
+    assert "UNSTABLE: these weights do not balance at this time step" in text

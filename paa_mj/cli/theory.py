@@ -12,11 +12,12 @@ def cmd_theory(args):
 
     robot = load_robot(args.robot)
     gains = robot.resolve_gains(args.kD, args.kP, args.kV)
+    dt = float(robot.model.opt.timestep)
     if robot.analytic.paper_shape and args.goal == "folded":
-        report = theory_report(robot.analytic, **gains).to_json_dict()
+        report = theory_report(robot.analytic, **gains, dt=dt).to_json_dict()
         text = theory_table
     else:
-        report = chain_theory_report(robot.analytic, **gains, goal=args.goal)
+        report = chain_theory_report(robot.analytic, **gains, goal=args.goal, dt=dt)
         text = chain_theory_table
     if args.json:
         print_json(report)

@@ -21,7 +21,7 @@ from .mjcf import (MODEL_DIR, compile_mjcf, default_gains, flatten_mjcf, mjcf_fr
                    read_text, torque_limits_from_model)
 from .params import RobotParams
 
-NAMED_ROBOTS = ("gymnast", "example2", "acrobot", "chain4")
+NAMED_ROBOTS = ("gymnast", "example2", "acrobot", "chain4", "realaigym_acrobot", "realaigym_acrobot_v1")
 
 
 @dataclass(frozen=True, eq=False)

@@ -13,7 +13,7 @@ from ..control.gains import check_gain_range
 from ..control.closed_loop import duu_eigenvalues
 from ..model.dynamics import AnalyticModel
 from ..theory.conditions import constraint_54, frozen_acrobot_controllable, thresholds
-from ..theory.linear import lqr_gain, udd_controllability
+from ..theory.linear import lqr_gain, sampled_spectral_radius, udd_controllability
 
 
 @dataclass
@@ -40,13 +40,21 @@ class TheoryReport:
     duu_charpoly: list
     duu_unstable: bool
     theorem1: dict = field(default_factory=dict)
+    #: Spectral radius of the LQR (67) loop sampled with zero-order hold at ``dt`` (< 1: stable), and ``dt`` [s].
+    lqr_sampled_radius: float | None = None
+    dt: float | None = None
 
     def to_json_dict(self):
-        return asdict(self)
+        """The report as JSON data; the sampled LQR's keys only where a time step was given."""
+        data = asdict(self)
+        if self.dt is None:
+            del data["lqr_sampled_radius"], data["dt"]
+        return data
 
 
-def theory_report(am: AnalyticModel, kD, kP, kV) -> TheoryReport:
-    """Compute every condition of Theorem 1, the linear analysis at UDD and the closed loop at DUU."""
+def theory_report(am: AnalyticModel, kD, kP, kV, dt=None) -> TheoryReport:
+    """Compute every condition of Theorem 1, the linear analysis at UDD and the closed loop at DUU; with ``dt`` [s]
+    (the simulation's step), the spectral radius of the LQR (67) loop sampled with zero-order hold at ``dt``."""
     check_gain_range(kD, kP, kV)
     kd, e1, e2 = thresholds(am)
     c54 = constraint_54(am)
@@ -70,6 +78,7 @@ def theory_report(am: AnalyticModel, kD, kP, kV) -> TheoryReport:
         frozen_acrobot_ud_controllable=frozen_ok,
         udd_controllable=ctrb.controllable, udd_controllability=asdict(ctrb),
         lqr_K=lqr_gain(am).tolist(), gains={"kD": kD, "kP": kP, "kV": kV},
+        lqr_sampled_radius=_sampled_radius(am, dt, "folded", ctrb.controllable), dt=dt,
         duu_eigenvalues=[[float(e.real), float(e.imag)] for e in eig],
         duu_charpoly=[float(c) for c in poly],
         duu_unstable=bool(np.max(eig.real) > 0),
@@ -77,7 +86,13 @@ def theory_report(am: AnalyticModel, kD, kP, kV) -> TheoryReport:
     )
 
 
-def chain_theory_report(am: AnalyticModel, kD, kP, kV, goal="folded") -> dict:
+def _sampled_radius(am, dt, goal, controllable):
+    if dt is None or not controllable:
+        return None
+    return float(sampled_spectral_radius(am, lqr_gain(am, goal=goal), dt, goal=goal))
+
+
+def chain_theory_report(am: AnalyticModel, kD, kP, kV, goal="folded", dt=None) -> dict:
     """What is defined and computable for a robot or goal beyond Theorem 1 (beyond the paper).
 
     The energy at the goal and its sign, the singularity bound (41) from its definition, linear
@@ -106,6 +121,7 @@ def chain_theory_report(am: AnalyticModel, kD, kP, kV, goal="folded") -> dict:
         "goal_controllable": ctrb.controllable, "goal_controllability": asdict(ctrb), "ctrb_rank": rank,
         "state_dimension": int(A.shape[0]),
         "lqr_K": lqr_gain(am, goal=goal).tolist(),
+        "lqr_sampled_radius": _sampled_radius(am, dt, goal, ctrb.controllable), "dt": dt,
         "merged_acrobot_ud_controllable": merged_ok, "deltabar_min": db_min, "deltabar_max": db_max,
         "gains": {"kD": kD, "kP": kP, "kV": kV},
         "theorem1": f"not covered: Theorem 1 and the bounds (54), (59), (60) are proved for the paper's 3-link gymnast"
@@ -132,9 +148,18 @@ def chain_theory_table(name, r) -> str:
     ]
     for row in r["lqr_K"]:
         lines.append("      [" + "  ".join(f"{v:10.3f}" for v in row) + " ]")
+    lines += _sampled_line(r)
     lines.append(f"  gains                      kD = {g['kD']:g}, kP = {g['kP']:g}, kV = {g['kV']:g}")
     lines.append(f"  Theorem 1                  {r['theorem1']}")
     return "\n".join(lines)
+
+
+def _sampled_line(r):
+    radius = r.get("lqr_sampled_radius")
+    if radius is None:
+        return []
+    verdict = "stable" if radius < 1 else "UNSTABLE: these weights do not balance at this time step"
+    return [f"  LQR sampled at dt = {r['dt'] * 1e3:g} ms  spectral radius {radius:.6g} ({verdict})"]
 
 
 def _yes(flag):
@@ -162,6 +187,7 @@ def theory_table(name, r) -> str:
     ]
     for row in r["lqr_K"]:
         lines.append("      [" + "  ".join(f"{v:10.3f}" for v in row) + " ]")
+    lines += _sampled_line(r)
     lines.append(f"  gains                      kD = {g['kD']:g}, kP = {g['kP']:g}, kV = {g['kV']:g}")
     lines.append(f"  DUU closed-loop eigenvalues ({'unstable' if r['duu_unstable'] else 'NOT unstable'}):")
     for re, im in r["duu_eigenvalues"]:

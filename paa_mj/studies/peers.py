@@ -76,6 +76,8 @@ QUICK_STARTS = ("drake-example", "theta-1-1")
 #: MuJoCo time steps [s] against Drake's continuous loop (no hold).
 NO_HOLD_STEPS = (0.004, 0.002, 0.001, 0.0005)
 QUICK_NO_HOLD_STEPS = (0.002, 0.001)
+#: A start with the elbow straight and still has left that invariant set once abs(q2) exceeds this [rad].
+ELBOW_LEFT = 1e-6
 #: Named robots compared, and random chains (links of each).
 NAMED = ("gymnast", "example2", "acrobot", "chain4")
 RANDOM_LINKS = (2, 3, 5)
@@ -505,22 +507,65 @@ def compare_start(name, theta0, t_final, dt, S_drake, threshold, no_hold_steps=(
                       "q_drake": drake[::every, :2].tolist(), "q_paa": ours[::every, :2].tolist()},
            "no_hold": []}
     if no_hold_steps:
-        fine = min(no_hold_steps)
-        coarse = max(no_hold_steps)
-        continuous = x_from_theta(drake_loop(theta0, window, fine, hold=False))
-        t_cont = np.arange(len(continuous)) * fine
-        for step in no_hold_steps:
-            t_mj, x_mj, _, _ = mujoco_loop(x0, window, step)
-            stride_mj = int(round(coarse / step))
-            stride_cont = int(round(coarse / fine))
-            a = x_mj[::stride_mj]
-            b = continuous[::stride_cont]
-            count = min(len(a), len(b))
-            gap = np.abs(a[:count] - b[:count])
-            row["no_hold"].append({"dt": step, "max_angle_difference": float(np.max(gap[:, :2])),
-                                   "max_speed_difference": float(np.max(gap[:, 2:])),
-                                   "compared_every": coarse, "t_end": float(t_cont[::stride_cont][count - 1])})
+        row["no_hold"] = no_hold(theta0, t_final, no_hold_steps, S_drake, threshold, window)
     return row
+
+
+def no_hold(theta0, t_final, steps, S_drake, threshold, window=WINDOW):
+    """Drake's continuous loop (no hold) against MuJoCo at each time step of ``steps``, over ``t_final``.
+
+    Drake's states are sampled at the finest step, so that every MuJoCo step meets one. Per step: the
+    largest differences before the first switch to the LQR (either loop; the smooth swing-up, where the
+    difference is the hold's, O(dt)) and over ``window``, the first sample where the two loops' modes
+    differ (their cost-to-go straddles the threshold) with both costs, and both outcomes.
+    """
+    theta0 = np.asarray(theta0, float)
+    x0 = x_from_theta(theta0)
+    fine = min(steps)
+    continuous = x_from_theta(drake_loop(theta0, t_final, fine, hold=False))
+    t_cont = np.arange(len(continuous)) * fine
+    cost_cont = drake_cost(S_drake, theta_from_x(continuous))
+    balanced_drake = balanced_from(t_cont, continuous)
+    # theta2 = theta2dot = 0 is invariant under the swing-up law (y = 0, u_e = 0 keep the elbow straight) and
+    # unstable (u_e pumps theta2dot while E < E_d): a start on it leaves it on round-off in the continuous
+    # loop, on the O(dt^2) error of the held torque in MuJoCo's, at times that do not converge with dt
+    on_manifold = theta0[1] == 0.0 and theta0[3] == 0.0
+    rows = []
+    for step in steps:
+        t, x, mode, controller = mujoco_loop(x0, t_final, step)
+        stride = int(round(step / fine))
+        other = continuous[::stride]
+        count = min(len(t), len(other))
+        t, x, mode, other = t[:count], x[:count], mode[:count], other[:count]
+        mode_drake = (cost_cont[::stride][:count] < threshold).astype(int)
+        gap = np.abs(x - other)
+        early = t <= window + 1e-12
+        switches = [v for v in (_first(t, mode == 1), _first(t, mode_drake == 1)) if v is not None]
+        before = t < (min(switches) if switches else np.inf)
+        before &= early
+        differs = np.nonzero(mode != mode_drake)[0]
+        split = None
+        if differs.size:
+            i = int(differs[0])
+            split = {"t": float(t[i]), "cost_drake": float(cost_cont[::stride][i]),
+                     "cost_paa": float(controller.cost_to_go(x[i, :2], x[i, 2:])),
+                     "state_difference": float(np.max(gap[i]))}
+        balanced = balanced_from(t, x)
+        leaves = None
+        if on_manifold:
+            leaves = {"drake": _first(t_cont, np.abs(continuous[:, 1]) > ELBOW_LEFT),
+                      "paa_mj": _first(t, np.abs(x[:, 1]) > ELBOW_LEFT)}
+        rows.append({"dt": step, "elbow_leaves_zero": leaves,
+                     "max_angle_difference": float(np.max(gap[early, :2])),
+                     "max_speed_difference": float(np.max(gap[early, 2:])),
+                     "before_first_switch": {"until": float(np.max(t[before])) if before.any() else 0.0,
+                                             "max_angle_difference": float(np.max(gap[before, :2], initial=0.0)),
+                                             "max_speed_difference": float(np.max(gap[before, 2:], initial=0.0))},
+                     "first_lqr": {"drake": _first(t, mode_drake == 1), "paa_mj": _first(t, mode == 1)},
+                     "first_mode_difference": split,
+                     "balanced_from": {"drake": balanced_drake, "paa_mj": balanced},
+                     "same_outcome": (balanced_drake is None) == (balanced is None)})
+    return rows
 
 
 def _closest(t, cost_drake, cost_paa, threshold, window):
@@ -535,7 +580,7 @@ def _closest(t, cost_drake, cost_paa, threshold, window):
 
 def integration_check(theta0, t_final, dt):
     """The held loops at ``dt`` and at ``dt / 2`` over ``t_final``: the largest state difference of each.
-    If what is left is MuJoCo's RK4 error, halving the step divides it by about 16."""
+    If what is left is MuJoCo's RK4 error, halving the step divides it by 16 or more (dt^4)."""
     out = {}
     for step in (dt, dt / 2):
         drake = x_from_theta(drake_loop(theta0, t_final, step, hold=True))

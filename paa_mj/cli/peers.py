@@ -32,9 +32,9 @@ def register(sub, parser_class):
                                    ' pip install "paa_mj[peers]".')
     p.add_argument("--out", type=folder, required=True, metavar="DIR",
                    help="folder for peers.json, peers.md and peers_closed_loop.png/.svg")
-    p.add_argument("--t-final", type=positive, help="duration of each closed loop [s] (default: 10, 3 with --quick)")
-    p.add_argument("--samples", type=positive_int, default=200, help="random states per robot for the dynamics")
-    p.add_argument("--seed", type=seed, default=0, help="seed of the random states and chains")
+    p.add_argument("--t-final", type=positive, metavar="T", help="duration of each closed loop [s] (default: 10, 3 with --quick)")
+    p.add_argument("--samples", type=positive_int, default=200, metavar="N", help="random states per robot for the dynamics")
+    p.add_argument("--seed", type=seed, default=0, metavar="SEED", help="seed of the random states and chains")
     p.add_argument("--quick", action="store_true",
                    help="two robots and one random chain, two starts over 3 s, two time steps without the hold (for tests)")
     p.add_argument("--json", action="store_true", help="print everything as one JSON object on stdout")

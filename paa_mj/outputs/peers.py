@@ -169,6 +169,7 @@ def peers_figure(summary):
     ax.set_title("with the hold: Drake against paa_mj, every start (dashed: 1e-5; grey: the compared window)")
     ax.legend(loc="best", ncol=2)
     ax = axes[2]
+    dts = []
     for i, row in enumerate(loop["starts"]):
         if not row["no_hold"]:
             continue
@@ -176,11 +177,14 @@ def peers_figure(summary):
         values = [max(case["before_first_switch"]["max_angle_difference"],
                       case["before_first_switch"]["max_speed_difference"]) for case in row["no_hold"]]
         ax.loglog(dts, np.maximum(values, 1e-17), ls=LINESTYLES[i % len(LINESTYLES)], marker=MARKERS[i % len(MARKERS)],
-                  label=row["start"] + (" (elbow at rest, straight)" if row["no_hold"][0]["elbow_leaves_zero"] else ""))
+                  label=row["start"] + (" (elbow straight, at rest)" if row["no_hold"][0]["elbow_leaves_zero"] else ""))
+    if dts:
+        ax.set_xticks(dts, [f"{v:g}" for v in dts])
+        ax.minorticks_off()
     ax.set_xlabel("MuJoCo time step [ms]")
     ax.set_ylabel("max abs difference before the first switch")
-    ax.set_title("without the hold: Drake's continuous loop against paa_mj")
-    ax.legend(loc="best", fontsize=7)
+    ax.set_title("without the hold: Drake's continuous loop against paa_mj, O(dt) off the elbow's rest")
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.2), ncol=3, fontsize=7)
     fig.tight_layout()
     return fig
 

@@ -12,7 +12,7 @@ def cmd_peers(args):
     from ..studies.peers import peers
 
     with output_lock(args.out, "peers"):
-        t_final = args.t_final if args.t_final is not None else 3.0 if args.quick else 10.0
+        t_final = args.t_final if args.t_final is not None else 3.0 if args.quick else 30.0
         summary = peers(t_final=t_final, samples=args.samples, seed=args.seed, quick=args.quick,
                         progress=not args.json)
         text = write_peers(args.out, summary)
@@ -32,7 +32,7 @@ def register(sub, parser_class):
                                    ' pip install "paa_mj[peers]".')
     p.add_argument("--out", type=folder, required=True, metavar="DIR",
                    help="folder for peers.json, peers.md and peers_closed_loop.png/.svg")
-    p.add_argument("--t-final", type=positive, metavar="T", help="duration of each closed loop [s] (default: 10, 3 with --quick)")
+    p.add_argument("--t-final", type=positive, metavar="T", help="duration of each closed loop [s] (default: 30, as Drake's example scenario; 3 with --quick)")
     p.add_argument("--samples", type=positive_int, default=200, metavar="N", help="random states per robot for the dynamics")
     p.add_argument("--seed", type=seed, default=0, metavar="SEED", help="seed of the random states and chains")
     p.add_argument("--quick", action="store_true",

@@ -590,7 +590,7 @@ def integration_check(theta0, t_final, dt):
     return out
 
 
-def closed_loop(t_final=10.0, quick=False, progress=False, window=WINDOW):
+def closed_loop(t_final=30.0, quick=False, progress=False, window=WINDOW):
     """Every start of :data:`STARTS` (the quick ones with ``quick``): rows of :func:`compare_start`."""
     from ..control.registry import make_controller
     from ..control.spong import THRESHOLD
@@ -618,7 +618,7 @@ def closed_loop(t_final=10.0, quick=False, progress=False, window=WINDOW):
             "integration_check": {"start": names[0], "max_difference": check}, "starts": rows}
 
 
-def peers(t_final=10.0, samples=200, seed=0, quick=False, progress=False):
+def peers(t_final=30.0, samples=200, seed=0, quick=False, progress=False):
     """Everything ``paa-mj peers`` reports: the dynamics rows and the closed loops."""
     require_drake()
     from .. import __version__

@@ -202,3 +202,19 @@ def test_peers_without_drake_says_how_to_install_it(tmp_path, capsys, monkeypatc
     err = capsys.readouterr().err.strip()
     assert err == 'paa-mj: error: paa-mj peers needs Drake: pip install "paa_mj[peers]"'
     assert not (tmp_path / "out").exists()
+
+
+def test_spong_wraps_as_drake_so_its_lqr_set_meets_the_elbows_wrap(spong):
+    """theta2 wrapped to [-pi, pi): just below -pi is +pi - 1e-5, where (with the elbow folded back, link 1 far from
+    up) the cost-to-go is below 1e3; just above, it is 1.3e5. Where the loops split at 14.578 s from paa-stretched."""
+    from paa_mj.studies.peers import split_kind
+
+    below = np.array([-10.17461314, -np.pi - 1.1e-5]), np.array([-10.76027066, 4.24208211])
+    above = np.array([-10.17461314, -np.pi + 1.1e-5]), below[1]
+    assert spong.cost_to_go(*below) < 200 and spong.cost_to_go(*above) > 1e5
+    spong.torque(np.stack([below[0], above[0]]), np.stack([below[1], above[1]]))
+    assert spong.mode.tolist() == [1, 0]
+    theta = [np.concatenate([[q[0] + np.pi], [q[1]], qd]) for q, qd in (below, above)]
+    assert split_kind(theta[0], theta[1], 163.0, 1.3e5, 1e3) == "wrap of theta2"
+    assert split_kind(theta[0], theta[0] + [0.5, 0, 0, 0], 990.0, 1010.0, 1e3) == "threshold"
+    assert split_kind(theta[0], theta[0] + [0.5, 0, 0, 0], 500.0, 5000.0, 1e3) == "grown difference"

@@ -58,7 +58,7 @@ def held_table(loop) -> str:
             f" | {_e(row['max_speed_difference'])} | {_pair(row['first_lqr'])} | {_pair(row['balanced_from'])}"
             f" | {'yes' if row['same_outcome'] else 'NO'}"
             f" | {crossings['drake']['count']} / {crossings['paa_mj']['count']}"
-            f" | {_near(near)} | {_split(split, 'at {t:.3f} s (costs {cost_drake:.6g} / {cost_paa:.6g}; states {state_difference:.1e} apart)')} |")
+            f" | {_near(near)} | {_split(split, 'at {t:.3f} s, {kind} (costs {cost_drake:.6g} / {cost_paa:.6g}; states {state_difference:.1e} apart)')} |")
     return "\n".join(lines)
 
 
@@ -78,7 +78,7 @@ def no_hold_table(loop) -> str:
                 f"| {row['start']} | {1e3 * case['dt']:g} | {_e(before['max_angle_difference'])} /"
                 f" {_e(before['max_speed_difference'])} ({before['until']:.3f}) | {_e(case['max_angle_difference'])}"
                 f" / {_e(case['max_speed_difference'])} | {_pair(case['first_lqr'])}"
-                f" | {_split(split, '{t:.4f} ({cost_drake:.5g} / {cost_paa:.5g})')}"
+                f" | {_split(split, '{t:.4f}, {kind} ({cost_drake:.5g} / {cost_paa:.5g})')}"
                 f" | {_pair(case['balanced_from'])} | {'-' if leaves is None else _pair(leaves, _t4)} |")
     return "\n".join(lines)
 
@@ -110,9 +110,11 @@ def peers_markdown(summary) -> str:
         f" over {loop['t_final']:g} s. The LQR acts where its cost-to-go is below {loop['threshold']:g} (no"
         " hysteresis; Drake's cost computed with the S of Drake's own LinearQuadraticRegulator). Balanced: every"
         " angle error and speed below 1e-3 to the end. A switch split is the first sample where one loop's LQR"
-        " acts and the other's does not, with how far apart the two states were then: a split after the"
-        " compared window follows a difference grown while the loops cross the threshold back and forth, not a"
-        " near-tie of the costs at one sample.",
+        " acts and the other's does not, with why: a near-tie of the costs at the threshold, a difference grown"
+        " while the loops cross the threshold back and forth, or the wrap of theta2 to [-pi, pi): the cost-to-go"
+        " is a quadratic form in the wrapped errors, so the set where the LQR acts meets theta2 = +-pi with the"
+        " elbow folded back, and two states a hair apart on either side of it have costs orders of magnitude"
+        " apart.",
         "",
         held_table(loop),
         "",

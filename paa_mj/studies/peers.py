@@ -36,7 +36,11 @@ left of the difference is MuJoCo's RK4 error (checked: it shrinks as dt^4 when b
 Without the hold, Drake's continuous loop is compared with MuJoCo at several time steps; the
 difference is then the hold's, O(dt). Drake's switch to its LQR is a test of the cost-to-go against
 a threshold at each state, without hysteresis; where the two loops' costs straddle the threshold at the
-same sample the loops split, and the tables say where (the switch split), rather than hide it.
+same sample the loops split, and the tables say where (the switch split) and why (:func:`split_kind`): a
+near-tie of the costs, a difference grown before, or Drake's wrapping. theta2 is wrapped to [-pi, pi) and the
+cost-to-go is a quadratic form in the wrapped errors, so the set where the LQR acts (cost below the
+threshold) meets the boundary theta2 = +-pi with the elbow folded back, far from the upright: two states a
+hair apart on either side of it have costs orders of magnitude apart.
 
 Per start: the largest difference of the angles [rad] and of the speeds [rad/s] over the first
 :data:`WINDOW` seconds, the first time each loop's LQR acts (Drake's: the first sample whose cost-to-go,
@@ -385,6 +389,28 @@ def drake_cost(S, theta):
     return np.einsum("...i,ij,...j->...", e, S, e)
 
 
+def _wrapped_errors(theta):
+    span = 2 * np.pi
+    return np.array([theta[0] - span * np.floor(theta[0] / span) - np.pi,
+                     theta[1] - span * np.floor((theta[1] + np.pi) / span)])
+
+
+def split_kind(theta_drake, theta_paa, cost_drake, cost_paa, threshold):
+    """Why the two loops' modes differ at one sample: ``"wrap of theta1"``/``"wrap of theta2"`` where the two
+    states, less than 0.1 rad apart, lie on either side of a boundary of Drake's wrapping (the cost-to-go jumps
+    there), ``"threshold"`` where both costs lie within 10 % of the threshold (a near-tie), else
+    ``"grown difference"`` (the states had already drifted apart)."""
+    theta_drake, theta_paa = np.asarray(theta_drake, float), np.asarray(theta_paa, float)
+    e_drake, e_paa = _wrapped_errors(theta_drake), _wrapped_errors(theta_paa)
+    close = np.max(np.abs(theta_drake[:2] - theta_paa[:2])) < 0.1
+    for k in range(2):
+        if close and abs(e_drake[k] - e_paa[k]) > np.pi:
+            return f"wrap of theta{k + 1}"
+    if max(abs(cost_drake - threshold), abs(cost_paa - threshold)) < 0.1 * threshold:
+        return "threshold"
+    return "grown difference"
+
+
 def drake_loop(theta0, t_final, dt, hold=True, sample_dt=None, accuracy=DRAKE_ACCURACY):
     """Drake's acrobot under its Spong controller from ``theta0``: the states at multiples of ``sample_dt``
     (default ``dt``), shape (N + 1, 4), in Drake's coordinates.
@@ -489,7 +515,9 @@ def compare_start(name, theta0, t_final, dt, S_drake, threshold, no_hold_steps=(
         i = int(differs[0])
         split = {"t": float(t[i]), "mode_drake": int(mode_drake[i]), "mode_paa": int(mode_ours[i]),
                  "cost_drake": float(cost_drake[i]), "cost_paa": float(cost_ours[i]),
-                 "state_difference": float(worst[i])}
+                 "state_difference": float(worst[i]),
+                 "kind": split_kind(theta_from_x(drake[i]), theta_from_x(ours[i]), cost_drake[i], cost_ours[i],
+                                    threshold)}
     balanced = {"drake": balanced_from(t, drake), "paa_mj": balanced_from(t, ours)}
     every = max(1, int(round(series_dt / dt)))
     row = {"start": name, "theta0": theta0.tolist(), "x0": x0.tolist(), "t_final": float(t[-1]), "dt": dt,
@@ -547,9 +575,11 @@ def no_hold(theta0, t_final, steps, S_drake, threshold, window=WINDOW):
         split = None
         if differs.size:
             i = int(differs[0])
-            split = {"t": float(t[i]), "cost_drake": float(cost_cont[::stride][i]),
-                     "cost_paa": float(controller.cost_to_go(x[i, :2], x[i, 2:])),
-                     "state_difference": float(np.max(gap[i]))}
+            cost_paa = float(controller.cost_to_go(x[i, :2], x[i, 2:]))
+            split = {"t": float(t[i]), "cost_drake": float(cost_cont[::stride][i]), "cost_paa": cost_paa,
+                     "state_difference": float(np.max(gap[i])),
+                     "kind": split_kind(theta_from_x(other[i]), theta_from_x(x[i]), cost_cont[::stride][i], cost_paa,
+                                        threshold)}
         balanced = balanced_from(t, x)
         leaves = None
         if on_manifold:

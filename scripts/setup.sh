@@ -39,3 +39,11 @@ fi
 .venv/bin/python -m pip install -q --disable-pip-version-check --no-compile -e ".[dev]" 2>&1 \
   | grep -v '^WARNING: Location' || true
 .venv/bin/python -c "import paa_mj, mujoco" || { echo "setup: the install failed" >&2; exit 1; }
+# Drake, for paa-mj peers and its tests: optional (wheels for Linux x86_64 and macOS only); without it
+# those tests are skipped, with the reason
+if ! .venv/bin/python -c "import pydrake" >/dev/null 2>&1; then
+  .venv/bin/python -m pip install -q --disable-pip-version-check --no-compile -e ".[peers]" 2>&1 \
+    | grep -v '^WARNING: Location' || true
+  .venv/bin/python -c "import pydrake" >/dev/null 2>&1 \
+    || echo "setup: Drake could not be installed; the tests of paa-mj peers will be skipped" >&2
+fi

@@ -26,12 +26,12 @@ Run 'paa-mj COMMAND --help' for the options of a command."""
 
 def build_parser():
     from .. import __version__
-    from . import reproduce, simulate, studies, theory
+    from . import peers, reproduce, simulate, studies, theory
 
     parser = Parser(prog="paa-mj", description=DESCRIPTION)
     parser.add_argument("--version", action="version", version=f"paa-mj {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser, metavar="COMMAND")
-    for module in (theory, simulate, studies, reproduce):
+    for module in (theory, simulate, studies, reproduce, peers):
         module.register(sub, Parser)
     return parser
 

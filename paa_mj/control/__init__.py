@@ -5,7 +5,8 @@
 - :mod:`~paa_mj.control.combined`: the one-way switch, with region (68) as the paper's condition;
 - :mod:`~paa_mj.control.region`: region (68) and the balance tolerance;
 - :mod:`~paa_mj.control.gains`: the gains against the theory;
-- :mod:`~paa_mj.control.passive`: zero torque.
+- :mod:`~paa_mj.control.passive`: zero torque;
+- :mod:`~paa_mj.control.spong`: Spong's acrobot swing-up as Drake states it.
 """
 from ..lazy import lazy_exports
 
@@ -21,6 +22,7 @@ _EXPORTS = {
     "check_gains": ".gains",
     "LQRController": ".lqr",
     "PassiveController": ".passive",
+    "SpongController": ".spong",
     "BALANCE_TOL": ".region",
     "SWITCH_ANGLE": ".region",
     "SWITCH_SPEED": ".region",
@@ -35,5 +37,5 @@ __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, globals())
 
 __all__ = ["BALANCE_TOL", "BUILTIN", "CombinedController", "CompiledForm", "Controller", "ControllerSpec",
            "ConventionalController", "EnergyVCLController", "LQRController", "PassiveController", "RegionCondition",
-           "SWITCH_ANGLE", "SWITCH_SPEED", "TheoryWarning", "TimeCondition", "check_gains", "in_switch_region",
+           "SWITCH_ANGLE", "SpongController", "SWITCH_SPEED", "TheoryWarning", "TimeCondition", "check_gains", "in_switch_region",
            "make_controller", "switch_margin"]

@@ -15,6 +15,7 @@ DESCRIPTIONS = {
     "passive": "zero torque",
     "trajopt": "minimum-time kip by collocation, tracked by TVLQR, then (67)",
     "trajopt-effort": "least-effort kip over a duration, tracked by TVLQR, then (67)",
+    "spong": "Spong's acrobot swing-up, then LQR below a cost-to-go (Drake's defaults; 2 links, --goal stretched)",
 }
 #: Controllers that take the gains kD, kP, kV of (40) / (12).
 GAIN_CONTROLLERS = ("vcl", "vcl-only", "vc", "vc-only")

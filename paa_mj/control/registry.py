@@ -12,7 +12,9 @@ Built-in names (:data:`BUILTIN`):
   (:mod:`paa_mj.control.trajopt`), tracked by time-varying LQR, then (67)
   (:mod:`paa_mj.control.tvlqr`);
 - ``trajopt-effort``: the same with the kip of least integral of :math:`|\\tau|^2` over
-  a given duration (option ``duration``, default 3 s).
+  a given duration (option ``duration``, default 3 s);
+- ``spong``: Spong's acrobot swing-up with Drake's LQR switch (:mod:`paa_mj.control.spong`), for
+  two-link robots and the stretched goal.
 
 The kips plan within :data:`HEADROOM` of the torque limit (option ``limit``,
 or the robot's actuator ranges; the command line defaults to the peak torques
@@ -129,10 +131,22 @@ def build_passive(robot, gains=None, check=True, goal="folded"):
     return PassiveController()
 
 
+def build_spong(robot, gains=None, check=True, goal="folded"):
+    """Spong's acrobot swing-up with Drake's defaults (:mod:`paa_mj.control.spong`): two links, stretched goal."""
+    from .spong import SpongController
+
+    if robot.params.n_links != 2:
+        raise PaaError(f"spong is Spong's acrobot swing-up, for robots of 2 links; {robot.name} has"
+                       f" {robot.params.n_links}")
+    if goal != "stretched":
+        raise PaaError("spong swings the acrobot up to the stretched upright (every link up): use --goal stretched")
+    return SpongController(robot.analytic)
+
+
 BUILTIN = {name: (builder, DESCRIPTIONS[name]) for name, builder in (
     ("vcl", build_vcl), ("vcl-only", build_vcl_only), ("vc", build_vc), ("vc-only", build_vc_only),
     ("lqr", build_lqr), ("passive", build_passive), ("trajopt", build_trajopt),
-    ("trajopt-effort", build_trajopt_effort))}
+    ("trajopt-effort", build_trajopt_effort), ("spong", build_spong))}
 
 
 def register(name: str, builder, description: str):

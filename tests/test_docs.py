@@ -68,9 +68,11 @@ def test_a_wheel_builds_without_deprecation_and_runs_from_elsewhere(tmp_path):
     version = subprocess.run([sys.executable, "-m", "paa_mj.cli", "--version"], capture_output=True, text=True,
                              cwd=elsewhere, env=env, timeout=300)
     assert version.returncode == 0 and version.stdout.strip() == f"paa-mj {__version__}"
-    theory = subprocess.run([sys.executable, "-c", "import paa_mj, sys; print(paa_mj.__file__);"
-                             " from paa_mj.cli import main; sys.exit(main(['theory', '--robot', 'gymnast']))"],
-                            capture_output=True, text=True, cwd=elsewhere, env=env, timeout=300)
-    assert theory.returncode == 0, theory.stderr[-2000:]
-    assert theory.stdout.splitlines()[0].startswith(str(target))  # the installed copy, not the checkout
-    assert "kD_min (41)                4503.38" in theory.stdout
+    # check loads the installed robot files and MuJoCo; it compiles no kernels (a fresh copy would, ~10 CPU-s)
+    check = subprocess.run([sys.executable, "-c", "import paa_mj, sys; print(paa_mj.__file__);"
+                            " from paa_mj.cli import main; sys.exit(main(['check', '--robot', 'acrobot',"
+                            " '--samples', '10']))"], capture_output=True, text=True, cwd=elsewhere, env=env,
+                           timeout=300)
+    assert check.returncode == 0, check.stderr[-2000:]
+    assert check.stdout.splitlines()[0].startswith(str(target))  # the installed copy, not the checkout
+    assert "robot acrobot" in check.stdout and float(check.stdout.split("max_rel_err_qacc")[1].split()[0]) < 1e-9

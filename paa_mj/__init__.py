@@ -12,5 +12,5 @@ The package follows the system:
 """
 from .errors import PaaError, SimulationDiverged
 
-__version__ = "0.4.0"
+__version__ = "0.5.0"
 __all__ = ["PaaError", "SimulationDiverged", "__version__"]

@@ -35,15 +35,16 @@ if [ ! -x .venv/bin/python ]; then
 fi
 .venv/bin/python -m pip install -q --disable-pip-version-check --upgrade pip 2>&1 | grep -v '^WARNING: Location' || true
 # --no-compile: Python compiles the modules a run imports when it imports them; compiling every module of
-# every package at install time costs more CPU than the suite's own work saves
-.venv/bin/python -m pip install -q --disable-pip-version-check --no-compile -e ".[dev]" 2>&1 \
-  | grep -v '^WARNING: Location' || true
-.venv/bin/python -c "import paa_mj, mujoco" || { echo "setup: the install failed" >&2; exit 1; }
-# Drake, for paa-mj peers and its tests: optional (wheels for Linux x86_64 and macOS only); without it
-# those tests are skipped, with the reason
-if ! .venv/bin/python -c "import pydrake" >/dev/null 2>&1; then
-  .venv/bin/python -m pip install -q --disable-pip-version-check --no-compile -e ".[peers]" 2>&1 \
-    | grep -v '^WARNING: Location' || true
-  .venv/bin/python -c "import pydrake" >/dev/null 2>&1 \
-    || echo "setup: Drake could not be installed; the tests of paa-mj peers will be skipped" >&2
+# every package at install time costs more CPU than the suite's own work saves.
+# Drake (extra "peers", for paa-mj peers and its tests) comes in the same install where a wheel exists
+# (Linux x86_64, macOS); elsewhere the install is done again without it, and those tests are skipped.
+install() {
+  .venv/bin/python -m pip install -q --disable-pip-version-check --no-compile -e ".[$1]" 2>&1 \
+    | grep -v '^WARNING: Location'
+  return "${PIPESTATUS[0]}"
+}
+if ! install "dev,peers"; then
+  echo "setup: Drake could not be installed; the tests of paa-mj peers will be skipped" >&2
+  install dev || true
 fi
+.venv/bin/python -c "import paa_mj, mujoco" || { echo "setup: the install failed" >&2; exit 1; }

@@ -11,6 +11,9 @@ The package follows the system:
 - :mod:`paa_mj.cli`: the ``paa-mj`` command line, a thin layer on top.
 """
 from .errors import PaaError, SimulationDiverged
+from .provenance import key_numba_cache_by_code
+
+key_numba_cache_by_code()
 
 __version__ = "0.5.0"
 __all__ = ["PaaError", "SimulationDiverged", "__version__"]

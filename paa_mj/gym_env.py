@@ -32,7 +32,9 @@ Dynamics
     One environment step holds the torque over ``frame_skip`` physics steps of MuJoCo (RK4, 1 ms):
     a control period of 10 ms in v1, 1 ms in v0. The physics runs in compiled code
     (``mj_step`` called from numba, as :mod:`paa_mj.sim.engine` does), the same code for one
-    environment and for the vector environment.
+    environment and for the vector environment. ``physics="analytic"`` steps the robot's own equations
+    of motion by the same RK4 instead (:mod:`paa_mj.sim.rk4`): the same equations, states that agree
+    with MuJoCo's to rounding, several times cheaper (``paa-mj bench``).
 Reward (per environment step, dimensionless)
     With x = [q1, q2 + pi, q3, d1, d2, d3] the error from UDD (angles wrapped to (-pi, pi], rad and
     rad/s), l = [pi/6, pi/6, pi/6, 0.5, 0.5, 0.5] the half-widths of region (68), u = tau / T the
@@ -73,7 +75,7 @@ import gymnasium as gym
 import mujoco
 import numpy as np
 from gymnasium import spaces
-from numba import njit, types
+from numba import carray, njit, types
 from numba.extending import intrinsic, register_jitable
 
 from .control.region import SWITCH_ANGLE, SWITCH_SPEED, goal_terms, succeeded
@@ -81,6 +83,7 @@ from .model.robot import load_robot
 from .model.states import GOALS, goal_angles, start_state
 from .sim.engine import _WARNINGS, MAX_SPEED, _mj_step
 from .sim.mujoco_log import mujoco_log_off
+from .sim.rk4 import rk4_constants, rk4_step, work_size
 
 ENV_ID = "paa_mj/GymnastKip-v0"
 KIP_ID = "paa_mj/GymnastKip-v1"
@@ -98,6 +101,9 @@ TASKS = {"kip": dict(seconds=30.0, noise=0.05, speed_noise=0.0, margin=math.inf,
          "balance": dict(seconds=10.0, noise=0.05, speed_noise=0.05, margin=0.5, torque_b1=0.1)}
 #: Physics steps per environment step in v1: a 10 ms control period on the 1 ms step of the models.
 FRAME_SKIP = 10
+#: The physics an environment can run: MuJoCo's ``mj_step`` (the default), or the chain's own equations of
+#: motion integrated by the same RK4 (:func:`paa_mj.sim.rk4.rk4_step`), several times cheaper.
+PHYSICS = ("mujoco", "analytic")
 #: Registered horizons [environment steps]: the tasks' seconds at the default 10 ms period.
 HORIZONS = {KIP_ID: 3000, BALANCE_ID: 1000}
 #: The reward of a step that diverges, by reward kind (v0, kip, balance).
@@ -281,9 +287,12 @@ def _reward(kind, n, inside, angles, speeds, tau, limits, row):
 
 
 @njit(nogil=True, cache=True)
-def _advance(model_ptr, addresses, warn_stride, rows, tau, limits, frame_skip, kind, diverged_reward,
+def _advance(model_ptr, addresses, warn_stride, constants, rows, tau, limits, frame_skip, kind, diverged_reward,
              phys_step, last_exit, diverged, q, qd, obs, reward, margin, goal):
-    """One environment step of the environments ``rows``: ``tau[i]`` held over ``frame_skip`` ``mj_step``.
+    """One environment step of the environments ``rows``: ``tau[i]`` held over ``frame_skip`` physics steps,
+    ``mj_step`` of the MjData at ``addresses[i]``, or, where ``model_ptr`` is 0 (physics "analytic"), RK4 steps of
+    the robot's equations of motion (:func:`~paa_mj.sim.rk4.rk4_step` with ``constants``) on the state that
+    ``addresses[i]`` points to.
 
     Per environment: counts the physics steps, the last one whose state was outside region (68) around the
     ``goal``, whether it diverged (then the state goes back to the last good one and the step ends), and writes
@@ -291,6 +300,7 @@ def _advance(model_ptr, addresses, warn_stride, rows, tau, limits, frame_skip, k
     """
     n = q.shape[1]
     good = np.empty(2 * n)
+    work = np.empty(work_size(n))
     for k in range(rows.size):
         i = rows[k]
         qpos = _float64_at(addresses[i, _QPOS])
@@ -303,7 +313,10 @@ def _advance(model_ptr, addresses, warn_stride, rows, tau, limits, frame_skip, k
         for _ in range(frame_skip):
             for j in range(n):
                 good[j], good[n + j] = qpos[j], qvel[j]
-            _mj_step(model_ptr, addresses[i, _DATA])
+            if model_ptr != 0:
+                _mj_step(model_ptr, addresses[i, _DATA])
+            else:
+                rk4_step(constants, carray(qpos, (n,)), carray(qvel, (n,)), carray(ctrl, (n - 1,)), work)
             for j in range(n):
                 if not (math.isfinite(qpos[j]) and math.isfinite(qvel[j])) or abs(qvel[j]) > MAX_SPEED:
                     bad = True
@@ -329,22 +342,19 @@ def _advance(model_ptr, addresses, warn_stride, rows, tau, limits, frame_skip, k
 
 
 class _Robots:
-    """N copies of one robot's MjData and their episode counters, stepped by :func:`_advance`.
+    """N copies of one robot's state and their episode counters, stepped by :func:`_advance`.
 
     :class:`GymnastEnv` holds one, :class:`~paa_mj.gym_vector.GymnastVectorEnv` N: the same code computes
-    their observations and rewards, so that they agree bit for bit.
+    their observations and rewards, so that they agree bit for bit. With ``physics="mujoco"`` each robot is an
+    MjData stepped by ``mj_step``; with ``"analytic"`` the state lives in :attr:`q`, :attr:`qd` and is stepped by
+    RK4 of the robot's equations of motion (``analytic``, its :class:`~paa_mj.model.dynamics.AnalyticModel`).
     """
 
-    def __init__(self, model, n, frame_skip, kind, torque_limits, goal):
-        self.model, self.frame_skip, self.kind = model, frame_skip, kind
+    def __init__(self, model, n, frame_skip, kind, torque_limits, goal, physics="mujoco", analytic=None):
+        self.model, self.frame_skip, self.kind, self.physics = model, frame_skip, kind, physics
         self.torque_limits = np.ascontiguousarray(torque_limits, dtype=float)
         self.goal = np.ascontiguousarray(goal, dtype=float)
         links = self.goal.size
-        self.datas = [mujoco.MjData(model) for _ in range(n)]
-        # MuJoCo keeps each array of an mjData where it was allocated: the addresses hold as long as the data lives
-        self.addresses = np.array([[d._address, d.qpos.ctypes.data, d.qvel.ctypes.data, d.ctrl.ctypes.data,
-                                    d.warning.number.ctypes.data] for d in self.datas], dtype=np.intp)
-        self.warn_stride = self.datas[0].warning.number.strides[0] // 4
         self.phys_step = np.zeros(n, np.int64)
         self.last_exit = np.full(n, -1, np.int64)
         self.diverged = np.zeros(n, bool)
@@ -352,16 +362,37 @@ class _Robots:
         self.obs = np.zeros((n, 3 * links), np.float32)
         self.reward, self.margin = np.zeros(n), np.zeros(n)
         self.tau = np.zeros((n, links - 1))
+        if physics == "mujoco":
+            self.datas = [mujoco.MjData(model) for _ in range(n)]
+            # MuJoCo keeps each array of an mjData where it was allocated: the addresses hold while the data lives
+            self.addresses = np.array([[d._address, d.qpos.ctypes.data, d.qvel.ctypes.data, d.ctrl.ctypes.data,
+                                        d.warning.number.ctypes.data] for d in self.datas], dtype=np.intp)
+            self.warn_stride = self.datas[0].warning.number.strides[0] // 4
+            self.model_address = model._address
+            self.constants = np.zeros(1)
+        else:
+            # the same table over the package's own arrays: the state is q, qd, the torques tau, no warnings
+            self.datas = None
+            self._no_warnings = np.zeros((n, int(_WARNINGS.max()) + 1), np.int32)
+            self.addresses = np.array([[0, self.q[i:].ctypes.data, self.qd[i:].ctypes.data, self.tau[i:].ctypes.data,
+                                        self._no_warnings[i:].ctypes.data] for i in range(n)], dtype=np.intp)
+            self.warn_stride = 1
+            self.model_address = 0
+            self.constants = rk4_constants(analytic, model.opt.timestep)
 
     def reset(self, i, x0):
         """Environment ``i`` to the state ``x0`` (2n,), at rest in time."""
-        data = self.datas[i]
         links = self.goal.size
-        mujoco.mj_resetData(self.model, data)
-        data.qpos[:], data.qvel[:] = x0[:links], x0[links:]
-        with mujoco_log_off():
-            mujoco.mj_forward(self.model, data)
-        self.q[i], self.qd[i] = data.qpos, data.qvel
+        if self.physics == "mujoco":
+            data = self.datas[i]
+            mujoco.mj_resetData(self.model, data)
+            data.qpos[:], data.qvel[:] = x0[:links], x0[links:]
+            with mujoco_log_off():
+                mujoco.mj_forward(self.model, data)
+            self.q[i], self.qd[i] = data.qpos, data.qvel
+        else:
+            self.q[i], self.qd[i] = x0[:links], x0[links:]
+            self.tau[i] = 0.0
         self.phys_step[i], self.diverged[i] = 0, False
         inside, self.margin[i], _, _ = _goal_terms(self.q[i], self.qd[i], links, self.goal)
         self.last_exit[i] = -1 if inside else 0
@@ -372,7 +403,8 @@ class _Robots:
 
         ``log=False``: the caller has turned MuJoCo's log off (threads stepping parts of the rows)."""
         self.tau[rows] = tau
-        args = (self.model._address, self.addresses, self.warn_stride, rows, self.tau, self.torque_limits,
+        args = (self.model_address, self.addresses, self.warn_stride, self.constants, rows, self.tau,
+                self.torque_limits,
                 self.frame_skip, self.kind, DIVERGED_REWARD[self.kind], self.phys_step, self.last_exit,
                 self.diverged, self.q, self.qd, self.obs, self.reward, self.margin, self.goal)
         if not log:
@@ -387,7 +419,7 @@ class _Robots:
 
     def success(self):
         """:func:`~paa_mj.control.region.succeeded` of every episode so far, as if it ended now."""
-        return succeeded(~self.diverged, np.zeros(len(self.datas), bool), self.last_exit, self.phys_step,
+        return succeeded(~self.diverged, np.zeros(len(self.q), bool), self.last_exit, self.phys_step,
                          self.model.opt.timestep)
 
 
@@ -426,6 +458,13 @@ class GymnastEnv(gym.Env):
     goal : "folded" or "stretched"
         The goal of the tasks (the paper's folded UDD by default); any robot of the family is welcome: the
         observations are then 3n numbers and the actions n - 1.
+    physics : "mujoco" or "analytic"
+        ``mj_step`` of the robot's MuJoCo model (default), or the classic RK4 of the robot's own equations of
+        motion (:func:`paa_mj.sim.rk4.rk4_step`, the same time step, the torque held over it): the same
+        equations as MuJoCo's (``paa-mj check``: 1e-13), several times cheaper a step, agreeing with MuJoCo's
+        steps to rounding (about 1e-13 over a second of motion), not bit for bit; rounding grows where the
+        motion is chaotic (a swing-up), so episodes of the two agree closely while they balance and
+        statistically, not state for state, over a long kip.
 
     Raises
     ------
@@ -440,11 +479,13 @@ class GymnastEnv(gym.Env):
 
     def __init__(self, task="kip", robot="gymnast", render_mode=None, max_episode_seconds=None, frame_skip=FRAME_SKIP,
                  torque_limit=None, init_noise=None, init_speed_noise=None, terminate_margin=None,
-                 normalize_actions=True, width=480, height=360, goal="folded"):
+                 normalize_actions=True, width=480, height=360, goal="folded", physics="mujoco"):
         if not isinstance(task, str) or task not in TASKS:
             raise ValueError(f"task must be {' or '.join(map(repr, TASKS))}, got {task!r}")
         if not isinstance(goal, str) or goal not in GOALS:
             raise ValueError(f"goal must be {' or '.join(map(repr, GOALS))}, got {goal!r}")
+        if not isinstance(physics, str) or physics not in PHYSICS:
+            raise ValueError(f"physics must be {' or '.join(map(repr, PHYSICS))}, got {physics!r}")
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
         if not isinstance(normalize_actions, (bool, np.bool_)):
@@ -469,7 +510,7 @@ class GymnastEnv(gym.Env):
             margin = _number("terminate_margin", terminate_margin, lambda v: v >= 0,
                              "must be a number >= 0 (math.inf: never terminate outside region (68))", finite=False)
         width, height = _whole("width", width, 16, 4096), _whole("height", height, 16, 4096)
-        self.task, self.goal = task, goal
+        self.task, self.goal, self.physics = task, goal, physics
         self.robot = load_robot(robot)
         links = self.robot.params.n_links
         self.model = self.robot.model.__copy__()
@@ -494,8 +535,7 @@ class GymnastEnv(gym.Env):
         high = np.array([1.0] * (2 * links) + [np.inf] * links, np.float32)
         self.observation_space = spaces.Box(-high, high, dtype=np.float32)
         self._robots = _Robots(self.model, 1, frame_skip, 0 if self._legacy else _REWARD_KIND[task],
-                               self.torque_limits, goal_angles(goal, links))
-        self.data = self._robots.datas[0]
+                               self.torque_limits, goal_angles(goal, links), physics, self.robot.analytic)
         self._rows = np.zeros(1, np.intp)
         self._renderer = None
         self._steps = 0
@@ -566,7 +606,7 @@ class GymnastEnv(gym.Env):
 
             select_backend("auto")
             self._renderer = GymnastRenderer(self.robot, self.width, self.height)
-        return self._renderer.render(self.data.qpos.copy())
+        return self._renderer.render(self._robots.q[0].copy())
 
     def close(self):
         if self._renderer is not None:

@@ -13,6 +13,9 @@ What it saves is the Python around the physics, not the physics: at the default 
 ``mj_step`` of 1 ms) ``mj_step`` alone is about two thirds of a single environment's step and above 95% of
 this one's, so N single environments cost about 1.5 times as much CPU per step, no more; at 1 ms, 4 to 5 times
 (``paa-mj bench``: ``vector_env_speedup``, ``vector_env_speedup_bound``, ``vector_env_physics_share``).
+With ``physics="analytic"`` (RK4 of the robot's own equations, :mod:`paa_mj.sim.rk4`) the physics itself is
+cheaper: ``vector_env_analytic_speedup`` against single environments on the same physics and
+``vector_env_analytic_vs_single_mujoco`` against single environments on MuJoCo's.
 
 Autoreset (Gymnasium 1.x, ``metadata["autoreset_mode"]``):
 
@@ -59,7 +62,7 @@ def _first_bad_action(actions):
 
 @njit(nogil=True, cache=True)
 def _vector_step(lo, hi, actions, normalized, restart, terminate_margin, max_steps, window, timestep, steps, ended,
-                 model_ptr, addresses, warn_stride, tau, limits, frame_skip, kind, diverged_reward, phys_step,
+                 model_ptr, addresses, warn_stride, constants, tau, limits, frame_skip, kind, diverged_reward, phys_step,
                  last_exit, diverged, q, qd, obs, reward, margin, goal,
                  out_obs, out_reward, out_terminated, out_truncated, out_q, out_qd, out_time, out_diverged,
                  out_success):
@@ -86,8 +89,8 @@ def _vector_step(lo, hi, actions, normalized, restart, terminate_margin, max_ste
         if not restart[i]:
             rows[m] = i
             m += 1
-    _advance(model_ptr, addresses, warn_stride, rows[:m], tau, limits, frame_skip, kind, diverged_reward, phys_step,
-             last_exit, diverged, q, qd, obs, reward, margin, goal)
+    _advance(model_ptr, addresses, warn_stride, constants, rows[:m], tau, limits, frame_skip, kind, diverged_reward,
+             phys_step, last_exit, diverged, q, qd, obs, reward, margin, goal)
     for i in range(lo, hi):
         if restart[i]:
             terminated, truncated, out_reward[i] = False, False, 0.0
@@ -173,7 +176,7 @@ class GymnastVectorEnv(VectorEnv):
         self.observation_space = batch_space(proto.observation_space, num_envs)
         self.action_space = batch_space(proto.action_space, num_envs)
         self._robots = _Robots(self.model, num_envs, proto.frame_skip, proto._robots.kind, self.torque_limits,
-                               proto._robots.goal)
+                               proto._robots.goal, proto.physics, proto.robot.analytic)
         self._links = proto._robots.goal.size
         self._rngs = [None] * num_envs
         self._steps = np.zeros(num_envs, np.int64)
@@ -308,8 +311,8 @@ class GymnastVectorEnv(VectorEnv):
         (each writes rows of the shared arrays that no other thread touches)."""
         if self._state is None:  # the arrays are updated in place: their tuple holds for the environment's life
             robots = self._robots
-            self._state = (self._steps, self._ended, self.model._address, robots.addresses, robots.warn_stride,
-                           robots.tau, robots.torque_limits, robots.frame_skip, robots.kind,
+            self._state = (self._steps, self._ended, robots.model_address, robots.addresses, robots.warn_stride,
+                           robots.constants, robots.tau, robots.torque_limits, robots.frame_skip, robots.kind,
                            DIVERGED_REWARD[robots.kind], robots.phys_step, robots.last_exit, robots.diverged, robots.q,
                            robots.qd, robots.obs, robots.reward, robots.margin, robots.goal)
         args = (actions, self.normalize_actions, restart, self.prototype.terminate_margin, float(self.max_steps),

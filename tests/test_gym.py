@@ -299,7 +299,7 @@ def test_bench_times_the_physics_of_the_same_steps_without_timing_assertions():
     np.testing.assert_array_equal(np.hstack([[d.qpos for d in vector._robots.datas],
                                              [d.qvel for d in vector._robots.datas]]), stepped)
     costs = vector_env_costs(n_envs=2, steps=2, repeats=1, frame_skip=1)
-    assert set(costs) == {"single", "sync", "vector", "physics"}
+    assert set(costs) == {"single", "sync", "vector", "physics", "single_analytic", "vector_analytic"}
     assert all(np.isfinite(c) and c > 0 for c in costs.values())
 
 
@@ -522,3 +522,35 @@ def test_a_policy_adapter_runs_a_chain_as_its_env_runs_it():
         SB3Policy(acrobot, model=Linear(9, 2, 1.0))
     with pytest.raises(PaaError, match="not the 1 torques"):
         SB3Policy(acrobot, model=Linear(6, 2, 1.0))
+
+
+@pytest.mark.parametrize("robot, goal", [("gymnast", "folded"), ("acrobot", "stretched"), ("chain4", "folded")])
+def test_the_analytic_physics_steps_as_mujoco_does_to_rounding(robot, goal):
+    """physics="analytic" (RK4 of the robot's own equations) against MuJoCo's mj_step: the same episode under the
+    same actions, state for state to 1e-9 over a second; and its vector environment equals its single
+    environments bit for bit (the same compiled code)."""
+    from paa_mj.gym_vector import GymnastVectorEnv
+
+    links = {"gymnast": 3, "acrobot": 2, "chain4": 4}[robot]
+    actions = np.random.default_rng(1).uniform(-0.3, 0.3, (100, 3, links - 1)).astype(np.float32)
+    states = {}
+    for physics in ("mujoco", "analytic"):
+        envs = [GymnastEnv(task="kip", robot=robot, goal=goal, physics=physics) for _ in range(3)]
+        rows = []
+        for i, env in enumerate(envs):
+            env.reset(seed=i)
+            rows.append([np.r_[info["q"], info["qd"]] for info in (env.step(a[i])[4] for a in actions)])
+        states[physics] = np.array(rows)
+    assert np.all(np.isfinite(states["analytic"]))
+    np.testing.assert_allclose(states["analytic"], states["mujoco"], rtol=0, atol=1e-9)
+    assert np.max(np.abs(states["analytic"][:, -1] - states["analytic"][:, 0])) > 0.1  # it moved
+    vector = GymnastVectorEnv(3, task="kip", robot=robot, goal=goal, physics="analytic")
+    vector.reset(seed=0)
+    stepped = np.array([np.hstack([info["q"], info["qd"]]) for info in (vector.step(a)[4] for a in actions)])
+    np.testing.assert_array_equal(stepped.transpose(1, 0, 2), states["analytic"])
+    vector.close()
+
+
+def test_an_unknown_physics_is_one_line():
+    with pytest.raises(ValueError, match="physics must be 'mujoco' or 'analytic', got 'bullet'"):
+        GymnastEnv(physics="bullet")

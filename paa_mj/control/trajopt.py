@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -36,7 +35,7 @@ from ..errors import PaaError
 from ..model import equations as eq
 from ..model.dynamics import AnalyticModel
 from ..model.states import goal_angles, start_state
-from ..provenance import package_digest
+from ..provenance import cache_root, package_digest
 
 OBJECTIVES = ("min-time", "min-effort")
 #: Collocation intervals by default.
@@ -161,9 +160,7 @@ class Kip:
 
 
 def cache_dir() -> Path:
-    root = os.environ.get("PAA_MJ_CACHE") or os.path.join(os.environ.get("XDG_CACHE_HOME") or
-                                                          os.path.expanduser("~/.cache"), "paa_mj")
-    return Path(root) / "trajopt"
+    return cache_root() / "trajopt"
 
 
 def _key(am, bound, objective, duration, intervals, x0, xN):

@@ -71,8 +71,13 @@ def absolute_angles(q, out):
 @njit(cache=True)
 def mass_matrix_into(A, armature, q, M):
     """M(q) = T^T (A_ij cos(phi_i - phi_j)) T + diag(armature) into ``M`` (n, n) [kg m^2]."""
+    _mass_matrix_with(A, armature, q, M, np.empty(q.size))
+
+
+@njit(cache=True)
+def _mass_matrix_with(A, armature, q, M, phi):
+    """:func:`mass_matrix_into` with ``phi`` (n) as scratch space."""
     n = q.size
-    phi = np.empty(n)
     absolute_angles(q, phi)
     for i in range(n):
         for j in range(n):
@@ -90,8 +95,13 @@ def mass_matrix_into(A, armature, q, M):
 @njit(cache=True)
 def bias_into(A, b, q, qd, out):
     """H(q, qd) + G(q) = T^T (c + grad_phi P) into ``out`` (n) [N m] (MuJoCo's ``qfrc_bias``)."""
+    _bias_with(A, b, q, qd, out, np.empty(q.size), np.empty(q.size))
+
+
+@njit(cache=True)
+def _bias_with(A, b, q, qd, out, phi, rate):
+    """:func:`bias_into` with ``phi`` and ``rate`` (n) as scratch space."""
     n = q.size
-    phi, rate = np.empty(n), np.empty(n)
     absolute_angles(q, phi)
     absolute_angles(qd, rate)
     for i in range(n):
@@ -173,6 +183,37 @@ def solve_into(matrix, rhs, out):
                 total -= a[row, c] * x[c, j]
             x[row, j] = total / a[row, row]
     out[:, :] = x
+
+
+#: Scratch numbers :func:`acceleration_into` needs for n links: ACCELERATION_WORK[0] n^2 + ACCELERATION_WORK[1] n.
+ACCELERATION_WORK = (1, 3)
+
+
+@njit(cache=True)
+def acceleration_into(A, b, damping, armature, q, qd, tau, out, work):
+    """qdd = M(q)^-1 (B tau - H - G - D qd) into ``out`` (n) [rad/s^2]; ``tau`` (n - 1) the motors' torques [N m];
+    ``work``: scratch space of n^2 + 3 n numbers (:data:`ACCELERATION_WORK`; nothing is allocated).
+
+    M is symmetric positive definite (a rigid chain, armature >= 0), so Gaussian elimination without pivoting
+    solves it."""
+    n = q.size
+    mass = work[:n * n].reshape((n, n))
+    phi, rate = work[n * n:n * n + n], work[n * n + n:n * n + 2 * n]
+    _mass_matrix_with(A, armature, q, mass, phi)
+    _bias_with(A, b, q, qd, out, phi, rate)
+    for i in range(n):
+        out[i] = (tau[i - 1] if i > 0 else 0.0) - out[i] - damping[i] * qd[i]
+    for col in range(n):
+        for row in range(col + 1, n):
+            factor = mass[row, col] / mass[col, col]
+            for j in range(col, n):
+                mass[row, j] -= factor * mass[col, j]
+            out[row] -= factor * out[col]
+    for row in range(n - 1, -1, -1):
+        total = out[row]
+        for c in range(row + 1, n):
+            total -= mass[row, c] * out[c]
+        out[row] = total / mass[row, row]
 
 
 # --- NumPy batches -----------------------------------------------------------------------------------------

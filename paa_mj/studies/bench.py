@@ -13,7 +13,10 @@
   them in Gymnasium's ``SyncVectorEnv`` (``vector_env_speedup_vs_sync``), and the ``mj_step`` calls alone of
   the same steps: ``vector_env_physics_share`` (physics / vector) and ``vector_env_speedup_bound``
   (single / physics, the most any vector environment on MuJoCo's ``mj_step`` can reach), at the default
-  10 ms control period (10 RK4 steps, mostly physics) and at 1 ms (``..._frame_skip_1``, mostly Python).
+  10 ms control period (10 RK4 steps, mostly physics) and at 1 ms (``..._frame_skip_1``, mostly Python);
+  the same with ``physics="analytic"`` (RK4 of the robot's own equations, :mod:`paa_mj.sim.rk4`):
+  ``vector_env_analytic_speedup`` (single / vector, both analytic) and
+  ``vector_env_analytic_vs_single_mujoco`` (single environments on MuJoCo, the default, / the analytic vector).
 
 Every ratio divides two costs measured in this run, on this machine.
 """
@@ -105,7 +108,8 @@ def _cpu_best_of(fn, repeats):
 
 
 def vector_env_costs(n_envs=64, steps=50, repeats=3, frame_skip=10):
-    """CPU time per environment step [s] of ``n_envs`` single environments and of one vector environment.
+    """CPU time per environment step [s] of ``n_envs`` single environments and of one vector environment, on
+    MuJoCo's physics and on the analytic physics (``physics="analytic"``: RK4 of the robot's own equations).
 
     Both run the kip task (no termination, so no reset inside the clock: every run starts from a reset outside
     it) with the same random actions, measured in turns (single, sync, vector, physics, single, ...) so that
@@ -118,7 +122,8 @@ def vector_env_costs(n_envs=64, steps=50, repeats=3, frame_skip=10):
     * ``vector``: :class:`~paa_mj.gym_vector.GymnastVectorEnv`, one thread;
     * ``physics``: the ``mj_step`` calls alone of the same steps (:func:`~paa_mj.gym_vector.physics_only` on the
       vector environment's MjData, same torques, same starts): what no environment can go below, so
-      ``single / physics`` bounds the speedup ``single / vector``.
+      ``single / physics`` bounds the speedup ``single / vector``;
+    * ``single_analytic``, ``vector_analytic``: ``single`` and ``vector`` with ``physics="analytic"``.
     """
     try:
         from gymnasium.vector import SyncVectorEnv
@@ -132,33 +137,39 @@ def vector_env_costs(n_envs=64, steps=50, repeats=3, frame_skip=10):
     singles = [GymnastEnv(**options) for _ in range(n_envs)]
     sync = SyncVectorEnv([lambda: GymnastEnv(**options) for _ in range(n_envs)])
     vector = GymnastVectorEnv(n_envs, **options)
+    singles_analytic = [GymnastEnv(physics="analytic", **options) for _ in range(n_envs)]
+    vector_analytic = GymnastVectorEnv(n_envs, physics="analytic", **options)
     actions = np.random.default_rng(0).uniform(-1, 1, (steps, n_envs, 2)).astype(np.float32)
     tau = np.ascontiguousarray(action_to_torque(actions, vector.torque_limits, vector.normalize_actions))
     robots = vector._robots
 
-    def reset_singles():
-        for i, env in enumerate(singles):
+    def reset_all(envs):
+        for i, env in enumerate(envs):
             env.reset(seed=i)
 
-    def run_singles():
+    def run_all(envs):
         for k in range(steps):
-            for env, action in zip(singles, actions[k]):
+            for env, action in zip(envs, actions[k]):
                 env.step(action)
 
     def run_sync():
         for k in range(steps):
             sync.step(actions[k])
 
-    def run_vector():
+    def run_vector(vector_env):
         for k in range(steps):
-            vector.step(actions[k])
+            vector_env.step(actions[k])
 
     def run_physics():
         with mujoco_log_off():
             physics_only(vector.model._address, robots.addresses, tau, robots.frame_skip)
 
-    cases = {"single": (reset_singles, run_singles), "sync": (lambda: sync.reset(seed=0), run_sync),
-             "vector": (lambda: vector.reset(seed=0), run_vector), "physics": (lambda: vector.reset(seed=0), run_physics)}
+    cases = {"single": (lambda: reset_all(singles), lambda: run_all(singles)),
+             "sync": (lambda: sync.reset(seed=0), run_sync),
+             "vector": (lambda: vector.reset(seed=0), lambda: run_vector(vector)),
+             "physics": (lambda: vector.reset(seed=0), run_physics),
+             "single_analytic": (lambda: reset_all(singles_analytic), lambda: run_all(singles_analytic)),
+             "vector_analytic": (lambda: vector_analytic.reset(seed=0), lambda: run_vector(vector_analytic))}
     best = dict.fromkeys(cases, np.inf)
     for turn in range(repeats + 1):  # the first turn loads the compiled kernels and warms the caches
         for name, (reset, run) in cases.items():
@@ -169,6 +180,7 @@ def vector_env_costs(n_envs=64, steps=50, repeats=3, frame_skip=10):
                 best[name] = min(best[name], time.process_time() - start)
     sync.close()
     vector.close()
+    vector_analytic.close()
     return {name: cost / (n_envs * steps) for name, cost in best.items()}
 
 
@@ -236,7 +248,11 @@ def run_bench(batch_size=1024, batch_seconds=2.0, repeats=3, basin_grid=16, basi
                        f"vector_env_speedup{suffix}": c["single"] / c["vector"],
                        f"vector_env_speedup_vs_sync{suffix}": c["sync"] / c["vector"],
                        f"vector_env_speedup_bound{suffix}": c["single"] / c["physics"],
-                       f"vector_env_physics_share{suffix}": c["physics"] / c["vector"]}
+                       f"vector_env_physics_share{suffix}": c["physics"] / c["vector"],
+                       f"single_env_analytic_step_us{suffix}": c["single_analytic"] * 1e6,
+                       f"vector_env_analytic_step_us{suffix}": c["vector_analytic"] * 1e6,
+                       f"vector_env_analytic_speedup{suffix}": c["single_analytic"] / c["vector_analytic"],
+                       f"vector_env_analytic_vs_single_mujoco{suffix}": c["single"] / c["vector_analytic"]}
     return {
         "robot": robot.name, **({"goal": goal} if goal != "folded" else {}),
         "machine_cores": os.cpu_count(),
@@ -283,6 +299,10 @@ def format_bench(r) -> str:
         f"      vector_env_speedup{s} = {r[f'vector_env_speedup{s}']:.2f}"
         f" (at most {r[f'vector_env_speedup_bound{s}']:.2f}, single / mj_step alone;"
         f" physics {100 * r[f'vector_env_physics_share{s}']:.0f}% of the vector step),"
-        f" vs SyncVectorEnv {r[f'vector_env_speedup_vs_sync{s}']:.2f}"
+        f" vs SyncVectorEnv {r[f'vector_env_speedup_vs_sync{s}']:.2f}\n"
+        f"      physics=\"analytic\": single {r[f'single_env_analytic_step_us{s}']:.2f}, vector"
+        f" {r[f'vector_env_analytic_step_us{s}']:.2f} us CPU/env-step; vector_env_analytic_speedup{s} ="
+        f" {r[f'vector_env_analytic_speedup{s}']:.2f}, against single environments on MuJoCo"
+        f" {r[f'vector_env_analytic_vs_single_mujoco{s}']:.2f}"
         for period, s in (("10 ms", ""), ("1 ms", "_frame_skip_1"))
     ] if "vector_env_speedup" in r else []))

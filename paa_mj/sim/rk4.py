@@ -1,0 +1,72 @@
+"""MuJoCo's RK4 step on the package's own equations of motion: the physics ``"analytic"`` of the Gymnasium
+environments (:class:`paa_mj.gym_env.GymnastEnv`, :class:`paa_mj.gym_vector.GymnastVectorEnv`).
+
+One step over dt [s] with the motors' torques tau held, x = [q, qd], f(x) = [qd, qdd(q, qd, tau)] of (1):
+k1 = f(x), k2 = f(x + dt/2 k1), k3 = f(x + dt/2 k2), k4 = f(x + dt k3), x += dt/6 (k1 + 2 k2 + 2 k3 + k4),
+the classic method MuJoCo's ``RK4`` integrator applies to its own model. The accelerations are the paper's
+closed form (1)-(7) for the gymnast's shape (:func:`paa_mj.model.equations.acceleration`) and the chain's
+(:func:`paa_mj.model.chain.acceleration_into`, damping and armature included) for every other robot: the same
+equations as MuJoCo's (``paa-mj check``), so a step agrees with ``mj_step`` to rounding, not bit for bit.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba.extending import register_jitable
+
+from ..model import chain
+from ..model import equations as eq
+
+#: Layout of the constants: the time step [s], 1.0 for the paper's closed form (else 0.0), the number of links,
+#: then the paper's c (9) or the chain's A (n x n), b, damping, armature.
+_DT, _PAPER, _LINKS, _FIRST = 0, 1, 2, 3
+@register_jitable
+def work_size(n):
+    """The scratch numbers :func:`rk4_step` needs for n links."""
+    return 5 * n + chain.ACCELERATION_WORK[0] * n * n + chain.ACCELERATION_WORK[1] * n
+
+
+def rk4_constants(analytic, dt) -> np.ndarray:
+    """The constants :func:`rk4_step` takes for an :class:`~paa_mj.model.dynamics.AnalyticModel` and a step dt [s]."""
+    head = [float(dt), 1.0 if analytic.paper_shape else 0.0, float(analytic.n_links)]
+    if analytic.paper_shape:
+        return np.concatenate([head, analytic.constants])
+    params = analytic.params
+    return np.concatenate([head, analytic.inertia_constants.ravel(), analytic.gravity_constants, params.damping,
+                           params.armature])
+
+
+@register_jitable
+def _acceleration_into(constants, q, qd, tau, out, work):
+    n = q.size
+    if constants[_PAPER] == 1.0:
+        c = constants[_FIRST:]
+        out[0], out[1], out[2] = eq.acceleration(c, q[0], q[1], q[2], qd[0], qd[1], qd[2], tau[0], tau[1])
+        return
+    A = constants[_FIRST:_FIRST + n * n].reshape((n, n))
+    start = _FIRST + n * n
+    chain.acceleration_into(A, constants[start:start + n], constants[start + n:start + 2 * n],
+                            constants[start + 2 * n:start + 3 * n], q, qd, tau, out, work)
+
+
+@register_jitable
+def rk4_step(constants, q, qd, tau, work):
+    """One RK4 step (module docstring) of ``q``, ``qd`` (n) in place, ``tau`` (n - 1) [N m] held; ``work`` is scratch
+    space of at least :func:`work_size` numbers (allocated once by the caller: the step allocates nothing)."""
+    n = q.size
+    dt = constants[_DT]
+    stage_q, stage_qd, qdd = work[:n], work[n:2 * n], work[2 * n:3 * n]
+    sum_qd, sum_qdd = work[3 * n:4 * n], work[4 * n:5 * n]
+    for i in range(n):
+        stage_q[i], stage_qd[i], sum_qd[i], sum_qdd[i] = q[i], qd[i], 0.0, 0.0
+    for stage in range(4):
+        _acceleration_into(constants, stage_q, stage_qd, tau, qdd, work[5 * n:])
+        weight = 1.0 if stage == 0 or stage == 3 else 2.0
+        h = 0.5 * dt if stage < 2 else (dt if stage == 2 else 0.0)
+        for i in range(n):
+            sum_qd[i] += weight * stage_qd[i]
+            sum_qdd[i] += weight * qdd[i]
+            stage_q[i] = q[i] + h * stage_qd[i]
+            stage_qd[i] = qd[i] + h * qdd[i]
+    for i in range(n):
+        q[i] += dt / 6.0 * sum_qd[i]
+        qd[i] += dt / 6.0 * sum_qdd[i]

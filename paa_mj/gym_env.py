@@ -536,6 +536,8 @@ class GymnastEnv(gym.Env):
         self.observation_space = spaces.Box(-high, high, dtype=np.float32)
         self._robots = _Robots(self.model, 1, frame_skip, 0 if self._legacy else _REWARD_KIND[task],
                                self.torque_limits, goal_angles(goal, links), physics, self.robot.analytic)
+        #: The MuJoCo state of the robot (physics "mujoco"; None with "analytic", whose state is in ``info``).
+        self.data = self._robots.datas[0] if physics == "mujoco" else None
         self._rows = np.zeros(1, np.intp)
         self._renderer = None
         self._steps = 0

@@ -10,11 +10,14 @@ controllers run as they are; a controller with internal state that is not a
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
+from numba import njit, types
 from scipy.integrate import DOP853, LSODA, RK45, Radau
 from tqdm import tqdm
 
-from ..control.base import mode_of, reset_controller, torque_of
+from ..control.base import KERNEL_TYPE, CompiledForm, mode_of, reset_controller, torque_of
 from ..control.combined import CombinedController
 from ..errors import PaaError, SimulationDiverged
 from ..limits import check_memory, check_steps, positive_finite
@@ -22,6 +25,7 @@ from ..model.robot import Robot
 from ..model.states import start_state
 from .engine import MAX_SPEED, NONFINITE_TORQUE, RUNAWAY, STATUS_TEXT
 from .batch import check_initial_state, check_robot, controllers_for, sample_interval, steps_for
+from .rk4 import acceleration_into, rk4_constants, work_size
 from .rollout import describe_controller, trajectory_quantities
 from .trajectory import Trajectory
 
@@ -34,6 +38,35 @@ MIN_EVENT_RESOLUTION = 1e-9
 
 class _NonFiniteTorque(Exception):
     """The controller returned NaN or inf where the integration starts."""
+
+
+_VECTOR = types.float64[::1]
+
+
+@njit(types.boolean(KERNEL_TYPE, _VECTOR, types.float64, _VECTOR, _VECTOR, _VECTOR, _VECTOR, _VECTOR, _VECTOR),
+      cache=True)
+def closed_loop_field(kernel, x, t, params, memory, limits, constants, out, work):
+    """f(t, x) = [qd, qdd(q, qd, tau(x, t))] of (1) closed by a compiled law into ``out`` (2n); returns whether the
+    torques were finite (non-finite ones are applied as they are, clipped ones at ``limits`` [N m] otherwise).
+
+    The law is the kernel of a stateless controller (:class:`~paa_mj.control.base.CompiledForm`), called with a
+    fresh copy of its initial ``memory`` at every evaluation, as its ``torque`` would be; the accelerations are
+    those of :func:`paa_mj.sim.rk4.acceleration_into` (``constants`` of :func:`~paa_mj.sim.rk4.rk4_constants`).
+    """
+    n = x.size // 2
+    tau = np.empty(n - 1)
+    kernel(x, t, params, memory.copy(), tau)
+    finite = True
+    for j in range(n - 1):
+        if not math.isfinite(tau[j]):
+            finite = False
+    if finite:
+        for j in range(n - 1):
+            tau[j] = min(max(tau[j], -limits[j]), limits[j])
+    for i in range(n):
+        out[i] = x[n + i]
+    acceleration_into(constants, x[:n], x[n:], tau, out[n:], work)
+    return finite
 
 
 def _phases(controller):
@@ -136,14 +169,32 @@ def simulate_analytic(robot: Robot, controller="vcl", x0=None, t_final: float = 
 
     nonfinite_at = []  # times where the controller returned NaN or inf (the integrator then shrinks its step)
 
+    constants = rk4_constants(am, 0.0)
+    work = np.empty(work_size(n))
+
     def field(law, start):
+        def nonfinite(t):
+            if t == start:  # at the start itself no step helps, and SciPy's step floor is 0 at t = 0
+                raise _NonFiniteTorque
+            nonfinite_at.append(t)
+
+        form = law.compiled() if callable(getattr(law, "compiled", None)) else None
+        if isinstance(form, CompiledForm):  # the law and (1) in one compiled call
+            kernel, params, memory = form.kernel, form.params, form.memory
+
+            def f(t, x):
+                out = np.empty(2 * n)
+                if not closed_loop_field(kernel, np.ascontiguousarray(x, dtype=float), float(t), params, memory,
+                                         limits, constants, out, work):
+                    nonfinite(t)
+                return out
+            return f
+
         def f(t, x):
             q, qd = x[:n], x[n:]
             tau = law_torque(law, q, qd, t)
             if not np.all(np.isfinite(tau)):
-                if t == start:  # at the start itself no step helps, and SciPy's step floor is 0 at t = 0
-                    raise _NonFiniteTorque
-                nonfinite_at.append(t)
+                nonfinite(t)
             return am.state_derivative(x, tau)
         return f
 

@@ -36,7 +36,9 @@ def rk4_constants(analytic, dt) -> np.ndarray:
 
 
 @register_jitable
-def _acceleration_into(constants, q, qd, tau, out, work):
+def acceleration_into(constants, q, qd, tau, out, work):
+    """qdd(q, qd, tau) of (1) into ``out`` (n) [rad/s^2], by the closed form or the chain's (module docstring);
+    ``work``: scratch space (:func:`work_size`)."""
     n = q.size
     if constants[_PAPER] == 1.0:
         c = constants[_FIRST:]
@@ -59,7 +61,7 @@ def rk4_step(constants, q, qd, tau, work):
     for i in range(n):
         stage_q[i], stage_qd[i], sum_qd[i], sum_qdd[i] = q[i], qd[i], 0.0, 0.0
     for stage in range(4):
-        _acceleration_into(constants, stage_q, stage_qd, tau, qdd, work[5 * n:])
+        acceleration_into(constants, stage_q, stage_qd, tau, qdd, work[5 * n:])
         weight = 1.0 if stage == 0 or stage == 3 else 2.0
         h = 0.5 * dt if stage < 2 else (dt if stage == 2 else 0.0)
         for i in range(n):

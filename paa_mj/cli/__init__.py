@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import ctypes
+import functools
 import os
 import signal
 import sys
@@ -24,7 +25,9 @@ the paper's theory, its controllers and yours, rollouts, studies, figures, video
 Run 'paa-mj COMMAND --help' for the options of a command."""
 
 
+@functools.lru_cache(maxsize=1)
 def build_parser():
+    """The command line's parser, built once per process (argparse keeps nothing of a parse in it)."""
     from .. import __version__
     from . import peers, reproduce, simulate, studies, theory
 

@@ -108,7 +108,9 @@ def cmd_simulate(args):
         label = f"balanced at {goal}"
         print(f"  {label:<20} {summary['balanced']}")
         print(f"  E - E_r at the end   {summary['E_minus_Er_final']:.6g} J")
-        print(f"  V at the end         {summary['V_final']:.6g}")
+        V = summary["V_final"]
+        print("  V at the end         " + (f"{V:.6g}" if V is not None and V == V else
+                                         "- (V (34) is defined for the energy controllers (40), (12) only)"))
         peaks = summary["max_abs_tau"]
         label = "max " + ", ".join(f"|tau{i + 2}|" for i in range(len(peaks)))
         print(f"  {label:<20} {', '.join(f'{v:.2f}' for v in peaks)} N m")

@@ -23,8 +23,6 @@ from __future__ import annotations
 
 import numpy as np
 from numba.extending import register_jitable
-from scipy.integrate import solve_ivp
-from scipy.linalg import solve_continuous_are
 
 from ..errors import PaaError
 from ..model.dynamics import AnalyticModel
@@ -76,6 +74,9 @@ def tvlqr_kernel(x, t, params, memory, tau):
 def riccati_gains(am: AnalyticModel, times, x_ref, u_ref, Q=None, R=None, goal="folded"):
     """K(t) at ``times`` (n, nu, nx) of the LQR along the reference, S(T) from (67)'s Riccati equation at the goal
     (UDD for the gymnast); Q, R default to the paper's weights sized for the robot."""
+    from scipy.integrate import solve_ivp
+    from scipy.linalg import solve_continuous_are
+
     ca = casadi_module()
     f = dynamics_function(am)
     nx, nu = 2 * am.n_links, am.n_links - 1

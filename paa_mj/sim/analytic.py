@@ -14,7 +14,6 @@ import math
 
 import numpy as np
 from numba import njit, types
-from scipy.integrate import DOP853, LSODA, RK45, Radau
 from tqdm import tqdm
 
 from ..control.base import KERNEL_TYPE, CompiledForm, mode_of, reset_controller, torque_of
@@ -125,6 +124,8 @@ def simulate_analytic(robot: Robot, controller="vcl", x0=None, t_final: float = 
     goal : {"folded", "stretched"}
         The goal the controllers named here aim at and the run is judged against.
     """
+    from scipy.integrate import DOP853, LSODA, RK45, Radau  # here: SciPy's integrate and optimize load slowly
+
     integrators = {"DOP853": DOP853, "RK45": RK45, "Radau": Radau, "LSODA": LSODA}
     if method not in integrators:
         raise PaaError(f"unknown method {method!r}: use one of {', '.join(integrators)}")

@@ -16,7 +16,6 @@ module computes what stands behind such a number:
 from __future__ import annotations
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 from ..control.combined import CombinedController, ReadingCondition, RegionCondition
 from ..control.region import distance_from_udd
@@ -36,6 +35,8 @@ def exact_swing_up(robot: Robot, t_final=40.0, rtol=1e-10):
     controller = make_controller("vcl-only", robot)
     am = robot.analytic
     field = am.closed_loop(controller)
+
+    from scipy.integrate import solve_ivp
 
     return solve_ivp(field, (0.0, t_final), X0_HANGING, method="DOP853", rtol=rtol, atol=rtol, dense_output=True)
 
@@ -87,6 +88,8 @@ def lqr_balances_from(robot: Robot, state, seconds=15.0, rtol=1e-10):
     lqr = make_controller("lqr", robot)
     am = robot.analytic
     field = am.closed_loop(lqr)
+
+    from scipy.integrate import solve_ivp
 
     end = solve_ivp(field, (0.0, seconds), state, method="DOP853", rtol=rtol, atol=rtol).y[:, -1]
     return bool(distance_from_udd(end[:3], end[3:]) < 1e-3)

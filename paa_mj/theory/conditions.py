@@ -15,11 +15,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import optimize
 
 from ..model.dynamics import AnalyticModel
 from ..model.vcl import beta2bar
-from .maxima import Maximum, grid_maximum
+from .maxima import Maximum, bounded_minimum, grid_maximum
 
 TWO_PI = 2 * np.pi
 
@@ -170,10 +169,9 @@ def constraint_54(am: AnalyticModel, n=40001) -> Constraint54:
     f = f54(am, z) if np.all(denominator != 0) else None
     crosses = bool(np.any(np.sign(h[:-1]) * np.sign(h[1:]) < 0))
     i = int(np.argmin(np.abs(h)))
-    res = optimize.minimize_scalar(
-        lambda s: abs(gamma * beta2bar(am.b2, am.b3, s) - (eps * np.cos(s) + lam)) / scale,
-        bounds=(z[max(i - 1, 0)], z[min(i + 1, n - 1)]), method="bounded", options={"xatol": 1e-13})
-    z_close, h_close = (float(res.x), float(res.fun)) if res.fun < abs(h[i]) else (float(z[i]), float(abs(h[i])))
+    x_min, h_min = bounded_minimum(lambda s: abs(gamma * beta2bar(am.b2, am.b3, s) - (eps * np.cos(s) + lam)) / scale,
+                                   z[max(i - 1, 0)], z[min(i + 1, n - 1)], xatol=1e-13)
+    z_close, h_close = (float(x_min), float(h_min)) if h_min < abs(h[i]) else (float(z[i]), float(abs(h[i])))
     sign_change = bool(np.any(np.sign(denominator[:-1]) * np.sign(denominator[1:]) < 0))
     if f is None or sign_change:
         f_min, f_max = -np.inf, np.inf

@@ -391,3 +391,27 @@ def test_theory_says_when_the_lqr_weights_are_unstable_at_the_time_step(run):
         assert (report["lqr_sampled_radius"] > 1) == unstable
     text = run("theory", "--robot", "realaigym_acrobot", "--goal", "stretched").stdout
     assert "UNSTABLE: these weights do not balance at this time step" in text
+
+
+def test_the_balance_lqr_takes_weights(run):
+    """--lqr-weights q r: Q = q I, R = r I for (67). On RealAIGym's small acrobot the paper's weights, sampled at
+    1 ms, do not balance from 0.05 rad off the upright; theirs (q = 1, r = 0.11, the scale of their LQR) do."""
+    import json
+
+    from paa_mj.control.lqr import LQRController
+    from paa_mj.theory.linear import lqr_gain
+
+    common = ("simulate", "--robot", "realaigym_acrobot", "--goal", "stretched", "--controller", "lqr", "--x0", 0.05,
+              0, 0, 0, "--t-final", 5, "--json")
+    paper = run(*common)
+    theirs = run(*common, "--lqr-weights", 1, 0.11)
+    assert paper.returncode == 0 and theirs.returncode == 0, theirs.stderr
+    assert not json.loads(paper.stdout)["success"] and json.loads(theirs.stdout)["success"]
+    am = load_robot("realaigym_acrobot").analytic
+    K = LQRController.for_model(am, "stretched", (1.0, 0.11)).K
+    np.testing.assert_allclose(K, lqr_gain(am, np.eye(4), 0.11 * np.eye(1), goal="stretched"), rtol=1e-12)
+    assert not np.allclose(K, LQRController.for_model(am, "stretched").K)
+    bad = run("simulate", "--robot", "acrobot", "--goal", "stretched", "--controller", "spong", "--lqr-weights", 1, 1)
+    assert bad.returncode == 2 and "--lqr-weights applies to the controllers vcl, vc, lqr" in bad.stderr
+    with pytest.raises(PaaError, match="must be positive and finite"):
+        LQRController.for_model(am, "stretched", (1.0, float("nan")))

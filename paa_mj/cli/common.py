@@ -193,6 +193,9 @@ def controller_parent():
                    + ") or your own class in a Python file")
     p.add_argument("--kip-duration", type=positive, metavar="T",
                    help="duration of the trajopt-effort kip [s] (default 3); the first guess of trajopt's")
+    p.add_argument("--lqr-weights", type=positive, nargs=2, metavar=("Q", "R"),
+                   help="weights of the balance LQR (67): Q = Q I on the state error, R = R I on the torques"
+                        " (default the paper's 1e4 and 1; for vcl, vc, lqr, trajopt, trajopt-effort)")
     return p
 
 
@@ -234,7 +237,7 @@ def spec_from_args(args, robot, name=None):
     """
     from ..control.registry import GAIN_CONTROLLERS, ControllerSpec
 
-    from ..control.registry import OPTIONS
+    from ..control.catalog import LQR_CONTROLLERS, PLANNERS
 
     name = name or args.controller
     if getattr(args, "no_switch", False):
@@ -242,7 +245,7 @@ def spec_from_args(args, robot, name=None):
             raise PaaError(f"--no-switch means --controller vcl-only; it contradicts --controller {name}")
         name = "vcl-only"
     options = []
-    if name in OPTIONS:
+    if name in PLANNERS:
         if getattr(args, "torque_limit", None) is not None:
             options.append(("limit", (args.torque_limit,) * len(robot.torque_limits)))
         elif not all(math.isfinite(limit) for limit in robot.torque_limits):
@@ -254,7 +257,12 @@ def spec_from_args(args, robot, name=None):
         if getattr(args, "kip_duration", None) is not None:
             options.append(("duration", args.kip_duration))
     elif getattr(args, "kip_duration", None) is not None:
-        raise PaaError(f"--kip-duration applies to the controllers {', '.join(OPTIONS)}, not to {name}")
+        raise PaaError(f"--kip-duration applies to the controllers {', '.join(PLANNERS)}, not to {name}")
+    weights = getattr(args, "lqr_weights", None)
+    if weights is not None:
+        if name not in LQR_CONTROLLERS:
+            raise PaaError(f"--lqr-weights applies to the controllers {', '.join(LQR_CONTROLLERS)}, not to {name}")
+        options.append(("lqr_weights", tuple(weights)))
     given = {k: getattr(args, k, None) for k in ("kD", "kP", "kV")}
     goal = getattr(args, "goal", "folded")
     if all(v is None for v in given.values()):

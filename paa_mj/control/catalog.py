@@ -19,5 +19,12 @@ DESCRIPTIONS = {
 }
 #: Controllers that take the gains kD, kP, kV of (40) / (12).
 GAIN_CONTROLLERS = ("vcl", "vcl-only", "vc", "vc-only")
+#: Controllers that plan a kip, with options limit, duration and intervals.
+PLANNERS = ("trajopt", "trajopt-effort")
+#: Controllers that balance by the LQR (67), with the option lqr_weights = (q, r): Q = q I, R = r I (the paper's
+#: q = 1e4, r = 1 by default).
+LQR_CONTROLLERS = ("vcl", "vc", "lqr", "trajopt", "trajopt-effort")
 #: Controllers that take options, and which.
-OPTIONS = {"trajopt": ("limit", "duration", "intervals"), "trajopt-effort": ("limit", "duration", "intervals")}
+OPTIONS = {name: (("limit", "duration", "intervals") if name in PLANNERS else ())
+           + (("lqr_weights",) if name in LQR_CONTROLLERS else ())
+           for name in DESCRIPTIONS if name in PLANNERS or name in LQR_CONTROLLERS}

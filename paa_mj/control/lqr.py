@@ -45,6 +45,20 @@ def lqr_kernel(x, t, params, memory, tau):
     return 1
 
 
+def lqr_weights(n_links, weights=None):
+    """Q (2n x 2n) and R (n - 1 x n - 1) of (67) from ``weights`` = (q, r) > 0, finite (Q = q I, R = r I), or the
+    paper's (None: Q = 1e4 I, R = I); a one-line error otherwise."""
+    if weights is None:
+        return None, None
+    try:
+        q, r = (float(w) for w in weights)
+    except (TypeError, ValueError):
+        raise PaaError(f"the LQR weights are two numbers q, r (Q = q I, R = r I), got {weights!r}") from None
+    if not (np.isfinite(q) and np.isfinite(r) and q > 0 and r > 0):
+        raise PaaError(f"the LQR weights q, r must be positive and finite, got {q:g}, {r:g}")
+    return q * np.eye(2 * n_links), r * np.eye(n_links - 1)
+
+
 class LQRController(Controller):
     """LQR balance controller (67): tau = -K x, x the error from the goal.
 
@@ -67,8 +81,12 @@ class LQRController(Controller):
             raise PaaError(f"LQR gain must be a finite {n - 1} x {2 * n} matrix, got shape {self.K.shape}")
 
     @classmethod
-    def for_model(cls, model: AnalyticModel, goal="folded") -> "LQRController":
-        return cls(lqr_gain(model, goal=goal), goal_angles(goal, model.n_links))
+    def for_model(cls, model: AnalyticModel, goal="folded", weights=None) -> "LQRController":
+        """(67) at the goal; ``weights`` = (q, r) for Q = q I (2n), R = r I (n - 1), default the paper's (1e4, 1)."""
+        Q, R = lqr_weights(model.n_links, weights)
+        controller = cls(lqr_gain(model, Q, R, goal=goal), goal_angles(goal, model.n_links))
+        controller.weights = None if weights is None else tuple(float(w) for w in weights)
+        return controller
 
     def torque(self, q, qd, t=0.0):
         x = np.concatenate(np.broadcast_arrays(np.asarray(q, float), np.asarray(qd, float)), axis=-1)
@@ -80,4 +98,7 @@ class LQRController(Controller):
         return CompiledForm(lqr_kernel, np.concatenate([self.goal, self.K.reshape(-1)]), balance_gain=self.K)
 
     def describe(self) -> dict:
-        return {"controller": self.name}
+        out = {"controller": self.name}
+        if getattr(self, "weights", None) is not None:
+            out["lqr_weights"] = list(self.weights)
+        return out

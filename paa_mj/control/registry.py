@@ -78,31 +78,32 @@ def _kip_bound(robot, limit):
     return HEADROOM * limits
 
 
-def build_trajopt(robot, gains=None, check=True, limit=None, duration=None, intervals=INTERVALS, goal="folded"):
+def build_trajopt(robot, gains=None, check=True, limit=None, duration=None, intervals=INTERVALS, goal="folded",
+                  lqr_weights=None):
     """The minimum-time kip, tracked by TVLQR, then (67)."""
     kip = solve_kip(robot.analytic, _kip_bound(robot, limit), "min-time", duration=duration, intervals=intervals,
                     goal=goal)
-    return kip_controller(robot.analytic, kip, name="trajopt", goal=goal)
+    return kip_controller(robot.analytic, kip, name="trajopt", goal=goal, lqr_weights=lqr_weights)
 
 
 def build_trajopt_effort(robot, gains=None, check=True, limit=None, duration=EFFORT_DURATION, intervals=INTERVALS,
-                        goal="folded"):
+                        goal="folded", lqr_weights=None):
     """The kip of least effort over ``duration`` seconds, tracked by TVLQR, then (67)."""
     kip = solve_kip(robot.analytic, _kip_bound(robot, limit), "min-effort", duration=duration, intervals=intervals,
                     goal=goal)
-    return kip_controller(robot.analytic, kip, name="trajopt-effort", goal=goal)
+    return kip_controller(robot.analytic, kip, name="trajopt-effort", goal=goal, lqr_weights=lqr_weights)
 
 
-def _switched(robot, swing, goal, name):
-    """``swing`` until region (68) around the goal, then the LQR (67) at the goal."""
-    return CombinedController(swing, LQRController.for_model(robot.analytic, goal),
+def _switched(robot, swing, goal, name, lqr_weights=None):
+    """``swing`` until region (68) around the goal, then the LQR (67) at the goal (weights ``lqr_weights``)."""
+    return CombinedController(swing, LQRController.for_model(robot.analytic, goal, lqr_weights),
                               RegionCondition(goal_angles(goal, robot.params.n_links)), name=name)
 
 
-def build_vcl(robot, gains=None, check=True, goal="folded"):
+def build_vcl(robot, gains=None, check=True, goal="folded", lqr_weights=None):
     """The paper's controller: (40) + (67) switched by (68)."""
     return _switched(robot, EnergyVCLController(robot.analytic, **_gains(robot, gains), check=check, goal=goal),
-                     goal, "vcl")
+                     goal, "vcl", lqr_weights)
 
 
 def build_vcl_only(robot, gains=None, check=True, goal="folded"):
@@ -110,10 +111,10 @@ def build_vcl_only(robot, gains=None, check=True, goal="folded"):
     return EnergyVCLController(robot.analytic, **_gains(robot, gains), check=check, goal=goal)
 
 
-def build_vc(robot, gains=None, check=True, goal="folded"):
+def build_vc(robot, gains=None, check=True, goal="folded", lqr_weights=None):
     """The conventional candidate (12) + (67) switched by (68)."""
     return _switched(robot, ConventionalController(robot.analytic, **_gains(robot, gains), check=check, goal=goal),
-                     goal, "vc")
+                     goal, "vc", lqr_weights)
 
 
 def build_vc_only(robot, gains=None, check=True, goal="folded"):
@@ -121,9 +122,9 @@ def build_vc_only(robot, gains=None, check=True, goal="folded"):
     return ConventionalController(robot.analytic, **_gains(robot, gains), check=check, goal=goal)
 
 
-def build_lqr(robot, gains=None, check=True, goal="folded"):
+def build_lqr(robot, gains=None, check=True, goal="folded", lqr_weights=None):
     """The LQR (67) alone, from wherever the robot starts."""
-    return LQRController.for_model(robot.analytic, goal)
+    return LQRController.for_model(robot.analytic, goal, lqr_weights)
 
 
 def build_passive(robot, gains=None, check=True, goal="folded"):

@@ -188,7 +188,9 @@ def _cached_table(model, kip, times, table_dt, goal="folded"):
     return params
 
 
-def kip_controller(model: AnalyticModel, kip: Kip, name="trajopt", goal="folded") -> CombinedController:
-    """Track ``kip`` by TVLQR, then balance by the LQR (67) at the goal once it has ended (t >= T)."""
+def kip_controller(model: AnalyticModel, kip: Kip, name="trajopt", goal="folded", lqr_weights=None) -> CombinedController:
+    """Track ``kip`` by TVLQR, then balance by the LQR (67) at the goal once it has ended (t >= T); ``lqr_weights``
+    (q, r) weigh that LQR (default the paper's)."""
     tracking = TVLQRController(model, kip, goal=goal)
-    return CombinedController(tracking, LQRController.for_model(model, goal), TimeCondition(kip.duration), name=name)
+    return CombinedController(tracking, LQRController.for_model(model, goal, lqr_weights), TimeCondition(kip.duration),
+                              name=name)

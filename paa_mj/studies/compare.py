@@ -35,7 +35,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..control.registry import OPTIONS, ControllerSpec
+from ..control.catalog import PLANNERS
+from ..control.registry import ControllerSpec
 from ..errors import PaaError
 from ..provenance import text_sha256
 from ..progress import stage
@@ -53,7 +54,7 @@ METRICS = ("t_region", "t_balanced", "max_tau", "int_tau2", "work", "smoothness"
 
 
 def _spec(name, limit, goal="folded"):
-    options = (("limit", tuple(limit)),) if name in OPTIONS else ()
+    options = (("limit", tuple(limit)),) if name in PLANNERS else ()
     return ControllerSpec(name, options=options, goal=goal)
 
 
@@ -134,7 +135,7 @@ def compare(robot: Robot, controllers=DEFAULT_CONTROLLERS, torque_limit=None, tr
                        kip_peak_torques(robot, ControllerSpec("vcl", goal=goal), goal=goal), robot.torque_limits)
     for name in names:
         specs[name] = _spec(name, limit, goal)
-        if name in OPTIONS:
+        if name in PLANNERS:
             stage(f"compare: planning the {name} kip (collocation, IPOPT; cached after the first solve)", progress)
         specs[name].build(robot)  # gains, files and solves checked (one line) before any study runs
     sweeps = {factor: sweep_levels(factor, quick) for factor in SWEEPS}

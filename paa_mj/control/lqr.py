@@ -73,7 +73,10 @@ class LQRController(Controller):
     name = "lqr"
     mode = 1
 
-    def __init__(self, K, goal=Q_UDD):
+    def __init__(self, K, goal=Q_UDD, weights=None):
+        #: The (q, r) the gain was computed with (Q = q I, R = r I), recorded in the run's metadata; None: the
+        #: paper's, or a gain given as it is.
+        self.weights = None if weights is None else tuple(float(w) for w in weights)
         self.K = np.asarray(K, float)
         self.goal = np.array(goal, dtype=float).reshape(-1)
         n = self.goal.size
@@ -84,9 +87,7 @@ class LQRController(Controller):
     def for_model(cls, model: AnalyticModel, goal="folded", weights=None) -> "LQRController":
         """(67) at the goal; ``weights`` = (q, r) for Q = q I (2n), R = r I (n - 1), default the paper's (1e4, 1)."""
         Q, R = lqr_weights(model.n_links, weights)
-        controller = cls(lqr_gain(model, Q, R, goal=goal), goal_angles(goal, model.n_links))
-        controller.weights = None if weights is None else tuple(float(w) for w in weights)
-        return controller
+        return cls(lqr_gain(model, Q, R, goal=goal), goal_angles(goal, model.n_links), weights)
 
     def torque(self, q, qd, t=0.0):
         x = np.concatenate(np.broadcast_arrays(np.asarray(q, float), np.asarray(qd, float)), axis=-1)
@@ -99,6 +100,6 @@ class LQRController(Controller):
 
     def describe(self) -> dict:
         out = {"controller": self.name}
-        if getattr(self, "weights", None) is not None:
+        if self.weights is not None:
             out["lqr_weights"] = list(self.weights)
         return out

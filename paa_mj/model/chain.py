@@ -154,17 +154,25 @@ def solve_into(matrix, rhs, out):
     """Solve ``matrix`` X = ``rhs`` for a small square system, ``rhs`` and ``out`` of shape (n, k), by Gaussian
     elimination with partial pivoting. A singular matrix (an exact zero pivot) gives NaN, so that a controller
     that meets a singular point returns a non-finite torque, which the engine reports."""
-    n, k = rhs.shape
-    a = matrix.copy()
     x = rhs.copy()
+    if not _solve_in_place(matrix.copy(), x):
+        out[:, :] = np.nan
+        return
+    out[:, :] = x
+
+
+@njit(cache=True)
+def _solve_in_place(a, x):
+    """:func:`solve_into` on ``a`` (n, n) and ``x`` (n, k) themselves: ``x`` becomes the solution and ``a`` is
+    overwritten; False (``x`` left partly eliminated) where a pivot is exactly zero."""
+    n, k = x.shape
     for col in range(n):
         pivot = col
         for row in range(col + 1, n):
             if abs(a[row, col]) > abs(a[pivot, col]):
                 pivot = row
         if a[pivot, col] == 0.0:
-            out[:, :] = np.nan
-            return
+            return False
         if pivot != col:
             for j in range(n):
                 a[col, j], a[pivot, j] = a[pivot, j], a[col, j]
@@ -182,38 +190,30 @@ def solve_into(matrix, rhs, out):
             for c in range(row + 1, n):
                 total -= a[row, c] * x[c, j]
             x[row, j] = total / a[row, row]
-    out[:, :] = x
+    return True
 
 
 #: Scratch numbers :func:`acceleration_into` needs for n links: ACCELERATION_WORK[0] n^2 + ACCELERATION_WORK[1] n.
-ACCELERATION_WORK = (1, 3)
+ACCELERATION_WORK = (1, 4)
 
 
 @njit(cache=True)
 def acceleration_into(A, b, damping, armature, q, qd, tau, out, work):
     """qdd = M(q)^-1 (B tau - H - G - D qd) into ``out`` (n) [rad/s^2]; ``tau`` (n - 1) the motors' torques [N m];
-    ``work``: scratch space of n^2 + 3 n numbers (:data:`ACCELERATION_WORK`; nothing is allocated).
-
-    M is symmetric positive definite (a rigid chain, armature >= 0), so Gaussian elimination without pivoting
-    solves it."""
+    ``work``: scratch space of n^2 + 4 n numbers (:data:`ACCELERATION_WORK`; nothing is allocated). Solved as
+    :func:`solve_into` solves (NaN for a singular M, which a rigid chain never has)."""
     n = q.size
     mass = work[:n * n].reshape((n, n))
     phi, rate = work[n * n:n * n + n], work[n * n + n:n * n + 2 * n]
+    force = work[n * n + 2 * n:n * n + 3 * n].reshape((n, 1))
     _mass_matrix_with(A, armature, q, mass, phi)
     _bias_with(A, b, q, qd, out, phi, rate)
     for i in range(n):
-        out[i] = (tau[i - 1] if i > 0 else 0.0) - out[i] - damping[i] * qd[i]
-    for col in range(n):
-        for row in range(col + 1, n):
-            factor = mass[row, col] / mass[col, col]
-            for j in range(col, n):
-                mass[row, j] -= factor * mass[col, j]
-            out[row] -= factor * out[col]
-    for row in range(n - 1, -1, -1):
-        total = out[row]
-        for c in range(row + 1, n):
-            total -= mass[row, c] * out[c]
-        out[row] = total / mass[row, row]
+        force[i, 0] = (tau[i - 1] if i > 0 else 0.0) - out[i] - damping[i] * qd[i]
+    if not _solve_in_place(mass, force):
+        force[:, 0] = np.nan
+    for i in range(n):
+        out[i] = force[i, 0]
 
 
 # --- NumPy batches -----------------------------------------------------------------------------------------

@@ -61,6 +61,7 @@ def theory_report(am: AnalyticModel, kD, kP, kV, dt=None) -> TheoryReport:
     frozen_ok, db_min, db_max = frozen_acrobot_controllable(am)
     ctrb = udd_controllability(am)
     eig, poly = duu_eigenvalues(am, kD, kP, kV)
+    K = lqr_gain(am)
     conditions = {
         "E_r > 0": bool(am.E_r > 0),
         "(54) holds": c54.holds,
@@ -77,8 +78,8 @@ def theory_report(am: AnalyticModel, kD, kP, kV, dt=None) -> TheoryReport:
         constraint_54=asdict(c54), deltabar_min=db_min, deltabar_max=db_max,
         frozen_acrobot_ud_controllable=frozen_ok,
         udd_controllable=ctrb.controllable, udd_controllability=asdict(ctrb),
-        lqr_K=lqr_gain(am).tolist(), gains={"kD": kD, "kP": kP, "kV": kV},
-        lqr_sampled_radius=_sampled_radius(am, dt, "folded", ctrb.controllable), dt=dt,
+        lqr_K=K.tolist(), gains={"kD": kD, "kP": kP, "kV": kV},
+        lqr_sampled_radius=_sampled_radius(am, K, dt, "folded", ctrb.controllable), dt=dt,
         duu_eigenvalues=[[float(e.real), float(e.imag)] for e in eig],
         duu_charpoly=[float(c) for c in poly],
         duu_unstable=bool(np.max(eig.real) > 0),
@@ -86,10 +87,10 @@ def theory_report(am: AnalyticModel, kD, kP, kV, dt=None) -> TheoryReport:
     )
 
 
-def _sampled_radius(am, dt, goal, controllable):
+def _sampled_radius(am, K, dt, goal, controllable):
     if dt is None or not controllable:
         return None
-    return float(sampled_spectral_radius(am, lqr_gain(am, goal=goal), dt, goal=goal))
+    return float(sampled_spectral_radius(am, K, dt, goal=goal))
 
 
 def chain_theory_report(am: AnalyticModel, kD, kP, kV, goal="folded", dt=None) -> dict:
@@ -112,6 +113,7 @@ def chain_theory_report(am: AnalyticModel, kD, kP, kV, goal="folded", dt=None) -
     ctrb = udd_controllability(am, goal=goal)
     rank = int(np.linalg.matrix_rank(control.ctrb(A, B)))
     merged_ok, db_min, db_max = merged_acrobot_deltabar(am)
+    K = lqr_gain(am, goal=goal)
     why = (f"this robot has {am.n_links} links" if am.n_links != 3 else "this robot has damping or armature") \
         if not am.paper_shape else f"the goal is {goal}"
     return {
@@ -120,8 +122,8 @@ def chain_theory_report(am: AnalyticModel, kD, kP, kV, goal="folded", dt=None) -
         "kD_min": kd.value, "kD_min_at": list(kd.argmax), "kD_above_kD_min": bool(kD > kd.value),
         "goal_controllable": ctrb.controllable, "goal_controllability": asdict(ctrb), "ctrb_rank": rank,
         "state_dimension": int(A.shape[0]),
-        "lqr_K": lqr_gain(am, goal=goal).tolist(),
-        "lqr_sampled_radius": _sampled_radius(am, dt, goal, ctrb.controllable), "dt": dt,
+        "lqr_K": K.tolist(),
+        "lqr_sampled_radius": _sampled_radius(am, K, dt, goal, ctrb.controllable), "dt": dt,
         "merged_acrobot_ud_controllable": merged_ok, "deltabar_min": db_min, "deltabar_max": db_max,
         "gains": {"kD": kD, "kP": kP, "kV": kV},
         "theorem1": f"not covered: Theorem 1 and the bounds (54), (59), (60) are proved for the paper's 3-link gymnast"

@@ -9,7 +9,7 @@ workers=$(.venv/bin/python -c "import os; print(max(2, min(4, len(os.sched_getaf
 # The suite starts about a hundred paa-mj processes: with bytecode kept, each loads the package's
 # compiled modules instead of compiling its source again (some environments set this variable).
 unset PYTHONDONTWRITEBYTECODE
-# The numba kernels of a rollout compiled (or loaded from their cache) once, before the workers start:
-# each worker would otherwise compile the same kernels at the same time on a fresh clone.
-.venv/bin/python -m paa_mj.cli simulate --t-final 0.01 --json > /dev/null
+# Every numba kernel compiled (or loaded from its cache) once, before the workers start: on a fresh clone
+# each worker, and each process the tests start, would otherwise compile the same kernels again.
+.venv/bin/python -m paa_mj.cli compile
 exec .venv/bin/python -m pytest -q -n "$workers" "$@"

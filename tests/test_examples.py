@@ -17,22 +17,33 @@ def run(name, *args, cwd):
     return proc
 
 
-def test_headless_rollout(tmp_path):
+def _example(name):
+    """The example script ``name`` loaded as a module (its ``main(argv)`` runs it as the command line would)."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(Path(name).stem, EXAMPLES / name)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_headless_rollout(tmp_path, capsys):
+    """In this process (the scripts that start clusters or choose a GL backend run as scripts, below)."""
     from paa_mj.sim import Trajectory
 
-    proc = run("headless_rollout.py", "--t-final", "2", "--out", tmp_path / "run", cwd=tmp_path)
-    assert "success False" in proc.stdout  # two seconds are no kip
+    rollout = _example("headless_rollout.py").main
+    rollout(["--t-final", "2", "--out", str(tmp_path / "run")])
+    assert "success False" in capsys.readouterr().out  # two seconds are no kip
     traj = Trajectory.load(tmp_path / "run" / "trajectory.npz")
     assert traj.t[-1] == pytest.approx(2.0) and np.all(np.isfinite(traj.q))
     assert (tmp_path / "run" / "angles.png").stat().st_size > 1000
-    family = run("headless_rollout.py", "--robot", "acrobot", "--goal", "stretched", "--t-final", "20", "--out",
-                 tmp_path / "acrobot", cwd=tmp_path)
-    assert "success True" in family.stdout  # Drake's acrobot swung up and balanced upright
+    rollout(["--robot", "acrobot", "--goal", "stretched", "--t-final", "20", "--out", str(tmp_path / "acrobot")])
+    assert "success True" in capsys.readouterr().out  # Drake's acrobot swung up and balanced upright
     assert (tmp_path / "acrobot" / "trajectory.csv").read_text().startswith("t,q1,q2,d1,d2,tau2,E_minus_Er,V,mode")
 
 
 def test_own_controller_through_simulate_basin_and_compare(tmp_path):
-    run("own_controller.py", "--small", "--out", tmp_path / "own", cwd=tmp_path)
+    assert _example("own_controller.py").main(["--small", "--out", str(tmp_path / "own")]) == [0, 0, 0]
     basin = json.loads((tmp_path / "own" / "basin" / "summary.json").read_text())
     assert basin["controller"] == "pd_controller.py:HoldStraight" and basin["cells"] == 9
     board = json.loads((tmp_path / "own" / "compare" / "leaderboard.json").read_text())
@@ -62,12 +73,7 @@ def test_dask_basin_on_a_cluster_the_script_starts(tmp_path):
 # --- reinforcement learning on the balance task ----------------------------------------------------------------
 
 def _ppo_example():
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location("rl_balance_ppo", EXAMPLES / "rl_balance_ppo.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return _example("rl_balance_ppo.py")
 
 
 class _Zero:
@@ -161,15 +167,11 @@ def test_realaigyms_own_controller_on_our_model_scores_as_published():
     settings (RK4 at 2 ms, 10 s from hanging at rest): their metrics against their published v1 leaderboard row
     (real_ai_gym_leaderboard, data/acrobot/simulation/pflcol_lqr/scores.csv: swing-up 4.118 s, torque cost
     18.7946, velocity cost 280.813, RealAI score 0.727858; their energy 29.0121, ours 0.2 % above, unexplained)."""
-    import importlib.util
-
     from paa_mj.control.registry import make_controller
     from paa_mj.model import load_robot
     from paa_mj.sim.rollout import simulate_mujoco
 
-    spec = importlib.util.spec_from_file_location("realaigym_score", EXAMPLES / "realaigym" / "score.py")
-    score = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(score)
+    score = _example("realaigym/score.py")
     robot = load_robot("realaigym_acrobot_v1")
     controller = make_controller(f"{EXAMPLES / 'realaigym' / 'pfl_controller.py'}:PFLCollocatedLQR_C03", robot,
                                  goal="stretched")

@@ -22,6 +22,7 @@ the same table. After T the LQR (67) takes over (:func:`kip_controller`).
 from __future__ import annotations
 
 import numpy as np
+from numba import njit, types
 from numba.extending import register_jitable
 
 from ..errors import PaaError
@@ -71,6 +72,33 @@ def tvlqr_kernel(x, t, params, memory, tau):
     return 0
 
 
+_MATRICES = types.float64[:, :, ::1]
+
+
+@njit(types.float64[::1](types.float64, types.float64[::1], types.float64, _MATRICES, _MATRICES,
+                         types.float64[:, ::1], types.float64[:, ::1]), cache=True)
+def riccati_field(t, s_flat, step, A_all, B_all, R_inv, Q):
+    """dS/dt = -(A^T S + S A - S B R^-1 B^T S + Q) at time t [s], symmetrised, S flattened (nx * nx).
+
+    A(t), B(t) are interpolated linearly in the tables ``A_all`` (N, nx, nx) and ``B_all`` (N, nx, nu), whose
+    entries are ``step`` seconds apart (held at the ends).
+    """
+    n_table, nx = A_all.shape[0], A_all.shape[1]
+    s = min(max(t / step, 0.0), n_table - 1.000001)
+    i = int(s)
+    w = s - i
+    j = min(i + 1, n_table - 1)
+    A = (1.0 - w) * A_all[i] + w * A_all[j]
+    B = (1.0 - w) * B_all[i] + w * B_all[j]
+    S = s_flat.reshape((nx, nx))
+    dS = -(np.ascontiguousarray(A.T) @ S + S @ A - S @ B @ R_inv @ np.ascontiguousarray(B.T) @ S + Q)
+    out = np.empty(nx * nx)
+    for r in range(nx):
+        for c in range(nx):
+            out[r * nx + c] = 0.5 * (dS[r, c] + dS[c, r])
+    return out
+
+
 def riccati_gains(am: AnalyticModel, times, x_ref, u_ref, Q=None, R=None, goal="folded"):
     """K(t) at ``times`` (n, nu, nx) of the LQR along the reference, S(T) from (67)'s Riccati equation at the goal
     (UDD for the gymnast); Q, R default to the paper's weights sized for the robot."""
@@ -91,16 +119,12 @@ def riccati_gains(am: AnalyticModel, times, x_ref, u_ref, Q=None, R=None, goal="
     S_end = solve_continuous_are(A_goal, B_goal, Q, R)
     R_inv = np.linalg.inv(R)
 
-    def at(t, tables):
-        s = np.clip(t / (times[1] - times[0]), 0, len(times) - 1.000001)
-        i = int(s)
-        return (1 - (s - i)) * tables[i] + (s - i) * tables[min(i + 1, len(times) - 1)]
+    step = float(times[1] - times[0])
+    R_inv, Q = np.ascontiguousarray(R_inv, dtype=float), np.ascontiguousarray(Q, dtype=float)
+    A_all, B_all = np.ascontiguousarray(A_all, dtype=float), np.ascontiguousarray(B_all, dtype=float)
 
     def rhs(t, s_flat):
-        S = s_flat.reshape(nx, nx)
-        A, B = at(t, A_all), at(t, B_all)
-        dS = -(A.T @ S + S @ A - S @ B @ R_inv @ B.T @ S + Q)
-        return (0.5 * (dS + dS.T)).reshape(-1)
+        return riccati_field(float(t), np.ascontiguousarray(s_flat, dtype=float), step, A_all, B_all, R_inv, Q)
 
     sol = solve_ivp(rhs, (times[-1], times[0]), S_end.reshape(-1), method="LSODA", rtol=1e-8, atol=1e-6,
                     dense_output=True)

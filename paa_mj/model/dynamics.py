@@ -201,14 +201,6 @@ class AnalyticModel:
         n = self.n_links
         return np.concatenate([x[..., n:], self.acceleration(x[..., :n], x[..., n:], tau)], axis=-1)
 
-    def closed_loop(self, controller):
-        """The right-hand side f(t, x) of (1) closed by ``controller`` (torque(q, qd, t)), as ODE solvers take it."""
-        n = self.n_links
-
-        def field(t, x):
-            return self.state_derivative(x, controller.torque(x[..., :n], x[..., n:], t))
-        return field
-
     def linearize(self, q_eq):
         """Linearisation of (1) about the equilibrium (q_eq, 0).
 

@@ -68,6 +68,46 @@ def closed_loop_field(kernel, x, t, params, memory, limits, constants, out, work
     return finite
 
 
+def _clipped(tau, limits):
+    """``tau`` clipped at +-``limits``; a non-finite torque stays non-finite (a divergence, as in MuJoCo: clipping
+    would turn inf into the limit)."""
+    return np.clip(tau, -limits, limits) if np.all(np.isfinite(tau)) else tau
+
+
+def exact_field(robot: Robot, law, limits=None, on_nonfinite=None):
+    """The right-hand side f(t, x) = [qd, qdd(q, qd, tau(x, t))] of (1) closed by one ``law``, as SciPy's
+    integrators take it (x = [q, qd], shape (2n,)).
+
+    A law with a compiled form (:class:`~paa_mj.control.base.CompiledForm`) is evaluated with (1) in one
+    compiled call (:func:`closed_loop_field`); any other through its ``torque`` and
+    :meth:`~paa_mj.model.dynamics.AnalyticModel.state_derivative`. The torques are clipped at +-``limits`` [N m]
+    (default: the robot's actuator ranges); ``on_nonfinite(t)`` is called where the law returns NaN or inf.
+    """
+    n = robot.params.n_links
+    limits = robot.torque_limits if limits is None else np.asarray(limits, float)
+    form = law.compiled() if callable(getattr(law, "compiled", None)) else None
+    if isinstance(form, CompiledForm):
+        kernel, params, memory = form.kernel, form.params, form.memory
+        constants, work = rk4_constants(robot.analytic, 0.0), np.empty(work_size(n))
+
+        def f(t, x):
+            out = np.empty(2 * n)
+            if not closed_loop_field(kernel, np.ascontiguousarray(x, dtype=float), float(t), params, memory,
+                                     limits, constants, out, work) and on_nonfinite is not None:
+                on_nonfinite(t)
+            return out
+        return f
+
+    am = robot.analytic
+
+    def f(t, x):
+        tau = _clipped(torque_of(law, x[None, :n], x[None, n:], t)[0], limits)
+        if not np.all(np.isfinite(tau)) and on_nonfinite is not None:
+            on_nonfinite(t)
+        return am.state_derivative(x, tau)
+    return f
+
+
 def _phases(controller):
     """The laws of the run, in order, and the condition that ends the first (None: one law)."""
     if isinstance(controller, CombinedController):
@@ -159,19 +199,13 @@ def simulate_analytic(robot: Robot, controller="vcl", x0=None, t_final: float = 
     limits = np.minimum(requested, robot.torque_limits)
     if np.any(~(limits > 0)):
         raise PaaError("torque limits must be > 0")
-    am = robot.analytic
     reset_controller(controller)
     laws, condition = _phases(controller)
 
     def law_torque(law, q, qd, t):
-        tau = torque_of(law, q[None], qd[None], t)[0]
-        # a non-finite torque stays non-finite (a divergence, as in MuJoCo): clipping would turn inf into the limit
-        return np.clip(tau, -limits, limits) if np.all(np.isfinite(tau)) else tau
+        return _clipped(torque_of(law, q[None], qd[None], t)[0], limits)
 
     nonfinite_at = []  # times where the controller returned NaN or inf (the integrator then shrinks its step)
-
-    constants = rk4_constants(am, 0.0)
-    work = np.empty(work_size(n))
 
     def field(law, start):
         def nonfinite(t):
@@ -179,25 +213,7 @@ def simulate_analytic(robot: Robot, controller="vcl", x0=None, t_final: float = 
                 raise _NonFiniteTorque
             nonfinite_at.append(t)
 
-        form = law.compiled() if callable(getattr(law, "compiled", None)) else None
-        if isinstance(form, CompiledForm):  # the law and (1) in one compiled call
-            kernel, params, memory = form.kernel, form.params, form.memory
-
-            def f(t, x):
-                out = np.empty(2 * n)
-                if not closed_loop_field(kernel, np.ascontiguousarray(x, dtype=float), float(t), params, memory,
-                                         limits, constants, out, work):
-                    nonfinite(t)
-                return out
-            return f
-
-        def f(t, x):
-            q, qd = x[:n], x[n:]
-            tau = law_torque(law, q, qd, t)
-            if not np.all(np.isfinite(tau)):
-                nonfinite(t)
-            return am.state_derivative(x, tau)
-        return f
+        return exact_field(robot, law, limits, nonfinite)
 
     def stuck_on_nonfinite_torque(t):
         return bool(nonfinite_at) and nonfinite_at[-1] - t < 1e-6

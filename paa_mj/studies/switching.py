@@ -23,6 +23,7 @@ from ..control.registry import make_controller
 from ..model.robot import Robot
 from ..model.states import X0_HANGING
 from ..progress import progress as progress_bar
+from ..sim.analytic import exact_field
 from ..sim.batch import simulate_batch
 from ..sim.rollout import simulate_mujoco
 
@@ -32,12 +33,9 @@ CONDITIONS = {"region": RegionCondition, "reading": ReadingCondition}
 
 def exact_swing_up(robot: Robot, t_final=40.0, rtol=1e-10):
     """The dense solution of (1) closed by (40) alone from (65), as SciPy returns it."""
-    controller = make_controller("vcl-only", robot)
-    am = robot.analytic
-    field = am.closed_loop(controller)
-
     from scipy.integrate import solve_ivp
 
+    field = exact_field(robot, make_controller("vcl-only", robot))
     return solve_ivp(field, (0.0, t_final), X0_HANGING, method="DOP853", rtol=rtol, atol=rtol, dense_output=True)
 
 
@@ -85,12 +83,9 @@ def region_visits(solution, condition, count=5, resolution=RESOLUTION):
 
 def lqr_balances_from(robot: Robot, state, seconds=15.0, rtol=1e-10):
     """Whether the LQR (67), started at ``state``, brings the exact closed loop within 1e-3 of UDD."""
-    lqr = make_controller("lqr", robot)
-    am = robot.analytic
-    field = am.closed_loop(lqr)
-
     from scipy.integrate import solve_ivp
 
+    field = exact_field(robot, make_controller("lqr", robot))
     end = solve_ivp(field, (0.0, seconds), state, method="DOP853", rtol=rtol, atol=rtol).y[:, -1]
     return bool(distance_from_udd(end[:3], end[3:]) < 1e-3)
 

@@ -1,0 +1,140 @@
+"""Every compiled kernel of the package at once: ``paa-mj compile``.
+
+The package's numba kernels are compiled the first time a process needs them and kept in numba's cache on disk
+(a folder of the package's cache keyed by the digest of its code, :func:`paa_mj.provenance.key_numba_cache_by_code`),
+so a later process only loads them. Processes started together on a fresh install (the workers of a Dask
+cluster, pytest's workers, scripts run in parallel) each find the cache empty and each compile the same kernels,
+about 30 CPU-s apiece on a 2-core machine. :func:`compile_kernels` compiles all of them once, beforehand; when
+they are cached already it only loads them (about a second).
+
+A kernel is compiled for the argument types it is called with, so the only sure way to compile it as the
+package uses it is to call it as the package does: each stage below runs the package's own code on a tiny case
+(a rollout of 10 ms, a batch of two starts, one step of each Gymnasium environment). :func:`uncached_kernels`
+names the cached kernels whose cache index is still missing afterwards (a test holds it empty).
+"""
+from __future__ import annotations
+
+import importlib
+import pkgutil
+import time
+from pathlib import Path
+
+import numpy as np
+
+#: A rollout of this many seconds [s] compiles everything a longer one runs.
+_T = 0.01
+
+
+class _Damped:
+    """A user's Python controller as ``simulate`` loads one (``torque`` only): the engine's Python path."""
+
+    def __init__(self, robot):
+        self.gain = 0.1
+
+    def torque(self, q, qd, t):
+        return -self.gain * qd[..., 1:]
+
+
+def _rollouts():
+    from ..model import load_robot
+    from .batch import simulate_batch
+    from .rollout import simulate_mujoco
+
+    gymnast = load_robot("gymnast")
+    simulate_mujoco(gymnast, "vcl", t_final=_T)
+    simulate_mujoco(gymnast, _Damped(gymnast), t_final=_T)
+    simulate_batch(gymnast, np.zeros((2, 6)), t_final=_T)
+
+
+def _family():
+    from ..model import load_robot
+    from ..control.registry import ControllerSpec
+    from .rollout import simulate_mujoco
+
+    acrobot = load_robot("acrobot")
+    for name in ("vcl", "spong"):
+        simulate_mujoco(acrobot, name, t_final=_T, goal="stretched")
+    for name in ("vcl-only", "spong"):  # their laws over a batch of states, as ``torque`` evaluates them
+        ControllerSpec(name, goal="stretched").build(acrobot).torque(np.zeros((2, 2)), np.zeros((2, 2)))
+    model = acrobot.analytic
+    q = np.zeros((2, 2))
+    model.mass_matrix(q), model.bias(q, q), model.potential(q), model.gravity_jacobian(q)
+
+
+def _environments():
+    try:
+        from ..gym_env import GymnastEnv
+        from ..gym_vector import GymnastVectorEnv, physics_only
+    except ImportError:  # Gymnasium is an extra: without it there is nothing to compile here
+        return
+    from ..sim.mujoco_log import mujoco_log_off
+
+    for physics in ("mujoco", "analytic"):
+        for env in (GymnastEnv(physics=physics), GymnastVectorEnv(2, physics=physics)):
+            env.reset(seed=0)
+            env.step(np.zeros(env.action_space.shape, env.action_space.dtype))
+            if physics == "mujoco" and isinstance(env, GymnastVectorEnv):
+                with mujoco_log_off():
+                    physics_only(env.model._address, env._robots.addresses, np.zeros((1, 2, 2)), 1)
+            env.close()
+
+
+#: The stages of :func:`compile_kernels`: what each compiles, and the code that compiles it.
+STAGES = (("the rollouts: compiled and Python controllers, single and batched", _rollouts),
+          ("the family: the chain's dynamics and controllers", _family),
+          ("the Gymnasium environments, single and vector", _environments))
+
+
+def compile_kernels(progress=None) -> list[dict]:
+    """Compile (or load from the cache) every kernel of the package; the CPU-seconds of each stage.
+
+    The first stage includes the import of the package's compiled modules, whose controller kernels are compiled
+    on import (they have a fixed signature). ``progress``: called with each stage's description as it starts.
+    """
+    start = time.process_time()
+    from ..control import catalog  # noqa: F401  (imports every controller: their kernels compile on import)
+
+    stages = []
+    for description, stage in STAGES:
+        if progress is not None:
+            progress(description)
+        stage()
+        now = time.process_time()
+        stages.append({"stage": description, "cpu_s": now - start})
+        start = now
+    return stages
+
+
+def cached_kernels() -> dict:
+    """Every numba kernel of the package cached on disk, by its qualified name (the package's modules imported)."""
+    from numba.core.caching import FunctionCache
+    from numba.core.registry import CPUDispatcher
+
+    import paa_mj
+
+    kernels = {}
+    for info in pkgutil.walk_packages(paa_mj.__path__, "paa_mj."):
+        if info.name.startswith("paa_mj.cli"):
+            continue
+        try:
+            module = importlib.import_module(info.name)
+        except ImportError:  # a module of an extra that is not installed
+            continue
+        for name, value in vars(module).items():
+            if (isinstance(value, CPUDispatcher) and value.__module__ == module.__name__
+                    and isinstance(value._cache, FunctionCache)):
+                kernels[f"{module.__name__}.{name}"] = value
+    return kernels
+
+
+def uncached_kernels() -> list[str]:
+    """The cached kernels (:func:`cached_kernels`) with no index in numba's cache folder."""
+    return sorted(name for name, kernel in cached_kernels().items()
+                  if not Path(kernel._cache._cache_file._index_path).exists())
+
+
+def cache_folder() -> str:
+    """Where numba keeps the package's compiled kernels."""
+    from numba.core import config
+
+    return str(config.CACHE_DIR or "beside the sources (__pycache__)")

@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from numba import njit, types
+from numba.experimental.function_type import WrapperAddressProtocol, _get_wrapper_address
 
 from ..errors import PaaError
 
@@ -38,6 +39,25 @@ KERNEL_TYPE = types.FunctionType(KERNEL_SIG)
 def kernel(function):
     """Compile ``function`` as a controller or condition kernel (:data:`KERNEL_SIG`), cached on disk."""
     return njit(KERNEL_SIG, cache=True)(function)
+
+
+class KernelAddress(WrapperAddressProtocol):
+    """A compiled kernel passed to compiled code by its machine address, looked up once.
+
+    numba looks up the address of a kernel passed as a first-class function (:data:`KERNEL_TYPE`) at every call
+    from Python, some 40 us; code that calls a compiled function with the same kernel many times over (an ODE
+    right-hand side, called by SciPy at every stage) passes this instead. The kernel is kept alive with it.
+    """
+
+    def __init__(self, kernel):
+        self.kernel = kernel
+        self._address = _get_wrapper_address(kernel, KERNEL_SIG)
+
+    def __wrapper_address__(self):
+        return self._address
+
+    def signature(self):
+        return KERNEL_SIG
 
 
 @dataclass(frozen=True, eq=False)

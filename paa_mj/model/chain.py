@@ -155,10 +155,10 @@ def solve_into(matrix, rhs, out):
     elimination with partial pivoting. A singular matrix (an exact zero pivot) gives NaN, so that a controller
     that meets a singular point returns a non-finite torque, which the engine reports."""
     x = rhs.copy()
-    if not _solve_in_place(matrix.copy(), x):
-        out[:, :] = np.nan
-        return
-    out[:, :] = x
+    solved = _solve_in_place(matrix.copy(), x)
+    for i in range(x.shape[0]):  # element by element: an array assignment compiles numba's shape checks, seconds
+        for j in range(x.shape[1]):
+            out[i, j] = x[i, j] if solved else np.nan
 
 
 @njit(cache=True)

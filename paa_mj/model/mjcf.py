@@ -22,6 +22,8 @@ which every rollout then applies.
 """
 from __future__ import annotations
 
+import copy
+import functools
 import re
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -310,19 +312,26 @@ def flatten_mjcf(text: str, folder: Path, source: str) -> str:
 
 
 def compile_mjcf(xml: str, source: str = "<string>") -> mujoco.MjModel:
-    """Compile MJCF text (one-line error when MuJoCo refuses it).
+    """Compile MJCF text (one-line error when MuJoCo refuses it); a new model each call.
 
     MuJoCo's log is off meanwhile: its compiler warns of a NaN in the text (among others) on the
     console and in ``MUJOCO_LOG.TXT`` in the current folder, which loading a robot must not leave
-    behind; what the compiler refuses comes back as the error.
+    behind; what the compiler refuses comes back as the error. The same text is compiled once per process
+    (some milliseconds each time: studies load the same robots again and again); each caller gets its own
+    copy of the compiled model, which it may change.
     """
-    from ..sim.mujoco_log import mujoco_log_off  # here: paa_mj.sim imports this module
-
     try:
-        with mujoco_log_off():
-            return mujoco.MjModel.from_xml_string(xml)
+        return copy.copy(_compiled(xml))
     except ValueError as err:
         raise PaaError(f"malformed MJCF in {source}: {one_line(err)}") from None
+
+
+@functools.lru_cache(maxsize=64)
+def _compiled(xml: str) -> mujoco.MjModel:
+    from ..sim.mujoco_log import mujoco_log_off  # here: paa_mj.sim imports this module
+
+    with mujoco_log_off():
+        return mujoco.MjModel.from_xml_string(xml)
 
 
 # --- reading the compiled model back ---------------------------------------------------

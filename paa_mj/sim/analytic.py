@@ -16,7 +16,7 @@ import numpy as np
 from numba import njit, types
 from tqdm import tqdm
 
-from ..control.base import KERNEL_TYPE, CompiledForm, mode_of, reset_controller, torque_of
+from ..control.base import KERNEL_TYPE, CompiledForm, KernelAddress, mode_of, reset_controller, torque_of
 from ..control.combined import CombinedController
 from ..errors import PaaError, SimulationDiverged
 from ..limits import check_memory, check_steps, positive_finite
@@ -87,7 +87,7 @@ def exact_field(robot: Robot, law, limits=None, on_nonfinite=None):
     limits = robot.torque_limits if limits is None else np.asarray(limits, float)
     form = law.compiled() if callable(getattr(law, "compiled", None)) else None
     if isinstance(form, CompiledForm):
-        kernel, params, memory = form.kernel, form.params, form.memory
+        kernel, params, memory = KernelAddress(form.kernel), form.params, form.memory
         constants, work = rk4_constants(robot.analytic, 0.0), np.empty(work_size(n))
 
         def f(t, x):

@@ -307,7 +307,8 @@ def start_rollout(r, model_ptr, data_ptr, qpos, qvel, x0, istate, fstate, memory
     _, _, f_last, _ = fstate_layout(n)
     for i in range(2 * n):
         fstate[r, f_last + i] = x0[r, i]
-    memory[r, :] = memory0
+    for i in range(memory0.size):  # element by element: an array assignment compiles numba's shape checks, seconds
+        memory[r, i] = memory0[i]
     delay_line[r, :, :] = 0.0
 
 

@@ -29,17 +29,28 @@ if ! "$python" -c 'import sys; sys.exit(sys.version_info < (3, 10))'; then
   echo "setup: Python >= 3.10 is needed, $python is $("$python" --version 2>&1)" >&2
   exit 1
 fi
+quiet() {  # the command's own exit status; pip's warnings about local package folders this machine lacks dropped
+  "$@" 2>&1 | { grep -v '^WARNING: Location' || true; }
+  return "${PIPESTATUS[0]}"
+}
 if [ ! -x .venv/bin/python ]; then
   echo "setup: creating .venv"
-  "$python" -m venv .venv
+  # the newest pip and uv put in by the system's pip (a venv's own pip bootstrap costs more than both), else
+  # the venv's own pip, brought up to date
+  if ! { "$python" -m pip --version >/dev/null 2>&1 && "$python" -m venv --without-pip .venv \
+         && quiet "$python" -m pip --python .venv/bin/python install -q --disable-pip-version-check --upgrade pip uv; }
+  then
+    rm -rf .venv
+    "$python" -m venv .venv
+    quiet .venv/bin/python -m pip install -q --disable-pip-version-check --upgrade pip || true
+  fi
 fi
-.venv/bin/python -m pip install -q --disable-pip-version-check --upgrade pip 2>&1 | grep -v '^WARNING: Location' || true
 # The package and its extras: by uv where it can be had (the same packages as pip resolves, installed in about
 # a third of pip's CPU time), else by pip. Neither compiles every module of every package at install time:
 # Python compiles the modules a run imports when it imports them, which costs less than compiling them all.
 # Drake (extra "peers", for paa-mj peers and its tests) comes in the same install where a wheel exists
 # (Linux x86_64, macOS); elsewhere the install is done again without it, and those tests are skipped.
-if [ -x .venv/bin/uv ] || .venv/bin/python -m pip install -q --disable-pip-version-check uv >/dev/null 2>&1; then
+if [ -x .venv/bin/uv ] || quiet .venv/bin/python -m pip install -q --disable-pip-version-check uv; then
   installer=uv
 else
   installer=pip
@@ -48,9 +59,7 @@ install() {
   if [ "$installer" = uv ] && .venv/bin/uv pip install --python .venv/bin/python -q -e ".[$1]"; then
     return 0
   fi
-  .venv/bin/python -m pip install -q --disable-pip-version-check --no-compile -e ".[$1]" 2>&1 \
-    | grep -v '^WARNING: Location'
-  return "${PIPESTATUS[0]}"
+  quiet .venv/bin/python -m pip install -q --disable-pip-version-check --no-compile -e ".[$1]"
 }
 if ! install "dev,peers"; then
   echo "setup: Drake could not be installed; the tests of paa-mj peers will be skipped" >&2

@@ -50,16 +50,18 @@ def test_own_controller_through_simulate_basin_and_compare(tmp_path):
     assert set(board["controllers"]) == {"vcl", f"{EXAMPLES / 'pd_controller.py'}:HoldStraight"}
 
 
-@pytest.mark.parametrize("gl, robot, goal", [("egl", "gymnast", "folded"), ("osmesa", "acrobot", "stretched")])
-def test_offscreen_video(tmp_path, gl, robot, goal):
+# each backend writes the format that tests/test_video.py does not write with it
+@pytest.mark.parametrize("gl, robot, goal, name", [("egl", "gymnast", "folded", "kip.gif"),
+                                                   ("osmesa", "acrobot", "stretched", "kip.mp4")])
+def test_offscreen_video(tmp_path, gl, robot, goal, name):
     from paa_mj.outputs.gl import probe
 
     why = probe(gl)
     if why is not None:
         pytest.skip(f"{gl} is not available here: {why}")
     out = run("offscreen_video.py", "--gl", gl, "--robot", robot, "--goal", goal, "--t-final", "0.5", "--fps", "10",
-              "--width", "64", "--height", "48", "--out", tmp_path / "kip.gif", cwd=tmp_path)
-    assert (tmp_path / "kip.gif").stat().st_size > 100 and f"{robot}'s swing-up to the {goal} goal" in out.stdout
+              "--width", "64", "--height", "48", "--out", tmp_path / name, cwd=tmp_path)
+    assert (tmp_path / name).stat().st_size > 100 and f"{robot}'s swing-up to the {goal} goal" in out.stdout
 
 
 def test_dask_basin_on_a_cluster_the_script_starts(tmp_path):

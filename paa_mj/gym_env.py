@@ -228,8 +228,9 @@ def observation(q, qd):
     q, qd = np.asarray(q, dtype=float), np.asarray(qd, dtype=float)
     n = q.shape[-1]
     shape = np.broadcast_shapes(q.shape[:-1], qd.shape[:-1])
-    q = np.ascontiguousarray(np.broadcast_to(q, shape + (n,)).reshape(-1, n))
-    qd = np.ascontiguousarray(np.broadcast_to(qd, shape + (n,)).reshape(-1, n))
+    # writable C arrays, copies where broadcast (read-only): one compiled version of the map, not one per kind
+    q = np.require(np.broadcast_to(q, shape + (n,)).reshape(-1, n), requirements=("C", "W"))
+    qd = np.require(np.broadcast_to(qd, shape + (n,)).reshape(-1, n), requirements=("C", "W"))
     out = np.empty((len(q), 3 * n), np.float32)
     _observe_rows(q, qd, out)
     return out.reshape(shape + (3 * n,))

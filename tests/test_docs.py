@@ -71,11 +71,12 @@ def test_a_wheel_builds_without_deprecation_and_runs_from_elsewhere(tmp_path):
     version = subprocess.run([sys.executable, "-m", "paa_mj.cli", "--version"], capture_output=True, text=True,
                              cwd=elsewhere, env=env, timeout=300)
     assert version.returncode == 0 and version.stdout.strip() == f"paa-mj {__version__}"
-    # check loads the installed robot files and MuJoCo; it compiles no kernels (a fresh copy would, ~10 CPU-s)
+    # check loads the installed robot files and MuJoCo; for the gymnast (the paper's closed forms) it compiles no
+    # kernels (a fresh copy of the package compiles its own: the chain's would cost 2 CPU-s, all of them 35)
     check = subprocess.run([sys.executable, "-c", "import paa_mj, sys; print(paa_mj.__file__);"
-                            " from paa_mj.cli import main; sys.exit(main(['check', '--robot', 'acrobot',"
+                            " from paa_mj.cli import main; sys.exit(main(['check', '--robot', 'gymnast',"
                             " '--samples', '10']))"], capture_output=True, text=True, cwd=elsewhere, env=env,
                            timeout=300)
     assert check.returncode == 0, check.stderr[-2000:]
     assert check.stdout.splitlines()[0].startswith(str(target))  # the installed copy, not the checkout
-    assert "robot acrobot" in check.stdout and float(check.stdout.split("max_rel_err_qacc")[1].split()[0]) < 1e-9
+    assert "robot gymnast" in check.stdout and float(check.stdout.split("max_rel_err_qacc")[1].split()[0]) < 1e-9

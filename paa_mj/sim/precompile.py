@@ -63,7 +63,7 @@ def _family():
 
 def _environments():
     try:
-        from ..gym_env import GymnastEnv
+        from ..gym_env import GymnastEnv, observation
         from ..gym_vector import GymnastVectorEnv, physics_only
     except ImportError:  # Gymnasium is an extra: without it there is nothing to compile here
         return
@@ -72,11 +72,13 @@ def _environments():
     for physics in ("mujoco", "analytic"):
         for env in (GymnastEnv(physics=physics), GymnastVectorEnv(2, physics=physics)):
             env.reset(seed=0)
-            env.step(np.zeros(env.action_space.shape, env.action_space.dtype))
+            for dtype in (env.action_space.dtype, np.float64):  # the space's float32, and what NumPy makes
+                env.step(np.zeros(env.action_space.shape, dtype))
             if physics == "mujoco" and isinstance(env, GymnastVectorEnv):
                 with mujoco_log_off():
                     physics_only(env.model._address, env._robots.addresses, np.zeros((1, 2, 2)), 1)
             env.close()
+    observation(np.zeros(3), np.zeros((2, 3)))  # the observation map of any states, broadcast
 
 
 #: The stages of :func:`compile_kernels`: what each compiles, and the code that compiles it.

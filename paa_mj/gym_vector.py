@@ -252,14 +252,14 @@ class GymnastVectorEnv(VectorEnv):
         return action_to_torque(actions, self.torque_limits, self.normalize_actions)
 
     def _actions(self, actions):
-        """``actions`` as a C-contiguous float32 or float64 array (N, 2) of finite numbers, else the ValueError of
-        :meth:`_torques`. The common case, such an array already, costs no copy and no NumPy pass."""
+        """``actions`` as a C-contiguous float64 array (N, 2) of finite numbers, else the ValueError of
+        :meth:`_torques`. float32 actions (the space's) are widened exactly; one compiled step serves both."""
         if not (type(actions) is np.ndarray and actions.dtype in (np.float32, np.float64)
                 and actions.shape == (self.num_envs, self._links - 1)):
             given, actions = actions, _real_array(actions)
             if actions is None or actions.shape != (self.num_envs, self._links - 1):
                 self._torques(given)  # raises
-        actions = np.ascontiguousarray(actions)
+        actions = np.ascontiguousarray(actions, dtype=np.float64)
         if _first_bad_action(actions) >= 0:
             self._torques(actions)  # raises, naming the rows
         return actions

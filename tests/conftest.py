@@ -41,6 +41,17 @@ def pytest_xdist_make_scheduler(config, log):
     return SharedFixturesTogether(config, log)
 
 
+@pytest.fixture(scope="session", autouse=True)
+def figures_at_test_resolution():
+    """Figures drawn in the tests' own processes at 100 dpi instead of 200, a quarter of the pixels: the tests
+    check each figure's files and content, not its pixel density (commands run as subprocesses keep 200)."""
+    from paa_mj.outputs import plots
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(plots, "DPI", 100)
+        yield
+
+
 @pytest.fixture(scope="session")
 def gymnast():
     return load_robot("gymnast")

@@ -21,12 +21,11 @@ SMALL = {"sensitivity_runs": 4, "reading_runs": 2, "reading_sizes": (1e-9,), "re
 
 @pytest.fixture(scope="module")
 def reproduction(tmp_path_factory):
-    from paa_mj.outputs import plots, reproduce
+    from paa_mj.outputs import reproduce
 
     out = tmp_path_factory.mktemp("reproduction")
     with pytest.MonkeyPatch.context() as patch:
         patch.setitem(reproduce.SIZES, "quick", SMALL)
-        patch.setattr(plots, "DPI", 100)  # half the pixels' side: the figures' content is what is checked here
         assert main(["reproduce", "--out", str(out), "--quick", "--no-video"]) == 0
     return out
 

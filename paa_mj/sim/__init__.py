@@ -4,7 +4,8 @@
 - :mod:`~paa_mj.sim.batch`: :func:`simulate_batch`, many rollouts with per-rollout plants and disturbances;
 - :mod:`~paa_mj.sim.rollout`: :func:`simulate_mujoco`, one rollout recorded as a :class:`Trajectory`;
 - :mod:`~paa_mj.sim.analytic`: :func:`simulate_analytic`, (1) integrated by ``solve_ivp``;
-- :mod:`~paa_mj.sim.trajectory`: the record and its files.
+- :mod:`~paa_mj.sim.trajectory`: the record and its files;
+- :mod:`~paa_mj.sim.precompile`: every compiled kernel of the package at once (``paa-mj compile``).
 """
 from ..lazy import lazy_exports
 

@@ -225,8 +225,8 @@ def test_compile_leaves_no_kernel_to_compile_later(run):
     assert proc.returncode == 0, proc.stderr
     report = json.loads(proc.stdout)
     assert report["uncached"] == [] and len(report["stages"]) == 3
-    assert len(cached_kernels()) >= 50 and report["cache"] in str(next(iter(cached_kernels().values()))._cache
-                                                                   ._cache_path)
+    kernels = cached_kernels()
+    assert len(kernels) >= 50 and report["cache"] in str(next(iter(kernels.values()))._cache._cache_path)
 
 
 def test_robustness_cli(capsys, tmp_path):

@@ -273,6 +273,6 @@ def register(sub, parser_class):
                        description="Compile (or load from the cache) every compiled kernel of the package, once:"
                                    " a fresh install compiles each kernel the first time a process needs it, so"
                                    " processes started together (Dask or pytest workers) would each compile the"
-                                   " same ones. About 40 CPU-s the first time, a second when cached.")
+                                   " same ones. About 35 CPU-s the first time, a second when cached.")
     p.add_argument("--json", action="store_true", help="one JSON object on stdout")
     p.set_defaults(func=cmd_compile)

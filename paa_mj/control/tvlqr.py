@@ -113,15 +113,13 @@ def riccati_gains(am: AnalyticModel, times, x_ref, u_ref, Q=None, R=None, goal="
     x, u = ca.SX.sym("x", nx), ca.SX.sym("u", nu)
     jac = ca.Function("AB", [x, u], [ca.jacobian(f(x, u), x), ca.jacobian(f(x, u), u)])
     pairs = [jac(x_ref[i], u_ref[i]) for i in range(len(times))]
-    A_all = np.array([np.array(a) for a, _ in pairs])
-    B_all = np.array([np.array(b) for _, b in pairs])
+    A_all = np.array([np.array(a) for a, _ in pairs], dtype=float)
+    B_all = np.array([np.array(b) for _, b in pairs], dtype=float)
     A_goal, B_goal = goal_linearization(am, goal)
     S_end = solve_continuous_are(A_goal, B_goal, Q, R)
-    R_inv = np.linalg.inv(R)
-
+    R_inv = np.ascontiguousarray(np.linalg.inv(R), dtype=float)
+    Q = np.ascontiguousarray(Q, dtype=float)
     step = float(times[1] - times[0])
-    R_inv, Q = np.ascontiguousarray(R_inv, dtype=float), np.ascontiguousarray(Q, dtype=float)
-    A_all, B_all = np.ascontiguousarray(A_all, dtype=float), np.ascontiguousarray(B_all, dtype=float)
 
     def rhs(t, s_flat):
         return riccati_field(float(t), np.ascontiguousarray(s_flat, dtype=float), step, A_all, B_all, R_inv, Q)

@@ -67,7 +67,7 @@ def _environments():
         from ..gym_vector import GymnastVectorEnv, physics_only
     except ImportError:  # Gymnasium is an extra: without it there is nothing to compile here
         return
-    from ..sim.mujoco_log import mujoco_log_off
+    from .mujoco_log import mujoco_log_off
 
     for physics in ("mujoco", "analytic"):
         for env in (GymnastEnv(physics=physics), GymnastVectorEnv(2, physics=physics)):

@@ -296,7 +296,7 @@ def format_bench(r) -> str:
         f" {r['python_pd_hand_loop_us']:.2f} us CPU/step  python_step_vs_hand_loop = {r['python_step_vs_hand_loop']:.2f}",
         f"  batch of {r['batch_size']}, all cores         {r['batch_state_step_us']:8.2f} us/state-step  batch_step_ratio = {r['batch_step_ratio']:.2f}",
         f"  basin {r['basin_grid']} x {r['basin_grid']}, {r['basin_t_final']:g} s             {r['basin_seconds']:8.2f} s              basin_effective_ratio = {r['basin_effective_ratio']:.2f}",
-        f"  {r.get('rollout_t_final', 30.0):g} s Table 1 run: solve_ivp {r['analytic_30s_seconds']:.2f} s, MuJoCo {r['mujoco_30s_seconds']:.2f} s"
+        f"  {r['rollout_t_final']:g} s Table 1 run: solve_ivp {r['analytic_30s_seconds']:.2f} s, MuJoCo {r['mujoco_30s_seconds']:.2f} s"
         f" (ratio {r['analytic_to_mujoco_ratio']:.1f})",
     ] + ([
         f"  Gymnasium, {r['vector_env_num_envs']} robots, {period} step: single {r[f'single_env_step_us{s}']:.2f},"

@@ -35,7 +35,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, types
 from numba.extending import register_jitable
 
 from ..model import chain
@@ -138,8 +138,9 @@ def _chain_unpack(params):
     at = _C_A
     A = params[at:at + n * n].copy().reshape((n, n))
     at += n * n
-    return n, A, params[at:at + n], params[at + n:at + 2 * n], params[at + 2 * n:at + 3 * n], \
-        params[at + 3 * n:at + 4 * n]
+    # contiguous copies, as every other caller of the chain's functions passes: those are compiled once
+    return n, A, params[at:at + n].copy(), params[at + n:at + 2 * n].copy(), params[at + 2 * n:at + 3 * n].copy(), \
+        params[at + 3 * n:at + 4 * n].copy()
 
 
 @njit(cache=True)
@@ -180,7 +181,7 @@ def chain_energy_torque(params, x, tau):
     n, A, b, damping, armature, _ = _chain_unpack(params)
     nu = n - 1
     kD, kP, kV, E_r = params[_C_KD], params[_C_KP], params[_C_KV], params[_C_ER]
-    q, qd = x[:n], x[n:2 * n]
+    q, qd = x[:n].copy(), x[n:2 * n].copy()
     M = np.empty((n, n))
     chain.mass_matrix_into(A, armature, q, M)
     rhs = np.zeros((n, n))  # [H + G + D qd, B]
@@ -217,13 +218,15 @@ def chain_energy_kernel(x, t, params, memory, tau):
     return 0
 
 
-@njit(cache=True)
+# Row by row with the layouts the kernel passes (KERNEL_SIG's strided arrays; contiguous states and scratch), so
+# that the law and its helpers are compiled once for both.
+@njit(types.void(types.float64[:], types.float64[:, :], types.float64[:, :]), cache=True)
 def _chain_torque_rows(params, x, out):
     for r in range(x.shape[0]):
         chain_energy_torque(params, x[r], out[r])
 
 
-@njit(cache=True)
+@njit(types.void(types.float64[:], types.float64[:, ::1], types.float64[:, ::1], types.float64[:, :, ::1]), cache=True)
 def _chain_error_rows(params, q, e, rate):
     for r in range(q.shape[0]):
         chain_error(params, q[r], e[r], rate[r])

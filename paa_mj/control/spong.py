@@ -52,7 +52,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, types
 from numba.extending import register_jitable
 
 from ..errors import PaaError
@@ -141,7 +141,8 @@ def spong_kernel(x, t, params, memory, tau):
     return spong_torque(params, x, tau)
 
 
-@njit(cache=True)
+# the layouts of KERNEL_SIG, which the kernel passes: the law is compiled once for both
+@njit(types.void(types.float64[:], types.float64[:, :], types.float64[:, :], types.int8[:]), cache=True)
 def _spong_rows(params, x, tau, mode):
     for r in range(x.shape[0]):
         mode[r] = spong_torque(params, x[r], tau[r])

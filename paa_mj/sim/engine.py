@@ -329,12 +329,15 @@ def call_controller(first, second, condition, x, t, params, memory, tau):
     return first(x, t, params[4:4 + n1], memory[1:1 + s1], tau)
 
 
+_C1, _C2, _C3 = types.float64[::1], types.float64[:, ::1], types.float64[:, :, ::1]
+#: C-contiguous arrays, as :func:`python_step` is compiled for (``typeof`` of the same arrays): the helpers both call
+#: are then compiled once, not once per layout. ``warnings`` is MuJoCo's strided view of its warning counters.
 _ADVANCE_SIG = types.int64(
-    KERNEL_TYPE, KERNEL_TYPE, KERNEL_TYPE, types.int64, types.int64, types.float64[:], types.intp, types.intp,
-    types.float64[:], types.float64[:], types.float64[:], types.float64[:], types.int32[:], types.float64,
-    types.int64, types.int64, types.boolean, types.float64[:, :], types.float64[:, :], types.float64[:, :, :],
-    types.float64[:, :], types.float64[:, :, :], types.int64[:, :], types.float64[:, :], types.int64[:], types.int64,
-    types.float64[:, :], types.float64[:, :, :], types.float64[:, :, :], types.float64[:, :, :], types.int8[:, :])
+    KERNEL_TYPE, KERNEL_TYPE, KERNEL_TYPE, types.int64, types.int64, _C1, types.intp, types.intp,
+    _C1, _C1, _C1, _C1, types.int32[:], types.float64,
+    types.int64, types.int64, types.boolean, _C2, _C2, _C3,
+    _C2, _C3, types.int64[:, ::1], _C2, types.int64[::1], types.int64,
+    _C2, _C3, _C3, _C3, types.int8[:, ::1])
 
 
 @njit(_ADVANCE_SIG, nogil=True, cache=True)
@@ -357,10 +360,10 @@ def advance_compiled(first, second, condition, r, step_to, params, model_ptr, da
     return st[I_STATUS]
 
 
-@njit(types.int64(KERNEL_TYPE, KERNEL_TYPE, KERNEL_TYPE, types.float64[:], types.float64, types.float64[:],
-                   types.float64[:], types.float64[:]), cache=True)
+@njit(types.int64(KERNEL_TYPE, KERNEL_TYPE, KERNEL_TYPE, _C1, types.float64, _C1, _C1, _C1), cache=True)
 def evaluate_once(first, second, condition, x, t, params, memory, tau):
-    """:func:`call_controller` with a fixed signature, so that calls from Python compile once."""
+    """:func:`call_controller` with a fixed signature (the layouts :func:`advance_compiled` passes), so that calls
+    from Python compile once and share its compiled :func:`call_controller`."""
     return call_controller(first, second, condition, x, t, params, memory, tau)
 
 

@@ -16,9 +16,12 @@ from numba.extending import register_jitable
 from ..model import chain
 from ..model import equations as eq
 
-#: Layout of the constants: the time step [s], 1.0 for the paper's closed form (else 0.0), the number of links,
-#: then the paper's c (9) or the chain's A (n x n), b, damping, armature.
-_DT, _PAPER, _LINKS, _FIRST = 0, 1, 2, 3
+#: Layout of the constants: the paper's c (9) or the chain's A (n x n), b, damping, armature, then the time step
+#: [s], 1.0 for the paper's closed form (else 0.0) and the number of links, counted from the end. The robot's
+#: constants come first so that the closed form reads them in place (no view is made in the step).
+_DT, _PAPER, _LINKS = -3, -2, -1
+
+
 @register_jitable
 def work_size(n):
     """The scratch numbers :func:`rk4_step` needs for n links."""
@@ -27,12 +30,12 @@ def work_size(n):
 
 def rk4_constants(analytic, dt) -> np.ndarray:
     """The constants :func:`rk4_step` takes for an :class:`~paa_mj.model.dynamics.AnalyticModel` and a step dt [s]."""
-    head = [float(dt), 1.0 if analytic.paper_shape else 0.0, float(analytic.n_links)]
+    tail = [float(dt), 1.0 if analytic.paper_shape else 0.0, float(analytic.n_links)]
     if analytic.paper_shape:
-        return np.concatenate([head, analytic.constants])
+        return np.concatenate([analytic.constants, tail])
     params = analytic.params
-    return np.concatenate([head, analytic.inertia_constants.ravel(), analytic.gravity_constants, params.damping,
-                           params.armature])
+    return np.concatenate([analytic.inertia_constants.ravel(), analytic.gravity_constants, params.damping,
+                           params.armature, tail])
 
 
 @register_jitable
@@ -41,34 +44,40 @@ def acceleration_into(constants, q, qd, tau, out, work):
     ``work``: scratch space (:func:`work_size`)."""
     n = q.size
     if constants[_PAPER] == 1.0:
-        c = constants[_FIRST:]
-        out[0], out[1], out[2] = eq.acceleration(c, q[0], q[1], q[2], qd[0], qd[1], qd[2], tau[0], tau[1])
+        out[0], out[1], out[2] = eq.acceleration(constants, q[0], q[1], q[2], qd[0], qd[1], qd[2], tau[0], tau[1])
         return
-    A = constants[_FIRST:_FIRST + n * n].reshape((n, n))
-    start = _FIRST + n * n
-    chain.acceleration_into(A, constants[start:start + n], constants[start + n:start + 2 * n],
-                            constants[start + 2 * n:start + 3 * n], q, qd, tau, out, work)
+    A = constants[:n * n].reshape((n, n))
+    chain.acceleration_into(A, constants[n * n:n * n + n], constants[n * n + n:n * n + 2 * n],
+                            constants[n * n + 2 * n:n * n + 3 * n], q, qd, tau, out, work)
 
 
 @register_jitable
 def rk4_step(constants, q, qd, tau, work):
     """One RK4 step (module docstring) of ``q``, ``qd`` (n) in place, ``tau`` (n - 1) [N m] held; ``work`` is scratch
-    space of at least :func:`work_size` numbers (allocated once by the caller: the step allocates nothing)."""
+    space of at least :func:`work_size` numbers (allocated once by the caller: the step allocates nothing).
+
+    ``work`` holds the stage's q, qd, qdd and the weighted sums of qd and qdd (n each), addressed by offset: the
+    closed form's step makes no array view, which halves its cost.
+    """
     n = q.size
     dt = constants[_DT]
-    stage_q, stage_qd, qdd = work[:n], work[n:2 * n], work[2 * n:3 * n]
-    sum_qd, sum_qdd = work[3 * n:4 * n], work[4 * n:5 * n]
+    paper = constants[_PAPER] == 1.0
+    QD, QDD, SUM_QD, SUM_QDD = n, 2 * n, 3 * n, 4 * n
     for i in range(n):
-        stage_q[i], stage_qd[i], sum_qd[i], sum_qdd[i] = q[i], qd[i], 0.0, 0.0
+        work[i], work[QD + i], work[SUM_QD + i], work[SUM_QDD + i] = q[i], qd[i], 0.0, 0.0
     for stage in range(4):
-        acceleration_into(constants, stage_q, stage_qd, tau, qdd, work[5 * n:])
+        if paper:
+            work[QDD], work[QDD + 1], work[QDD + 2] = eq.acceleration(
+                constants, work[0], work[1], work[2], work[QD], work[QD + 1], work[QD + 2], tau[0], tau[1])
+        else:
+            acceleration_into(constants, work[:n], work[QD:QDD], tau, work[QDD:SUM_QD], work[5 * n:])
         weight = 1.0 if stage == 0 or stage == 3 else 2.0
         h = 0.5 * dt if stage < 2 else (dt if stage == 2 else 0.0)
         for i in range(n):
-            sum_qd[i] += weight * stage_qd[i]
-            sum_qdd[i] += weight * qdd[i]
-            stage_q[i] = q[i] + h * stage_qd[i]
-            stage_qd[i] = qd[i] + h * qdd[i]
+            work[SUM_QD + i] += weight * work[QD + i]
+            work[SUM_QDD + i] += weight * work[QDD + i]
+            work[i] = q[i] + h * work[QD + i]
+            work[QD + i] = qd[i] + h * work[QDD + i]
     for i in range(n):
-        q[i] += dt / 6.0 * sum_qd[i]
-        qd[i] += dt / 6.0 * sum_qdd[i]
+        q[i] += dt / 6.0 * work[SUM_QD + i]
+        qd[i] += dt / 6.0 * work[SUM_QDD + i]

@@ -34,7 +34,7 @@ Dynamics
     (``mj_step`` called from numba, as :mod:`paa_mj.sim.engine` does), the same code for one
     environment and for the vector environment. ``physics="analytic"`` steps the robot's own equations
     of motion by the same RK4 instead (:mod:`paa_mj.sim.rk4`): the same equations, states that agree
-    with MuJoCo's to rounding, several times cheaper (``paa-mj bench``).
+    with MuJoCo's to rounding, at under a tenth of the cost (``paa-mj bench``).
 Reward (per environment step, dimensionless)
     With x = [q1, q2 + pi, q3, d1, d2, d3] the error from UDD (angles wrapped to (-pi, pi], rad and
     rad/s), l = [pi/6, pi/6, pi/6, 0.5, 0.5, 0.5] the half-widths of region (68), u = tau / T the
@@ -102,7 +102,7 @@ TASKS = {"kip": dict(seconds=30.0, noise=0.05, speed_noise=0.0, margin=math.inf,
 #: Physics steps per environment step in v1: a 10 ms control period on the 1 ms step of the models.
 FRAME_SKIP = 10
 #: The physics an environment can run: MuJoCo's ``mj_step`` (the default), or the chain's own equations of
-#: motion integrated by the same RK4 (:func:`paa_mj.sim.rk4.rk4_step`), several times cheaper.
+#: motion integrated by the same RK4 (:func:`paa_mj.sim.rk4.rk4_step`), over ten times cheaper.
 PHYSICS = ("mujoco", "analytic")
 #: Registered horizons [environment steps]: the tasks' seconds at the default 10 ms period.
 HORIZONS = {KIP_ID: 3000, BALANCE_ID: 1000}
@@ -462,7 +462,7 @@ class GymnastEnv(gym.Env):
     physics : "mujoco" or "analytic"
         ``mj_step`` of the robot's MuJoCo model (default), or the classic RK4 of the robot's own equations of
         motion (:func:`paa_mj.sim.rk4.rk4_step`, the same time step, the torque held over it): the same
-        equations as MuJoCo's (``paa-mj check``: 1e-13), several times cheaper a step, agreeing with MuJoCo's
+        equations as MuJoCo's (``paa-mj check``: 1e-13), over ten times cheaper a step, agreeing with MuJoCo's
         steps to rounding (about 1e-13 over a second of motion), not bit for bit; rounding grows where the
         motion is chaotic (a swing-up), so episodes of the two agree closely while they balance and
         statistically, not state for state, over a long kip.

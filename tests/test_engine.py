@@ -1,5 +1,7 @@
 """The rollout engine: compiled and Python controllers, batch against single, retirement, disturbances."""
 import json
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -217,14 +219,19 @@ def test_bench_reports_ratios_without_timing_assertions():
     assert r["rollout_t_final"] == 2.0
 
 
-def test_compile_leaves_no_kernel_to_compile_later(run):
-    """``paa-mj compile`` reaches every cached kernel of the package (a new kernel needs a stage that calls it)."""
+def test_compile_leaves_no_kernel_to_compile_later():
+    """``paa-mj compile`` reaches every cached kernel of the package (a new kernel needs a stage that calls it), and
+    compiles each for one signature (a helper called with two array layouts would be compiled twice).
+
+    In a process of its own: the signatures a process holds include those of every call it made before.
+    """
     from paa_mj.sim.precompile import cached_kernels
 
-    proc = run("compile", "--json")
+    proc = subprocess.run([sys.executable, "-m", "paa_mj.cli", "compile", "--json"], capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
     report = json.loads(proc.stdout)
     assert report["uncached"] == [] and len(report["stages"]) == 3
+    assert report["several_signatures"] == {}
     kernels = cached_kernels()
     assert len(kernels) >= 50 and report["cache"] in str(next(iter(kernels.values()))._cache._cache_path)
 

@@ -503,11 +503,17 @@ class _Arrays:
                       initial, self.delay_line)
 
     def step_args(self, plan):
-        return (plan.dt, plan.n_steps, plan.every, plan.retire, plan.setup, plan.cert, plan.pushes)
+        # contiguous, as advance_compiled's signature takes them (no copy where they are already)
+        return (plan.dt, plan.n_steps, plan.every, plan.retire, _contiguous(plan.setup, float),
+                _contiguous(plan.cert, float), _contiguous(plan.pushes, float))
 
     def state_args(self, plan):
-        return (self.istate, self.fstate, plan.rollout_ids, int(plan.seed), self.rec_t, self.rec_q, self.rec_qd,
-                self.rec_tau, self.rec_mode)
+        return (self.istate, self.fstate, _contiguous(plan.rollout_ids, np.int64), int(plan.seed), self.rec_t,
+                self.rec_q, self.rec_qd, self.rec_tau, self.rec_mode)
+
+
+def _contiguous(array, dtype):
+    return np.ascontiguousarray(array, dtype=dtype)
 
 
 def _form_of(controller):

@@ -4,7 +4,7 @@ The package's numba kernels are compiled the first time a process needs them and
 (a folder of the package's cache keyed by the digest of its code, :func:`paa_mj.provenance.key_numba_cache_by_code`),
 so a later process only loads them. Processes started together on a fresh install (the workers of a Dask
 cluster, pytest's workers, scripts run in parallel) each find the cache empty and each compile the same kernels,
-about 30 CPU-s apiece on a 2-core machine. :func:`compile_kernels` compiles all of them once, beforehand; when
+about 27 CPU-s apiece on a 2-core machine. :func:`compile_kernels` compiles all of them once, beforehand; when
 they are cached already it only loads them (about a second).
 
 A kernel is compiled for the argument types it is called with, so the only sure way to compile it as the
@@ -132,6 +132,16 @@ def uncached_kernels() -> list[str]:
     """The cached kernels (:func:`cached_kernels`) with no index in numba's cache folder."""
     return sorted(name for name, kernel in cached_kernels().items()
                   if not Path(kernel._cache._cache_file._index_path).exists())
+
+
+def kernels_of_several_signatures() -> dict:
+    """The cached kernels this process compiled or loaded for more than one signature, by name, with how many.
+
+    After :func:`compile_kernels` it is empty: a helper called with two array layouts (a strided slice here, a
+    contiguous array there) would be compiled twice, about a second of compilation for nothing each time.
+    """
+    return {name: len(kernel.signatures) for name, kernel in sorted(cached_kernels().items())
+            if len(kernel.signatures) > 1}
 
 
 def cache_folder() -> str:

@@ -38,19 +38,33 @@ def new_figure(*args, **kwargs):
         return plt.subplots(*args, **kwargs)
 
 
-def _save(fig, path, fmt):
+def _save(fig, path, fmt, box="tight"):
     with plt.rc_context(STYLE):
-        fig.savefig(path, format=fmt, dpi=DPI, bbox_inches="tight",
+        fig.savefig(path, format=fmt, dpi=DPI, bbox_inches=box,
                     metadata={"Date": None} if fmt == "svg" else {"Software": None})
 
 
 def figure_writers(fig, stem) -> dict:
-    """Writers (for :func:`paa_mj.io.write_set`) of ``stem.png`` and ``stem.svg``; the figure is closed after."""
+    """Writers (for :func:`paa_mj.io.write_set`) of ``stem.png`` and ``stem.svg``; the figure is closed after.
+
+    The PNG is laid out and cut to its tight box as ``bbox_inches="tight"`` does. The SVG keeps that layout and
+    cuts to the same drawing's tight box, instead of laying the figure out again with its own renderer: the
+    layout is about a third of the cost of writing the two files.
+    """
+    laid_out = []
+
     def png(path):
         _save(fig, path, "png")
+        laid_out.append(True)
 
     def svg(path):
-        _save(fig, path, "svg")
+        with plt.rc_context(STYLE):
+            if fig.get_layout_engine() is not None:
+                if not laid_out:
+                    fig.draw_without_rendering()  # the layout engine runs once, here
+                fig.set_layout_engine(None)  # keeps the positions it set
+            box = fig.get_tightbbox().padded(plt.rcParams["savefig.pad_inches"])
+        _save(fig, path, "svg", box)
         plt.close(fig)
 
     return {f"{stem}.png": png, f"{stem}.svg": svg}

@@ -455,6 +455,12 @@ class Plan:
     retire: bool = False
     goal: str = "folded"
 
+    def __post_init__(self):
+        # contiguous, as advance_compiled's signature takes them (no copy where they are already)
+        self.setup, self.cert, self.pushes = (np.ascontiguousarray(a, dtype=float)
+                                              for a in (self.setup, self.cert, self.pushes))
+        self.rollout_ids = np.ascontiguousarray(self.rollout_ids, dtype=np.int64)
+
     def __len__(self):
         return len(self.x0)
 
@@ -503,17 +509,11 @@ class _Arrays:
                       initial, self.delay_line)
 
     def step_args(self, plan):
-        # contiguous, as advance_compiled's signature takes them (no copy where they are already)
-        return (plan.dt, plan.n_steps, plan.every, plan.retire, _contiguous(plan.setup, float),
-                _contiguous(plan.cert, float), _contiguous(plan.pushes, float))
+        return (plan.dt, plan.n_steps, plan.every, plan.retire, plan.setup, plan.cert, plan.pushes)
 
     def state_args(self, plan):
-        return (self.istate, self.fstate, _contiguous(plan.rollout_ids, np.int64), int(plan.seed), self.rec_t,
-                self.rec_q, self.rec_qd, self.rec_tau, self.rec_mode)
-
-
-def _contiguous(array, dtype):
-    return np.ascontiguousarray(array, dtype=dtype)
+        return (self.istate, self.fstate, plan.rollout_ids, int(plan.seed), self.rec_t, self.rec_q, self.rec_qd,
+                self.rec_tau, self.rec_mode)
 
 
 def _form_of(controller):

@@ -9,7 +9,7 @@ tries EGL, then OSMesa. EGL uses the GPU's driver where there is one (NVIDIA), e
 """
 import argparse
 
-from paa_mj.outputs.gl import select_backend
+from paa_mj.view.gl import select_backend
 
 
 def main(argv=None):

@@ -72,3 +72,25 @@ def check_seed(seed, name="seed"):
     if not (isinstance(seed, numbers.Integral) and not isinstance(seed, bool) and 0 <= seed < 2**63):
         raise PaaError(f"{name} must be a whole number in [0, 2^63), got {seed!r}")
     return int(seed)
+
+
+#: A torque scale below this fraction of the robot's gravity torque (its largest gravity constant b_k [J], the
+#: torque that holds link k level) moves nothing: a scale derived from a run that barely acted.
+MIN_TORQUE_FRACTION = 1e-6
+
+
+def physical_torque_scale(value, robot, what: str, lower: str = "give the scale yourself") -> float:
+    """``value`` [N m], a torque scale derived from a study's own task and robot (a peak torque, a default limit),
+    checked to be physical: finite and at least :data:`MIN_TORQUE_FRACTION` of the robot's gravity torque.
+
+    Raises
+    ------
+    PaaError
+        One line naming ``what``, its value, the robot's scale, and ``lower`` (what to do instead).
+    """
+    gravity = float(max(abs(float(b)) for b in robot.analytic.gravity_constants))
+    scale = float(value)
+    if not (math.isfinite(scale) and scale >= MIN_TORQUE_FRACTION * gravity):
+        raise PaaError(f"{what} is {scale:.3g} N m, not a physical torque scale for robot {robot.name} (its gravity"
+                       f" torque is {gravity:.4g} N m; at least {MIN_TORQUE_FRACTION:g} of it is needed): {lower}")
+    return scale

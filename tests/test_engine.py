@@ -187,7 +187,7 @@ def test_basin_cli(capsys, tmp_path):
     assert code == 0
     s = json.loads(out)
     assert s["cells"] == 9 and s["axes"] == ["q1", "d2"]
-    assert 0.0 <= s["success_fraction"] <= 1.0
+    assert 0.0 <= s["success"] <= 1.0
     assert "median_switch_time" in s and sum(s["outcomes"].values()) == 9
     data = np.load(tmp_path / "basin.npz")
     assert data["switch_time"].shape == (9,) and data["x0"].shape == (9, 6)

@@ -54,7 +54,7 @@ def test_own_controller_through_simulate_basin_and_compare(tmp_path):
 @pytest.mark.parametrize("gl, robot, goal, name", [("egl", "gymnast", "folded", "kip.gif"),
                                                    ("osmesa", "acrobot", "stretched", "kip.mp4")])
 def test_offscreen_video(tmp_path, gl, robot, goal, name):
-    from paa_mj.outputs.gl import probe
+    from paa_mj.view.gl import probe
 
     why = probe(gl)
     if why is not None:

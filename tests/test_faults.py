@@ -251,7 +251,7 @@ def test_a_full_disk_leaves_no_partial_set(tiny_filesystem, run):
 
 
 def test_render_interrupted_while_encoding_leaves_no_file(tmp_path, saved_trajectory, run):
-    from paa_mj.outputs.gl import probe
+    from paa_mj.view.gl import probe
 
     if probe("egl") and probe("osmesa"):
         pytest.skip("no offscreen GL backend")
@@ -1485,7 +1485,7 @@ CORRUPT_TRAJECTORIES = [
 @pytest.mark.parametrize("what, changes, fragment", CORRUPT_TRAJECTORIES, ids=[c[0] for c in CORRUPT_TRAJECTORIES])
 def test_a_corrupted_trajectory_file_is_one_line_before_any_rendering(what, changes, fragment, saved_trajectory,
                                                                        tmp_path, monkeypatch, run):
-    import paa_mj.outputs.gl as gl
+    import paa_mj.view.gl as gl
 
     def no_gl(*args, **kwargs):
         raise AssertionError("the GL backends were probed for a file that is no trajectory")
@@ -1763,7 +1763,7 @@ def test_no_reported_torque_exceeds_the_torque_limit_given(args, run):
 def test_a_studys_counts_add_up(run):
     basin = _strict(run("basin", "--grid", "3", "--t-final", "0.2", "--scheduler", "inline", "--json").stdout)
     assert basin["cells"] == 9 and sum(basin["outcomes"].values()) == 9 and basin["completed_fraction"] == 1.0
-    assert basin["success_fraction"] <= 1.0 - basin["diverged_fraction"]
+    assert basin["success"] <= 1.0 - basin["diverged_fraction"]
     rob = _strict(run("robustness", "--trials", "3", "--t-final", "0.1", "--scheduler", "inline", "--factors",
                       "noise,delay,torque_limit", "--start", "hanging", "--json").stdout)
     levels = [level for factor in rob["factors"].values() for level in factor["levels"]]

@@ -85,7 +85,7 @@ def test_divergence_terminates():
 
 
 def test_render_rgb_array():
-    from paa_mj.outputs.gl import probe
+    from paa_mj.view.gl import probe
 
     if probe("egl") and probe("osmesa"):
         pytest.skip("no offscreen GL backend")

@@ -10,7 +10,7 @@ README = Path(__file__).resolve().parent.parent / "README.md"
 
 
 def test_readme_snippets_run(tmp_path):
-    from paa_mj.outputs.gl import probe
+    from paa_mj.view.gl import probe
 
     blocks = re.findall(r"```python\n(.*?)```", README.read_text(), flags=re.S)
     assert len(blocks) >= 5

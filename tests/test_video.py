@@ -7,7 +7,7 @@ import imageio_ffmpeg
 import numpy as np
 import pytest
 
-from paa_mj.outputs.gl import probe
+from paa_mj.view.gl import probe
 
 ON_CI = os.environ.get("CI", "").lower() in ("1", "true", "yes")
 
@@ -94,7 +94,7 @@ def test_render_corrupted_trajectory(tmp_path, run):
 
 
 def test_filmstrip(tmp_path):
-    from paa_mj.outputs.gl import select_backend
+    from paa_mj.view.gl import select_backend
 
     try:
         select_backend("auto")

@@ -62,7 +62,7 @@ def _check_environment():
     Both libraries read them once, on import, and fail there with a traceback (``MUJOCO_GL=invalid``,
     ``NUMBA_NUM_THREADS=0``) or print one inside a warning (``NUMBA_NUM_THREADS=abc``).
     """
-    from ..outputs.gl import check_mujoco_gl
+    from ..view.gl import check_mujoco_gl
 
     check_mujoco_gl()
     threads = os.environ.get("NUMBA_NUM_THREADS")
@@ -104,7 +104,7 @@ def main(argv=None):
             return exit_.code or 0
         _check_environment()
         _load_libraries()
-        from ..sim.mujoco_log import mujoco_log_off
+        from ..mujoco_log import mujoco_log_off
 
         with warnings.catch_warnings(), mujoco_log_off():
             warnings.showwarning = _show_warning

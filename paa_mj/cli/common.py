@@ -161,14 +161,21 @@ def goal_parent():
     return p
 
 
-def initial_state(args, robot):
-    """--x0 checked against the robot (2n numbers), or the hanging state; a one-line error otherwise."""
-    from ..model.states import start_state
-    from ..sim.batch import check_initial_state
+def task_from_args(args, robot):
+    """The :class:`~paa_mj.task.Task` that ``--goal`` names for ``robot``: the one place the command line makes a
+    task, which every layer below is handed."""
+    from ..task import Task
+
+    return Task.named(getattr(args, "goal", "folded"), robot)
+
+
+def initial_state(args, robot, task):
+    """--x0 checked against the robot (2n numbers), or the task's start; a one-line error otherwise."""
+    from ..sim.inputs import check_initial_state
 
     n = robot.params.n_links
     if args.x0 is None:
-        return start_state(n, getattr(args, "goal", "folded"))
+        return task.start.copy()
     if len(args.x0) != 2 * n:
         names = " ".join([f"q{i + 1}" for i in range(n)] + [f"d{i + 1}" for i in range(n)])
         raise PaaError(f"--x0 needs {2 * n} numbers for robot {robot.name} ({names}), got {len(args.x0)}")
@@ -230,8 +237,9 @@ def study_parent():
     return p
 
 
-def spec_from_args(args, robot, name=None):
-    """The :class:`~paa_mj.control.registry.ControllerSpec` the controller options describe for ``robot``.
+def spec_from_args(args, robot, task, name=None):
+    """The :class:`~paa_mj.control.registry.ControllerSpec` the controller options describe for ``robot`` and
+    ``task``.
 
     Gains given on the command line replace the robot's stored ones, the others stay.
     """
@@ -251,8 +259,7 @@ def spec_from_args(args, robot, name=None):
         elif not all(math.isfinite(limit) for limit in robot.torque_limits):
             from ..sim.batch import kip_peak_torques
 
-            goal = getattr(args, "goal", "folded")
-            options.append(("limit", tuple(kip_peak_torques(robot, ControllerSpec("vcl", goal=goal), goal=goal)
+            options.append(("limit", tuple(kip_peak_torques(robot, ControllerSpec("vcl", task=task), task)
                                            .tolist())))
         if getattr(args, "kip_duration", None) is not None:
             options.append(("duration", args.kip_duration))
@@ -264,12 +271,11 @@ def spec_from_args(args, robot, name=None):
             raise PaaError(f"--lqr-weights applies to the controllers {', '.join(LQR_CONTROLLERS)}, not to {name}")
         options.append(("lqr_weights", tuple(weights)))
     given = {k: getattr(args, k, None) for k in ("kD", "kP", "kV")}
-    goal = getattr(args, "goal", "folded")
     if all(v is None for v in given.values()):
-        return ControllerSpec(name, options=tuple(options), goal=goal)
+        return ControllerSpec(name, options=tuple(options), task=task)
     if name not in GAIN_CONTROLLERS:
         raise PaaError(f"--kD, --kP and --kV apply to the controllers {', '.join(GAIN_CONTROLLERS)}, not to {name}")
-    return ControllerSpec(name, tuple(robot.resolve_gains(**given).values()), options=tuple(options), goal=goal)
+    return ControllerSpec(name, tuple(robot.resolve_gains(**given).values()), options=tuple(options), task=task)
 
 
 _json_stdout = None

@@ -14,7 +14,7 @@ def cmd_reproduce(args):
     if args.quick and args.full:
         raise PaaError("--quick and --full contradict each other: choose one size")
     if not args.no_video:
-        from ..outputs.gl import select_backend
+        from ..view.gl import select_backend
 
         try:
             gl_backend = select_backend(args.gl or "auto")

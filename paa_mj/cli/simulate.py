@@ -5,7 +5,8 @@ import argparse
 
 from ..errors import PaaError, SimulationDiverged
 from .common import (controller_parent, file_path, finish, finite, goal_parent, initial_state, output_lock,
-                     output_parent, physics_parent, positive, positive_int, print_json, robot_parent, spec_from_args)
+                     output_parent, physics_parent, positive, positive_int, print_json, robot_parent, spec_from_args,
+                     task_from_args)
 
 
 def run_parent(robot_default="gymnast"):
@@ -59,17 +60,18 @@ def run_from_args(args, progress=True):
     robot = load_robot("gymnast" if args.robot is None else args.robot)  # an empty --robot is refused
     # the analytic engine has no time step; its cost is counted at 1 ms as in its own check
     check_duration(args.t_final, args.dt or (1e-3 if args.engine == "analytic" else float(robot.model.opt.timestep)))
-    spec = spec_from_args(args, robot)
+    task = task_from_args(args, robot)
+    spec = spec_from_args(args, robot, task)
     controller = spec.build(robot)
-    x0 = initial_state(args, robot)
+    x0 = initial_state(args, robot, task)
     try:
         if args.engine == "analytic":
-            traj = simulate_analytic(robot, controller, x0, args.t_final, sample_dt=args.sample_dt,
-                                     torque_limit=args.torque_limit, progress=progress, goal=args.goal)
+            traj = simulate_analytic(robot, controller, x0, args.t_final, task=task, sample_dt=args.sample_dt,
+                                     torque_limit=args.torque_limit, progress=progress)
         else:
-            traj = simulate_mujoco(robot, controller, x0, args.t_final, dt=args.dt, integrator=args.integrator,
-                                   sample_dt=args.sample_dt, torque_limit=args.torque_limit, progress=progress,
-                                   goal=args.goal)
+            traj = simulate_mujoco(robot, controller, x0, args.t_final, task=task, dt=args.dt,
+                                   integrator=args.integrator, sample_dt=args.sample_dt,
+                                   torque_limit=args.torque_limit, progress=progress)
     except SimulationDiverged as err:
         if err.trajectory is not None:
             err.trajectory.robot_xml = robot.xml  # what is kept of it names its robot too
@@ -121,7 +123,7 @@ def cmd_simulate(args):
 def cmd_render(args):
     from pathlib import Path
 
-    from ..outputs.gl import select_backend
+    from ..view.gl import select_backend
 
     out = Path(args.out)
     if out.suffix.lower() not in (".mp4", ".gif"):
@@ -205,8 +207,9 @@ def cmd_view(args):
     from ..sim.integrators import mujoco_model_for
 
     robot = load_robot(args.robot)
-    controller = spec_from_args(args, robot).build(robot)
-    x0 = initial_state(args, robot)
+    task = task_from_args(args, robot)
+    controller = spec_from_args(args, robot, task).build(robot)
+    x0 = initial_state(args, robot, task)
     n = robot.params.n_links
     model = mujoco_model_for(robot, args.dt, args.integrator)
     limits = np.minimum(robot.torque_limits, np.inf if args.torque_limit is None else args.torque_limit)

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from ..errors import PaaError
 from .common import (controller_parent, finish, goal_parent, non_negative, note, output_lock, output_parent,
-                     positive, positive_int, print_json, robot_parent, seed, spec_from_args, study_parent,
+                     positive, positive_int, print_json, robot_parent, seed, spec_from_args, study_parent, task_from_args,
                      whole_number)
 
 
@@ -23,11 +23,13 @@ def _study(args, command, run, write):
 
     _check_fresh(args)
     robot = load_robot(args.robot)
-    spec = spec_from_args(args, robot)
+    task = task_from_args(args, robot)
+    spec = spec_from_args(args, robot, task)
     scheduler = check_scheduler(args.scheduler)
     with output_lock(args.out, command):
-        summary, arrays = run(robot, spec, dict(progress=not args.json, scheduler=scheduler, out_dir=args.out,
-                                                fresh=args.fresh, chunk=args.chunk, torque_limit=args.torque_limit))
+        summary, arrays = run(robot, spec, dict(task=task, progress=not args.json, scheduler=scheduler,
+                                                out_dir=args.out, fresh=args.fresh, chunk=args.chunk,
+                                                torque_limit=args.torque_limit))
         if args.out and summary["completed_fraction"] > 0:  # no figure of a study with no finished run
             write(args.out, summary, arrays)
     if args.json:
@@ -40,13 +42,13 @@ def cmd_basin(args):
     from ..studies.basin import basin, parse_axes
 
     summary = _study(args, "basin", lambda robot, spec, common: basin(
-        robot, parse_axes(args.axes, robot.params.n_links), args.grid, args.t_final, controller=spec, goal=args.goal,
-        **common), write_basin)
+        robot, parse_axes(args.axes, robot.params.n_links), args.grid, args.t_final, controller=spec, **common),
+        write_basin)
     if not args.json and summary["completed_fraction"] > 0:
         done = summary["completed_fraction"]
         print(f"{summary['cells']} starts over ({', '.join(summary['axes'])}), {summary['controller']}:"
               + (f" {100 * done:.0f} % of them finished," if done < 1 else "")
-              + f" {100 * summary['success_fraction']:.1f} % balanced, median first switch"
+              + f" {100 * summary['success']:.1f} % balanced, median first switch"
               f" {summary['median_switch_time']} s"
               + (f"; wrote {args.out}/basin.png, basin.svg, basin.npz, summary.json" if args.out else ""))
     return _finish_study(summary, args, "basin")
@@ -89,7 +91,7 @@ def cmd_compare(args):
     scheduler = check_scheduler(args.scheduler)
     video = args.out is not None and not args.no_video
     if video:
-        from ..outputs.gl import select_backend
+        from ..view.gl import select_backend
 
         try:
             select_backend(args.gl or "auto")
@@ -99,8 +101,9 @@ def cmd_compare(args):
     with output_lock(args.out, "compare"):
         summary, trajectories, _ = compare(robot, names, torque_limit=args.torque_limit, trials=args.trials,
                                            quick=args.quick, t_final=args.t_final, seed=args.seed,
-                                           scheduler=scheduler, out_dir=args.out, fresh=args.fresh,
-                                           progress=not args.json, grid=args.grid, chunk=args.chunk, goal=args.goal)
+                                           task=task_from_args(args, robot), scheduler=scheduler, out_dir=args.out,
+                                           fresh=args.fresh, progress=not args.json, grid=args.grid,
+                                           chunk=args.chunk)
         if args.out:
             write_compare(args.out, summary, trajectories, robot, video=video and not summary["interrupted"])
     if args.json:
@@ -132,7 +135,7 @@ def cmd_atlas(args):
     with output_lock(args.out, "atlas"):
         summary, arrays = atlas(robot, vary, factor_range, args.grid, simulate=args.simulate, **simulation,
                                 scheduler=scheduler, out_dir=args.out, fresh=args.fresh,
-                                progress=not args.json, chunk=args.chunk, goal=args.goal)
+                                progress=not args.json, chunk=args.chunk, task=task_from_args(args, robot))
         if args.out:
             write_atlas(args.out, summary, arrays)
     if args.json:
@@ -148,13 +151,13 @@ def cmd_atlas(args):
 def cmd_bench(args):
     from ..studies.bench import format_bench, run_bench
 
-    result = run_bench(batch_size=args.batch_size, progress=not args.json, robot=args.robot, goal=args.goal)
+    result = run_bench(batch_size=args.batch_size, progress=not args.json, robot=args.robot, task=args.goal)
     print_json(result) if args.json else print(format_bench(result))
     return 0
 
 
 def cmd_compile(args):
-    from ..sim.precompile import cache_folder, compile_kernels, kernels_of_several_signatures, uncached_kernels
+    from ..precompile import cache_folder, compile_kernels, kernels_of_several_signatures, uncached_kernels
 
     stages = compile_kernels(progress=None if args.json else lambda stage: note(f"compiling {stage}"))
     missing = uncached_kernels()

@@ -2,22 +2,24 @@
 from __future__ import annotations
 
 from ..errors import PaaError
-from .common import (file_path, finite, gains_parent, goal_parent, links_count, non_negative, positive, positive_int, print_json,
-                     robot_parent, seed)
+from .common import (file_path, finite, gains_parent, goal_parent, links_count, non_negative, positive, positive_int,
+                     print_json, robot_parent, seed, task_from_args)
 
 
 def cmd_theory(args):
     from ..model.robot import load_robot
     from ..outputs.theory_report import chain_theory_report, chain_theory_table, theory_report, theory_table
+    from ..theory.linear import theorem1_covers
 
     robot = load_robot(args.robot)
+    task = task_from_args(args, robot)
     gains = robot.resolve_gains(args.kD, args.kP, args.kV)
     dt = float(robot.model.opt.timestep)
-    if robot.analytic.paper_shape and args.goal == "folded":
+    if theorem1_covers(robot.analytic, task):
         report = theory_report(robot.analytic, **gains, dt=dt).to_json_dict()
         text = theory_table
     else:
-        report = chain_theory_report(robot.analytic, **gains, goal=args.goal, dt=dt)
+        report = chain_theory_report(robot.analytic, **gains, task=task, dt=dt)
         text = chain_theory_table
     if args.json:
         print_json(report)
@@ -82,8 +84,10 @@ def cmd_make_model(args):
         gains = {"kD": args.kD, "kP": args.kP, "kV": args.kV}
         from ..control.gains import check_gains_for
         from ..model.dynamics import AnalyticModel
+        from ..task import Task
 
-        check_gains_for(AnalyticModel.from_params(params), **gains)  # every command would refuse the file later
+        model = AnalyticModel.from_params(params)
+        check_gains_for(model, **gains, task=Task.named("folded", model))  # every command would refuse it later
 
     def write(gains):
         return mjcf_from_params(params, name=args.name, title=args.title, gains=gains, torque_limits=limits)

@@ -10,7 +10,10 @@ A controller maps states to the motor torques tau = [tau2, ..., tau_n] [N m]
   (67) has taken over; a rollout's *switch time* is when it first becomes 1.
 
 That is the whole contract for a user's controller (``ClassName(robot)`` with
-:func:`~paa_mj.model.load_robot`'s robot, then ``torque``). A controller may
+:func:`~paa_mj.model.load_robot`'s robot, then ``torque``). A built controller is bound to
+the robot and the task it was built for (:class:`Binding`): the engines refuse to run it on
+another robot or to judge it against another task (:func:`check_binding`), and the built-in
+controllers refuse states of the wrong width. A controller may
 also offer a compiled form (:class:`CompiledForm`, a numba kernel with its
 parameters); the single-rollout loop and the batch engine of :mod:`paa_mj.sim`
 then run it at compiled speed, and otherwise call ``torque`` between physics
@@ -26,6 +29,7 @@ from numba import njit, types
 from numba.experimental.function_type import WrapperAddressProtocol, _get_wrapper_address
 
 from ..errors import PaaError
+from ..task import Task
 
 
 #: Signature of a compiled controller, and of a compiled switching condition:
@@ -104,17 +108,88 @@ class SwitchedForm:
         return self.second.balance_gain
 
 
+@dataclass(frozen=True)
+class Binding:
+    """What a built controller is for: a robot (its links and a digest of its parameters) and a task.
+
+    Attributes
+    ----------
+    robot : str
+        The robot's name, for messages.
+    n_links : int
+    digest : str or None
+        :attr:`~paa_mj.model.dynamics.AnalyticModel.digest` of the robot's parameters; None: any robot of
+        ``n_links`` links (a gain given as it is).
+    task : Task
+    """
+
+    robot: str
+    n_links: int
+    digest: str | None
+    task: Task
+
+    @classmethod
+    def of(cls, robot, task: Task) -> "Binding":
+        """The binding to a :class:`~paa_mj.model.robot.Robot` or an AnalyticModel, and ``task``."""
+        model = getattr(robot, "analytic", robot)
+        name = getattr(robot, "name", None) or model.params.name
+        return cls(str(name), model.n_links, model.digest, task)
+
+    def robot_text(self) -> str:
+        parts = f"{self.n_links} links" + (f", parameters {self.digest}" if self.digest else "")
+        return f"robot {self.robot} ({parts})"
+
+
+def controller_name(controller) -> str:
+    """The name a controller is known by in messages: its ``name``, else its class."""
+    name = getattr(controller, "name", None)
+    return name if isinstance(name, str) and name else type(controller).__name__
+
+
+def check_binding(controller, robot, task: Task):
+    """Refuse, in one line naming both, a controller built for another robot or task than the run's.
+
+    ``robot`` is the :class:`~paa_mj.model.robot.Robot` the run simulates (its nominal model: the plants of a
+    model-error study vary on purpose), ``task`` the run's. A controller without a :class:`Binding` (a user's
+    object) is not checked here; its torques' shape is (:func:`torque_of`).
+    """
+    binding = getattr(controller, "binding", None)
+    if not isinstance(binding, Binding):
+        return
+    ours = Binding.of(robot, task)
+    name = controller_name(controller)
+    if binding.n_links != ours.n_links or (binding.digest is not None and binding.digest != ours.digest):
+        raise PaaError(f"controller {name} was built for {binding.robot_text()}, not for {ours.robot_text()}"
+                       " that runs it: build it for this robot")
+    if binding.task.aim() != task.aim():
+        raise PaaError(f"controller {name} was built for the {binding.task.name} task, not for the {task.name} task"
+                       " this run is judged by: build it for this task")
+
+
 class Controller:
     """Base class of the built-in controllers (users' controllers need not inherit from it).
 
-    Subclasses set ``name`` and implement :meth:`torque`; a stateless controller
-    needs nothing else. ``mode`` is 0 unless the controller switches.
+    Subclasses set ``name`` and implement :meth:`law`; :meth:`torque` checks the width of the states against
+    the controller's :attr:`binding` first. A stateless controller needs nothing else. ``mode`` is 0 unless
+    the controller switches.
     """
 
     name = "controller"
     mode = 0
+    #: The robot and task it was built for (:class:`Binding`).
+    binding: Binding | None = None
 
     def torque(self, q, qd, t=0.0):
+        """Torques (..., n - 1) [N m] at states q, qd (..., n) [rad, rad/s] and time t [s]."""
+        q, qd = np.asarray(q, float), np.asarray(qd, float)
+        links = self.binding.n_links if self.binding is not None else None
+        if links is not None and (q.shape[-1:] != (links,) or qd.shape[-1:] != (links,)):
+            raise PaaError(f"controller {self.name} was built for a {links}-link robot and got states of"
+                           f" {q.shape[-1] if q.ndim else 0} angles and {qd.shape[-1] if qd.ndim else 0} speeds")
+        return self.law(q, qd, t)
+
+    def law(self, q, qd, t):
+        """The torques at states of the right width (:meth:`torque`)."""
         raise NotImplementedError
 
     def reset(self):
@@ -127,6 +202,11 @@ class Controller:
     def describe(self) -> dict:
         """What a trajectory's metadata records about this controller."""
         return {"controller": self.name}
+
+    def bind(self, robot, task: Task):
+        """Record the robot and task this controller is built for (:class:`Binding`); returns it."""
+        self.binding = Binding.of(robot, task)
+        return self
 
 
 def _user_call(controller, what, call, *args):

@@ -17,35 +17,34 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..task import Task
 from .base import CompiledForm, Controller, SwitchedForm, kernel, reset_controller, torque_of
-from ..model.states import Q_UDD
-from .region import in_switch_region, reading_condition, reading_margin, region_condition, switch_margin
+from .region import reading_condition, reading_margin, region_condition
 
 SWING_UP, BALANCE = 0, 1
 
 
 class RegionCondition:
-    """The paper's switching rule: the state is inside region (68) around the goal.
+    """The paper's switching rule: the state is inside the task's region (68) around its goal.
 
     Parameters
     ----------
-    goal : array_like (n,), optional
-        The goal angles q* [rad]; default UDD (8), the paper's.
+    task : Task
     """
 
     name = "region (68)"
 
-    def __init__(self, goal=Q_UDD):
-        self.goal = np.array(goal, dtype=float)
+    def __init__(self, task: Task):
+        self.task = task
 
     def holds(self, q, qd, t):
-        return in_switch_region(q, qd, self.goal)
+        return self.task.in_switch_region(q, qd)
 
     def margin(self, q, qd, t):
-        return switch_margin(q, qd, self.goal)
+        return self.task.switch_margin(q, qd)
 
     def compiled(self):
-        return region_condition, self.goal.copy()
+        return region_condition, self.task.params
 
 
 class ReadingCondition:
@@ -111,6 +110,7 @@ class CombinedController(Controller):
     def __init__(self, first, second, condition, name="combined"):
         self.first, self.second, self.condition, self.name = first, second, condition, name
         self.mode = np.int8(SWING_UP)
+        self.binding = getattr(first, "binding", None)
 
     def reset(self):
         self.mode = np.int8(SWING_UP)
@@ -123,7 +123,7 @@ class CombinedController(Controller):
         self.mode = np.where(holds, np.int8(BALANCE), self.mode).astype(np.int8)
         return self.mode
 
-    def torque(self, q, qd, t=0.0):
+    def law(self, q, qd, t):
         mode = self.update_mode(q, qd, t)
         if np.all(mode == BALANCE):
             return torque_of(self.second, q, qd, t)

@@ -41,9 +41,11 @@ from numba.extending import register_jitable
 from ..model import chain
 from ..model import equations as eq
 from ..model.dynamics import AnalyticModel
-from ..model.states import Q_AR, goal_angles
+from ..model.states import Q_AR
 from ..model.vcl import Psi, psi, theta
-from .base import CompiledForm, Controller, kernel
+from ..task import Task
+from ..theory.linear import theorem1_covers
+from .base import Binding, CompiledForm, Controller, kernel
 from .gains import check_chain_gains, check_gains
 
 _KD, _KP, _KV = len(eq.CONSTANTS), len(eq.CONSTANTS) + 1, len(eq.CONSTANTS) + 2
@@ -123,13 +125,12 @@ def conventional_kernel(x, t, params, memory, tau):
 _C_N, _C_VCL, _C_KD, _C_KP, _C_KV, _C_ER, _C_A = range(7)
 
 
-def chain_parameters(model: AnalyticModel, goal, kD, kP, kV, uses_vcl):
-    """The parameter vector of :func:`chain_energy_torque` for ``model`` and the goal named ``goal``."""
+def chain_parameters(model: AnalyticModel, task: Task, kD, kP, kV, uses_vcl):
+    """The parameter vector of :func:`chain_energy_torque` for ``model`` and the task's goal."""
     p = model.params
-    E_r = model.goal_energy(goal)
-    goal = goal_angles(goal, p.n_links)
-    return np.concatenate([[p.n_links, 1.0 if uses_vcl else 0.0, kD, kP, kV, E_r],
-                           model.inertia_constants.reshape(-1), model.gravity_constants, p.damping, p.armature, goal])
+    return np.concatenate([[p.n_links, 1.0 if uses_vcl else 0.0, kD, kP, kV, task.goal_energy(model)],
+                           model.inertia_constants.reshape(-1), model.gravity_constants, p.damping, p.armature,
+                           task.goal])
 
 
 @njit(cache=True)
@@ -232,11 +233,73 @@ def _chain_error_rows(params, q, e, rate):
         chain_error(params, q[r], e[r], rate[r])
 
 
+class _PaperLaw:
+    """(40) or (12) in the paper's closed forms, for its gymnast at its folded goal (Theorem 1's case)."""
+
+    def __init__(self, model, kD, kP, kV, uses_vcl):
+        self.model, self.gains, self.uses_vcl = model, (kD, kP, kV), uses_vcl
+        self.E_r = model.E_r
+
+    def torque(self, q, qd):
+        law = vcl_torque if self.uses_vcl else conventional_torque
+        t2, t3 = law(self.model.constants, *self.gains, q[..., 0], q[..., 1], q[..., 2], qd[..., 0], qd[..., 1],
+                     qd[..., 2])
+        return np.stack([t2, t3], -1)
+
+    def error(self, q):
+        if not self.uses_vcl:
+            return np.stack([q[..., 1], q[..., 2]], -1) - Q_AR
+        b2, b3 = self.model.b2, self.model.b3
+        return np.stack([q[..., 1] + theta(b2, b3, q[..., 2]), q[..., 2]], -1) - Q_AR
+
+    def rate(self, q):
+        if self.uses_vcl:
+            return Psi(self.model.b2, self.model.b3, q[..., 2])
+        return np.broadcast_to(np.eye(2), q.shape[:-1] + (2, 2))
+
+    def compiled(self):
+        law = vcl_kernel if self.uses_vcl else conventional_kernel
+        return CompiledForm(law, np.concatenate([self.model.constants, self.gains]))
+
+
+class _ChainLaw:
+    """(40) or (12) on any chain and goal (:func:`chain_energy_torque`)."""
+
+    def __init__(self, model, kD, kP, kV, uses_vcl, task):
+        self.params = chain_parameters(model, task, kD, kP, kV, uses_vcl)
+        self.E_r = float(self.params[_C_ER])
+
+    def torque(self, q, qd):
+        x = np.concatenate(np.broadcast_arrays(q, qd), axis=-1)
+        flat = np.ascontiguousarray(x.reshape(-1, x.shape[-1]))
+        out = np.empty((len(flat), q.shape[-1] - 1))
+        _chain_torque_rows(self.params, flat, out)
+        return out.reshape(x.shape[:-1] + (q.shape[-1] - 1,))
+
+    def _rows(self, q):
+        flat = np.ascontiguousarray(q.reshape(-1, q.shape[-1]))
+        nu = q.shape[-1] - 1
+        e, rate = np.empty((len(flat), nu)), np.empty((len(flat), nu, nu))
+        _chain_error_rows(self.params, flat, e, rate)
+        return e.reshape(q.shape[:-1] + (nu,)), rate.reshape(q.shape[:-1] + (nu, nu))
+
+    def error(self, q):
+        return self._rows(q)[0]
+
+    def rate(self, q):
+        return self._rows(q)[1]
+
+    def compiled(self):
+        return CompiledForm(chain_energy_kernel, self.params)
+
+
 class EnergyVCLController(Controller):
     """Energy + virtual-composite-link swing-up controller (40).
 
     The angle q2 in e is *not* wrapped: V is defined on the unwrapped coordinate,
-    as in the paper.
+    as in the paper. Where Theorem 1 covers the robot and task
+    (:func:`~paa_mj.theory.linear.theorem1_covers`) the law is the paper's closed forms, elsewhere the
+    chain's (module docstring); chosen once, here.
 
     Parameters
     ----------
@@ -246,63 +309,42 @@ class EnergyVCLController(Controller):
         Gains of (40).
     check : bool
         Validate the gains against the theory (:func:`~paa_mj.control.gains.check_gains`).
+    task : Task
+        What it aims at (its goal); default the paper's folded task.
     """
 
     name = "vcl-only"
     uses_vcl = True
 
-    def __init__(self, model: AnalyticModel, kD, kP, kV, check=True, goal="folded"):
+    def __init__(self, model: AnalyticModel, kD, kP, kV, check=True, task: Task | None = None):
         self.model = model
         self.kD, self.kP, self.kV = float(kD), float(kP), float(kV)
-        self.goal_name = goal
-        self.goal = goal_angles(goal, model.n_links)
-        #: the paper's closed forms apply: its gymnast and its goal (UDD); else the chain's law
-        self.papers = model.paper_shape and goal == "folded"
-        self._chain = None if self.papers else chain_parameters(model, goal, self.kD, self.kP, self.kV,
-                                                                 self.uses_vcl)
-        if check and self.papers:
+        self.task = Task.named("folded", model) if task is None else task
+        self.binding = Binding.of(model, self.task)
+        covered = theorem1_covers(model, self.task)
+        self._law = _PaperLaw(model, self.kD, self.kP, self.kV, self.uses_vcl) if covered else \
+            _ChainLaw(model, self.kD, self.kP, self.kV, self.uses_vcl, self.task)
+        if check and covered:
             check_gains(model, self.kD, self.kP, self.kV, stacklevel=4)
         elif check:  # Theorem 1's bounds (59), (60) are proved for the paper's case only; (41) holds by definition
-            check_chain_gains(model, self.kD, self.kP, self.kV, goal)
+            check_chain_gains(model, self.kD, self.kP, self.kV, self.task)
 
     @property
     def E_r(self) -> float:
         """The energy of the goal, P(q*) [J] ((9) at UDD)."""
-        return self.model.E_r if self.papers else float(self._chain[_C_ER])
+        return self._law.E_r
 
     @property
     def gains(self) -> dict:
         return {"kD": self.kD, "kP": self.kP, "kV": self.kV}
 
-    def _law(self):
-        return vcl_torque
-
-    def _chain_rows(self, q):
-        q = np.asarray(q, float)
-        flat = np.ascontiguousarray(q.reshape(-1, q.shape[-1]))
-        nu = q.shape[-1] - 1
-        e, rate = np.empty((len(flat), nu)), np.empty((len(flat), nu, nu))
-        _chain_error_rows(self._chain, flat, e, rate)
-        return e.reshape(q.shape[:-1] + (nu,)), rate.reshape(q.shape[:-1] + (nu, nu))
-
     def vcl_error(self, q):
         """e of (34) (this controller's error of the actuated coordinates), shape (..., n - 1) [rad]."""
-        q = np.asarray(q, float)
-        if not self.papers:
-            return self._chain_rows(q)[0]
-        if not self.uses_vcl:
-            return np.stack([q[..., 1], q[..., 2]], -1) - Q_AR
-        b2, b3 = self.model.b2, self.model.b3
-        return np.stack([q[..., 1] + theta(b2, b3, q[..., 2]), q[..., 2]], -1) - Q_AR
+        return self._law.error(np.asarray(q, float))
 
     def error_rate_matrix(self, q):
         """Phi with de/dt = Phi qd_a: Psi (21) for (40), the identity for (12); shape (..., n - 1, n - 1)."""
-        q = np.asarray(q, float)
-        if not self.papers:
-            return self._chain_rows(q)[1]
-        if self.uses_vcl:
-            return Psi(self.model.b2, self.model.b3, q[..., 2])
-        return np.broadcast_to(np.eye(2), q.shape[:-1] + (2, 2))
+        return self._law.rate(np.asarray(q, float))
 
     def energy_error(self, q, qd):
         """E - E_r [J]."""
@@ -316,17 +358,8 @@ class EnergyVCLController(Controller):
         return (0.5 * self.energy_error(q, qd) ** 2 + 0.5 * self.kD * np.sum(qd_a**2, -1)
                 + 0.5 * self.kP * np.sum(e**2, -1))
 
-    def torque(self, q, qd, t=0.0):
-        q, qd = np.asarray(q, float), np.asarray(qd, float)
-        if not self.papers:
-            x = np.concatenate(np.broadcast_arrays(q, qd), axis=-1)
-            flat = np.ascontiguousarray(x.reshape(-1, x.shape[-1]))
-            out = np.empty((len(flat), q.shape[-1] - 1))
-            _chain_torque_rows(self._chain, flat, out)
-            return out.reshape(x.shape[:-1] + (q.shape[-1] - 1,))
-        t2, t3 = self._law()(self.model.constants, self.kD, self.kP, self.kV, q[..., 0], q[..., 1], q[..., 2],
-                             qd[..., 0], qd[..., 1], qd[..., 2])
-        return np.stack([t2, t3], -1)
+    def law(self, q, qd, t):
+        return self._law.torque(q, qd)
 
     def lyapunov_rate(self, q, qd, tau=None):
         """dV/dt along (1) with torque ``tau`` (default: this controller's), from the chain rule.
@@ -344,16 +377,10 @@ class EnergyVCLController(Controller):
                 + self.kD * np.sum(qd_a * qdd[..., 1:], -1) + self.kP * np.sum(self.vcl_error(q) * e_rate, -1))
 
     def compiled(self) -> CompiledForm:
-        if not self.papers:
-            return CompiledForm(chain_energy_kernel, self._chain)
-        law = vcl_kernel if self.uses_vcl else conventional_kernel
-        return CompiledForm(law, np.concatenate([self.model.constants, [self.kD, self.kP, self.kV]]))
+        return self._law.compiled()
 
     def describe(self) -> dict:
-        out = {"controller": self.name, "gains": self.gains}
-        if self.goal_name != "folded":
-            out["goal"] = self.goal_name
-        return out
+        return {"controller": self.name, "gains": self.gains}
 
 
 class ConventionalController(EnergyVCLController):
@@ -367,6 +394,3 @@ class ConventionalController(EnergyVCLController):
 
     name = "vc-only"
     uses_vcl = False
-
-    def _law(self):
-        return conventional_torque

@@ -7,7 +7,9 @@ import numpy as np
 
 from ..errors import PaaError
 from ..model.dynamics import AnalyticModel
+from ..task import Task
 from ..theory.conditions import chain_kd_min, constraint_54, thresholds
+from ..theory.linear import theorem1_covers
 
 
 #: Largest gain accepted: 1e8 times the paper's (66); no robot of this model needs more, and the products
@@ -99,16 +101,16 @@ def check_gains(model: AnalyticModel, kD, kP, kV, stacklevel=3):
 _KD_MIN_CACHE: dict = {}
 
 
-def chain_singularity_bound(model: AnalyticModel, goal="folded") -> float:
-    """kD_min of (41) from its definition for any chain and goal (:func:`~paa_mj.theory.conditions.chain_kd_min`),
-    cached per robot and goal."""
-    key = (model.key(), goal)
+def chain_singularity_bound(model: AnalyticModel, task: Task) -> float:
+    """kD_min of (41) from its definition for any chain and the task's goal
+    (:func:`~paa_mj.theory.conditions.chain_kd_min`), cached per robot and goal."""
+    key = (model.key(), task.name)
     if key not in _KD_MIN_CACHE:
-        _KD_MIN_CACHE[key] = chain_kd_min(model, goal).value
+        _KD_MIN_CACHE[key] = chain_kd_min(model, task).value
     return _KD_MIN_CACHE[key]
 
 
-def check_chain_gains(model: AnalyticModel, kD, kP, kV, goal="folded"):
+def check_chain_gains(model: AnalyticModel, kD, kP, kV, task: Task):
     """Gains of (40) (or (12)) on a chain or goal beyond the paper, or a one-line error.
 
     Each in range (:func:`check_gain_range`), and kD above the singularity bound (41) computed from its
@@ -116,17 +118,17 @@ def check_chain_gains(model: AnalyticModel, kD, kP, kV, goal="folded"):
     bounds, (59) and (60), are proved for the paper's gymnast and goal only and are not checked here.
     """
     check_gain_range(kD, kP, kV)
-    bound = chain_singularity_bound(model, goal)
+    bound = chain_singularity_bound(model, task)
     if kD <= bound:
         raise PaaError(f"gain kD = {kD:g} is not above kD_min = {bound:.6g} of (41) (its definition, computed for this"
-                       f" {model.n_links}-link robot and the {goal} goal): controller (40) can become singular")
+                       f" {model.n_links}-link robot and the {task.name} goal): controller (40) can become singular")
 
 
-def check_gains_for(model: AnalyticModel, kD, kP, kV, goal="folded", stacklevel=3):
-    """:func:`check_gains` (Theorem 1's bounds) for the paper's gymnast and goal, :func:`check_chain_gains`
+def check_gains_for(model: AnalyticModel, kD, kP, kV, task: Task, stacklevel=3):
+    """:func:`check_gains` (Theorem 1's bounds) where Theorem 1 covers the robot and task, :func:`check_chain_gains`
     (the singularity bound (41) by its definition) for every other robot or goal."""
-    if model.paper_shape and goal == "folded":
+    if theorem1_covers(model, task):
         return check_gains(model, kD, kP, kV, stacklevel=stacklevel + 1)
-    check_chain_gains(model, kD, kP, kV, goal)
+    check_chain_gains(model, kD, kP, kV, task)
     return []
 

@@ -16,9 +16,10 @@ from numba.extending import register_jitable
 
 from ..errors import PaaError
 from ..model.dynamics import AnalyticModel
-from ..model.states import Q_UDD, goal_angles, wrap
+from ..model.states import wrap
+from ..task import Task
 from ..theory.linear import lqr_gain
-from .base import CompiledForm, Controller, kernel
+from .base import Binding, CompiledForm, Controller, kernel
 
 
 @register_jitable
@@ -45,17 +46,29 @@ def lqr_kernel(x, t, params, memory, tau):
     return 1
 
 
+#: The LQR weights accepted: q and r each in this range, and q / r in :data:`WEIGHT_RATIO_RANGE`. Beyond these the
+#: Riccati equation of (67) has no solution SciPy can compute (q / r = 1e-20 fails), or the gains that balance
+#: in theory do not at any time step a rollout can take.
+WEIGHT_RANGE = (1e-9, 1e12)
+WEIGHT_RATIO_RANGE = (1e-9, 1e12)
+
+
 def lqr_weights(n_links, weights=None):
-    """Q (2n x 2n) and R (n - 1 x n - 1) of (67) from ``weights`` = (q, r) > 0, finite (Q = q I, R = r I), or the
-    paper's (None: Q = 1e4 I, R = I); a one-line error otherwise."""
+    """Q (2n x 2n) and R (n - 1 x n - 1) of (67) from ``weights`` = (q, r) (Q = q I, R = r I), or the paper's
+    (None: Q = 1e4 I, R = I); a one-line error, with the range accepted (:data:`WEIGHT_RANGE`,
+    :data:`WEIGHT_RATIO_RANGE`), otherwise."""
     if weights is None:
         return None, None
     try:
         q, r = (float(w) for w in weights)
     except (TypeError, ValueError):
         raise PaaError(f"the LQR weights are two numbers q, r (Q = q I, R = r I), got {weights!r}") from None
-    if not (np.isfinite(q) and np.isfinite(r) and q > 0 and r > 0):
-        raise PaaError(f"the LQR weights q, r must be positive and finite, got {q:g}, {r:g}")
+    (low, high), (ratio_low, ratio_high) = WEIGHT_RANGE, WEIGHT_RATIO_RANGE
+    if not (low <= q <= high and low <= r <= high):
+        raise PaaError(f"the LQR weights q, r must each lie in [{low:g}, {high:g}], got {q:g}, {r:g}")
+    if not ratio_low <= q / r <= ratio_high:
+        raise PaaError(f"the LQR weights' ratio q / r must lie in [{ratio_low:g}, {ratio_high:g}], got {q / r:.3g}"
+                       f" ({q:g} / {r:g})")
     return q * np.eye(2 * n_links), r * np.eye(n_links - 1)
 
 
@@ -66,30 +79,37 @@ class LQRController(Controller):
     ----------
     K : array_like, shape (n - 1, 2n)
         State-feedback gain, normally :func:`paa_mj.theory.linear.lqr_gain` ((2, 6) for the gymnast).
-    goal : array_like (n,), optional
-        The goal angles q* [rad]; default UDD (8).
+    task : Task
+        What it balances at: the task's goal q*. A gain given as it is binds the controller to any robot
+        of the task's links; :meth:`for_model` binds it to its robot.
     """
 
     name = "lqr"
     mode = 1
 
-    def __init__(self, K, goal=Q_UDD, weights=None):
+    def __init__(self, K, task: Task, weights=None):
         #: The (q, r) the gain was computed with (Q = q I, R = r I), recorded in the run's metadata; None: the
         #: paper's, or a gain given as it is.
         self.weights = None if weights is None else tuple(float(w) for w in weights)
+        if not isinstance(task, Task):
+            raise PaaError(f"an LQR controller balances at a task's goal: give a paa_mj.task.Task, got"
+                           f" {type(task).__name__}")
         self.K = np.asarray(K, float)
-        self.goal = np.array(goal, dtype=float).reshape(-1)
-        n = self.goal.size
+        self.task = task
+        self.goal = task.goal
+        n = task.n_links
         if self.K.shape != (n - 1, 2 * n) or not np.all(np.isfinite(self.K)):
             raise PaaError(f"LQR gain must be a finite {n - 1} x {2 * n} matrix, got shape {self.K.shape}")
+        self.binding = Binding("any", n, None, task)
 
     @classmethod
-    def for_model(cls, model: AnalyticModel, goal="folded", weights=None) -> "LQRController":
-        """(67) at the goal; ``weights`` = (q, r) for Q = q I (2n), R = r I (n - 1), default the paper's (1e4, 1)."""
+    def for_model(cls, model: AnalyticModel, task: Task, weights=None) -> "LQRController":
+        """(67) at the task's goal; ``weights`` = (q, r) for Q = q I (2n), R = r I (n - 1), default the paper's
+        (1e4, 1)."""
         Q, R = lqr_weights(model.n_links, weights)
-        return cls(lqr_gain(model, Q, R, goal=goal), goal_angles(goal, model.n_links), weights)
+        return cls(lqr_gain(model, task, Q, R), task, weights).bind(model, task)
 
-    def torque(self, q, qd, t=0.0):
+    def law(self, q, qd, t):
         x = np.concatenate(np.broadcast_arrays(np.asarray(q, float), np.asarray(qd, float)), axis=-1)
         tau = np.empty(x.shape[:-1] + (self.goal.size - 1,))
         linear_feedback(self.K.reshape(-1), self.goal, np.moveaxis(x, -1, 0), np.moveaxis(tau, -1, 0))

@@ -17,7 +17,7 @@ class PassiveController(Controller):
 
     name = "passive"
 
-    def torque(self, q, qd, t=0.0):
+    def law(self, q, qd, t):
         shape = np.shape(q)
         return np.zeros(shape[:-1] + (shape[-1] - 1,))
 

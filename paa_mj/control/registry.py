@@ -31,15 +31,15 @@ from __future__ import annotations
 import hashlib
 import importlib.util
 import sys
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import PaaError
 from ..model.params import RobotParams
-from ..model.states import GOALS, goal_angles
-from .base import Controller
+from ..task import Task, as_task
+from .base import Binding, Controller
 from .catalog import DESCRIPTIONS, GAIN_CONTROLLERS, OPTIONS
 from .combined import CombinedController, RegionCondition
 from .energy import ConventionalController, EnergyVCLController
@@ -47,7 +47,6 @@ from .lqr import LQRController
 from .passive import PassiveController
 from .trajopt import INTERVALS, solve_kip
 from .tvlqr import kip_controller
-
 
 
 def _gains(robot, gains):
@@ -78,70 +77,68 @@ def _kip_bound(robot, limit):
     return HEADROOM * limits
 
 
-def build_trajopt(robot, gains=None, check=True, limit=None, duration=None, intervals=INTERVALS, goal="folded",
+# Each builder takes (robot, task, gains, check, **options) and returns the controller for that robot and task.
+
+def build_trajopt(robot, task, gains=None, check=True, limit=None, duration=None, intervals=INTERVALS,
                   lqr_weights=None):
     """The minimum-time kip, tracked by TVLQR, then (67)."""
     kip = solve_kip(robot.analytic, _kip_bound(robot, limit), "min-time", duration=duration, intervals=intervals,
-                    goal=goal)
-    return kip_controller(robot.analytic, kip, name="trajopt", goal=goal, lqr_weights=lqr_weights)
+                    task=task)
+    return kip_controller(robot.analytic, kip, task, name="trajopt", lqr_weights=lqr_weights)
 
 
-def build_trajopt_effort(robot, gains=None, check=True, limit=None, duration=EFFORT_DURATION, intervals=INTERVALS,
-                        goal="folded", lqr_weights=None):
+def build_trajopt_effort(robot, task, gains=None, check=True, limit=None, duration=EFFORT_DURATION,
+                         intervals=INTERVALS, lqr_weights=None):
     """The kip of least effort over ``duration`` seconds, tracked by TVLQR, then (67)."""
     kip = solve_kip(robot.analytic, _kip_bound(robot, limit), "min-effort", duration=duration, intervals=intervals,
-                    goal=goal)
-    return kip_controller(robot.analytic, kip, name="trajopt-effort", goal=goal, lqr_weights=lqr_weights)
+                    task=task)
+    return kip_controller(robot.analytic, kip, task, name="trajopt-effort", lqr_weights=lqr_weights)
 
 
-def _switched(robot, swing, goal, name, lqr_weights=None):
-    """``swing`` until region (68) around the goal, then the LQR (67) at the goal (weights ``lqr_weights``)."""
-    return CombinedController(swing, LQRController.for_model(robot.analytic, goal, lqr_weights),
-                              RegionCondition(goal_angles(goal, robot.params.n_links)), name=name)
+def _switched(robot, task, swing, name, lqr_weights=None):
+    """``swing`` until region (68) of the task, then the LQR (67) at its goal (weights ``lqr_weights``)."""
+    return CombinedController(swing, LQRController.for_model(robot.analytic, task, lqr_weights),
+                              RegionCondition(task), name=name)
 
 
-def build_vcl(robot, gains=None, check=True, goal="folded", lqr_weights=None):
+def build_vcl(robot, task, gains=None, check=True, lqr_weights=None):
     """The paper's controller: (40) + (67) switched by (68)."""
-    return _switched(robot, EnergyVCLController(robot.analytic, **_gains(robot, gains), check=check, goal=goal),
-                     goal, "vcl", lqr_weights)
+    return _switched(robot, task, build_vcl_only(robot, task, gains, check), "vcl", lqr_weights)
 
 
-def build_vcl_only(robot, gains=None, check=True, goal="folded"):
+def build_vcl_only(robot, task, gains=None, check=True):
     """Controller (40) alone, for the whole run."""
-    return EnergyVCLController(robot.analytic, **_gains(robot, gains), check=check, goal=goal)
+    return EnergyVCLController(robot.analytic, **_gains(robot, gains), check=check, task=task)
 
 
-def build_vc(robot, gains=None, check=True, goal="folded", lqr_weights=None):
+def build_vc(robot, task, gains=None, check=True, lqr_weights=None):
     """The conventional candidate (12) + (67) switched by (68)."""
-    return _switched(robot, ConventionalController(robot.analytic, **_gains(robot, gains), check=check, goal=goal),
-                     goal, "vc", lqr_weights)
+    return _switched(robot, task, build_vc_only(robot, task, gains, check), "vc", lqr_weights)
 
 
-def build_vc_only(robot, gains=None, check=True, goal="folded"):
+def build_vc_only(robot, task, gains=None, check=True):
     """The conventional candidate (12) alone."""
-    return ConventionalController(robot.analytic, **_gains(robot, gains), check=check, goal=goal)
+    return ConventionalController(robot.analytic, **_gains(robot, gains), check=check, task=task)
 
 
-def build_lqr(robot, gains=None, check=True, goal="folded", lqr_weights=None):
+def build_lqr(robot, task, gains=None, check=True, lqr_weights=None):
     """The LQR (67) alone, from wherever the robot starts."""
-    return LQRController.for_model(robot.analytic, goal, lqr_weights)
+    return LQRController.for_model(robot.analytic, task, lqr_weights)
 
 
-def build_passive(robot, gains=None, check=True, goal="folded"):
+def build_passive(robot, task, gains=None, check=True):
     """Zero torque."""
-    return PassiveController()
+    return PassiveController().bind(robot, task)
 
 
-def build_spong(robot, gains=None, check=True, goal="folded"):
+def build_spong(robot, task, gains=None, check=True):
     """Spong's acrobot swing-up with Drake's defaults (:mod:`paa_mj.control.spong`): two links, stretched goal."""
     from .spong import SpongController
 
     if robot.params.n_links != 2:
         raise PaaError(f"spong is Spong's acrobot swing-up, for robots of 2 links; {robot.name} has"
                        f" {robot.params.n_links}")
-    if goal != "stretched":
-        raise PaaError("spong swings the acrobot up to the stretched upright (every link up): use --goal stretched")
-    return SpongController(robot.analytic)
+    return SpongController(robot.analytic, task=task)
 
 
 BUILTIN = {name: (builder, DESCRIPTIONS[name]) for name, builder in (
@@ -151,7 +148,8 @@ BUILTIN = {name: (builder, DESCRIPTIONS[name]) for name, builder in (
 
 
 def register(name: str, builder, description: str):
-    """Add a built-in controller: ``builder(robot, gains=None, check=True, goal="folded")`` returns it."""
+    """Add a built-in controller: ``builder(robot, task, gains=None, check=True)`` returns it for that robot and
+    :class:`~paa_mj.task.Task`."""
     BUILTIN[name] = (builder, description)
 
 
@@ -208,8 +206,9 @@ class ControllerSpec:
         Check the gains against the theory when building.
     options : tuple of (name, value)
         The controller's own options (:data:`~paa_mj.control.catalog.OPTIONS`).
-    goal : {"folded", "stretched"}
-        The goal a built-in controller aims at; a user's class gets it as ``goal=`` when its constructor takes it.
+    task : Task or None
+        The task it is built for (None: the folded task of the robot it is built on); a user's class gets it as
+        ``task=`` when its constructor takes it (or its goal's name as ``goal=``).
     """
 
     name: str = "vcl"
@@ -217,14 +216,15 @@ class ControllerSpec:
     believed: RobotParams | None = None
     check: bool = True
     options: tuple = ()
-    goal: str = "folded"
+    task: Task | None = None
 
     def __post_init__(self):
         if not isinstance(self.name, str):
             raise PaaError(f"a controller is named by a string (one of {', '.join(BUILTIN)} or"
                            f" path/to/file.py:ClassName), got {self.name!r}")
-        if self.goal not in GOALS:
-            raise PaaError(f"unknown goal {self.goal!r}: use one of {', '.join(GOALS)}")
+        if self.task is not None and not isinstance(self.task, Task):
+            raise PaaError(f"the controller {self.name}'s task must be a paa_mj.task.Task (or None), got"
+                           f" {type(self.task).__name__}")
         if not isinstance(self.check, (bool, np.bool_)):
             raise PaaError(f"check must be True or False, got {self.check!r}")
         if self.believed is not None and not isinstance(self.believed, RobotParams):
@@ -266,36 +266,59 @@ class ControllerSpec:
         except OSError as err:
             raise PaaError(f"cannot read controller file {path}: {err.strerror or err}") from None
 
+    def for_task(self, task: Task) -> "ControllerSpec":
+        """The same recipe for ``task``."""
+        return replace(self, task=task)
+
     def build(self, robot) -> Controller:
-        """The controller for ``robot`` (the plant); it believes in ``believed`` when given."""
+        """The controller for ``robot`` (the plant) and :attr:`task`, bound to both (:class:`Binding`); it believes
+        in ``believed`` when given."""
         from ..model.robot import Robot
 
         if not isinstance(robot, Robot):
             raise PaaError(f"controllers are built for a robot of load_robot(), got {type(robot).__name__}")
+        task = as_task(self.task, robot)
         believed = robot if self.believed is None else robot.with_params(self.believed)
         if is_user_controller(self.name):
-            cls = load_user_class(self.name)
-            try:
-                controller = cls(_private_copy(believed), **({"goal": self.goal} if _takes_goal(cls) else {}))
-            except (PaaError, KeyboardInterrupt):
-                raise
-            except (Exception, SystemExit) as err:  # sys.exit() in __init__ must not end the command as a success
-                raise PaaError(f"controller {self.short_name}(robot) failed: {type(err).__name__}:"
-                               f" {' '.join(str(err).split())}") from None
-            if not callable(getattr(controller, "torque", None)):
-                raise PaaError(f"controller {self.short_name} has no method torque(q, qd, t)")
-            return controller
-        gains = None if self.gains is None else dict(zip(("kD", "kP", "kV"), self.gains))
-        return BUILTIN[self.name][0](believed, gains=gains, check=self.check, goal=self.goal, **dict(self.options))
+            controller = self._build_user(believed, task)
+        else:
+            gains = None if self.gains is None else dict(zip(("kD", "kP", "kV"), self.gains))
+            controller = BUILTIN[self.name][0](believed, task, gains=gains, check=self.check, **dict(self.options))
+        _bind(controller, robot, task)  # to the plant: a controller that believes in another model does so on purpose
+        return controller
+
+    def _build_user(self, robot, task):
+        cls = load_user_class(self.name)
+        accepted = _keywords(cls)
+        given = {"task": task} if "task" in accepted else {"goal": task.name} if "goal" in accepted else {}
+        try:
+            controller = cls(_private_copy(robot), **given)
+        except (PaaError, KeyboardInterrupt):
+            raise
+        except (Exception, SystemExit) as err:  # sys.exit() in __init__ must not end the command as a success
+            raise PaaError(f"controller {self.short_name}(robot) failed: {type(err).__name__}:"
+                           f" {' '.join(str(err).split())}") from None
+        if not callable(getattr(controller, "torque", None)):
+            raise PaaError(f"controller {self.short_name} has no method torque(q, qd, t)")
+        return controller
 
 
-def _takes_goal(cls) -> bool:
+def _bind(controller, robot, task):
+    """Record on ``controller`` the robot and task it is built for, where it takes attributes (a user's object
+    with ``__slots__`` may not: it is then not checked against the run)."""
+    try:
+        controller.binding = Binding.of(robot, task)
+    except AttributeError:
+        pass
+
+
+def _keywords(cls) -> set:
     import inspect
 
     try:
-        return "goal" in inspect.signature(cls).parameters
+        return set(inspect.signature(cls).parameters)
     except (TypeError, ValueError):
-        return False
+        return set()
 
 
 def _three_gains(gains) -> tuple:
@@ -327,12 +350,12 @@ def _hashable(value):
     return tuple(float(v) for v in np.ravel(value)) if np.ndim(value) else value
 
 
-def make_controller(name: str, robot, gains: dict | None = None, check: bool = True, goal: str = "folded",
-                    **options) -> Controller:
-    """The controller ``name`` (built-in or ``file.py:ClassName``) for ``robot``.
+def make_controller(name: str, robot, *, task: Task | str | None = None, gains: dict | None = None,
+                    check: bool = True, **options) -> Controller:
+    """The controller ``name`` (built-in or ``file.py:ClassName``) for ``robot`` and ``task``, bound to both.
 
-    ``gains`` ({"kD", "kP", "kV"}, any subset) override the robot's stored gains;
-    ``options`` are the controller's own (:data:`OPTIONS`).
+    ``task``: a :class:`~paa_mj.task.Task`, a goal's name, or None for the folded task. ``gains`` ({"kD", "kP",
+    "kV"}, any subset) override the robot's stored gains; ``options`` are the controller's own (:data:`OPTIONS`).
     """
     from ..model.robot import Robot
 
@@ -343,4 +366,5 @@ def make_controller(name: str, robot, gains: dict | None = None, check: bool = T
         if not isinstance(gains, dict) or set(gains) - {"kD", "kP", "kV"}:
             raise PaaError(f"gains must be a dict with some of kD, kP, kV, got {gains!r}")
         values = tuple(robot.resolve_gains(**gains).values())
-    return ControllerSpec(name, values, check=check, options=tuple(options.items()), goal=goal).build(robot)
+    return ControllerSpec(name, values, check=check, options=tuple(options.items()),
+                          task=as_task(task, robot)).build(robot)

@@ -58,6 +58,7 @@ from numba.extending import register_jitable
 from ..errors import PaaError
 from ..model import chain
 from ..model.dynamics import AnalyticModel
+from ..task import Task
 from .base import CompiledForm, Controller, kernel
 
 #: Drake's defaults (``SpongControllerParams``): energy gain k_e, elbow gains k_p [1/s^2] and k_d [1/s],
@@ -148,14 +149,15 @@ def _spong_rows(params, x, tau, mode):
         mode[r] = spong_torque(params, x[r], tau[r])
 
 
-def spong_lqr(model: AnalyticModel, Q=LQR_Q, R=LQR_R):
-    """(S, K) of the LQR at the upright: S the stabilising solution of the continuous Riccati equation of
-    the linearisation of (1) at q = 0 (damping included) with x = [q, qd], K = R^-1 B^T S (SciPy)."""
+def spong_lqr(model: AnalyticModel, task: Task, Q=LQR_Q, R=LQR_R):
+    """(S, K) of the LQR at the upright (the stretched task's goal): S the stabilising solution of the continuous
+    Riccati equation of the linearisation of (1) at q = 0 (damping included) with x = [q, qd], K = R^-1 B^T S
+    (SciPy)."""
     from scipy.linalg import solve_continuous_are
 
     from ..theory.linear import goal_linearization
 
-    A, B = goal_linearization(model, "stretched")
+    A, B = goal_linearization(model, task)
     S = solve_continuous_are(A, B, Q, R)
     return S, np.linalg.solve(R, B.T @ S)
 
@@ -173,6 +175,8 @@ class SpongController(Controller):
         The LQR acts where its cost-to-go x~^T S x~ is below this (Drake's ``balancing_threshold``).
     clamp : float
         The torque is clamped to [-clamp, clamp] [N m] (Drake's 20 N m).
+    task : Task, optional
+        The stretched task (every link up), the only one Spong's law aims at; default its defaults.
 
     Attributes
     ----------
@@ -184,9 +188,14 @@ class SpongController(Controller):
 
     name = "spong"
 
-    def __init__(self, model: AnalyticModel, k_e=K_E, k_p=K_P, k_d=K_D, threshold=THRESHOLD, clamp=TORQUE_CLAMP):
+    def __init__(self, model: AnalyticModel, k_e=K_E, k_p=K_P, k_d=K_D, threshold=THRESHOLD, clamp=TORQUE_CLAMP,
+                 task: Task | None = None):
         if model.n_links != 2:
             raise PaaError(f"spong is Spong's acrobot swing-up, for robots of 2 links; this one has {model.n_links}")
+        task = Task.named("stretched", model) if task is None else task
+        if task.name != "stretched":
+            raise PaaError("spong swings the acrobot up to the stretched upright (every link up): use the stretched"
+                           " task (--goal stretched)")
         values = {"k_e": k_e, "k_p": k_p, "k_d": k_d, "threshold": threshold, "clamp": clamp}
         for key, value in values.items():
             if not (isinstance(value, (int, float, np.floating, np.integer)) and not isinstance(value, bool)
@@ -195,9 +204,9 @@ class SpongController(Controller):
         self.model = model
         self.k_e, self.k_p, self.k_d = float(k_e), float(k_p), float(k_d)
         self.threshold, self.clamp = float(threshold), float(clamp)
-        self.S, self.K = spong_lqr(model)
+        self.S, self.K = spong_lqr(model, task)
         p = model.params
-        self.E_desired = float(np.sum(model.gravity_constants))  # P(0) = (m1 lc1 + m2 (l1 + lc2)) g
+        self.E_desired = task.goal_energy(model)  # P(0) = (m1 lc1 + m2 (l1 + lc2)) g
         params = np.zeros(_SIZE)
         params[:_A] = [self.k_e, self.k_p, self.k_d, self.threshold, self.clamp, self.E_desired]
         params[_A:_B] = model.inertia_constants.reshape(-1)
@@ -208,6 +217,7 @@ class SpongController(Controller):
         params[_K:] = self.K.reshape(-1)
         self.params = params
         self.mode = np.int8(0)
+        self.bind(model, task)
 
     def reset(self):
         self.mode = np.int8(0)
@@ -221,10 +231,8 @@ class SpongController(Controller):
         e = np.stack([e1, e2, qd[..., 0], qd[..., 1]], -1)
         return np.einsum("...i,ij,...j->...", e, self.S, e)
 
-    def torque(self, q, qd, t=0.0):
-        q, qd = np.broadcast_arrays(np.asarray(q, float), np.asarray(qd, float))
-        if q.shape[-1] != 2:
-            raise PaaError(f"spong takes states of 2 joints, got {q.shape[-1]}")
+    def law(self, q, qd, t):
+        q, qd = np.broadcast_arrays(q, qd)
         batch = q.shape[:-1]
         x = np.ascontiguousarray(np.concatenate([q, qd], axis=-1).reshape(-1, 4))
         tau = np.empty((x.shape[0], 1))

@@ -34,7 +34,7 @@ import numpy as np
 from ..errors import PaaError
 from ..model import equations as eq
 from ..model.dynamics import AnalyticModel
-from ..model.states import goal_angles, start_state
+from ..task import Task
 from ..provenance import cache_root, package_digest
 
 OBJECTIVES = ("min-time", "min-effort")
@@ -48,36 +48,12 @@ CACHE_VERSION = 2  # 2: the time range bounds T itself (version 1 held T >= 1 s)
 
 
 def dynamics_function(am: AnalyticModel):
-    """(1) as a CasADi function f(x, u) -> x_dot, x = [q, qd], u = [tau2, ..., tau_n] ([tau2, tau3] for the gymnast,
-    with the paper's closed forms; the chain's formulas of :mod:`paa_mj.model.chain` otherwise)."""
+    """(1) as a CasADi function f(x, u) -> x_dot, x = [q, qd], u = [tau2, ..., tau_n] ([tau2, tau3] for the gymnast):
+    the model's own formulas written for CasADi (:meth:`~paa_mj.model.dynamics.AnalyticModel.symbolic_acceleration`)."""
     ca = eq.casadi_module()
     n = am.n_links
     x, u = ca.SX.sym("x", 2 * n), ca.SX.sym("u", n - 1)
-    if am.paper_shape:
-        qdd = eq.acceleration(am.constants, x[0], x[1], x[2], x[3], x[4], x[5], u[0], u[1])
-        return ca.Function("f", [x, u], [ca.vertcat(x[3], x[4], x[5], *qdd)])
-    return ca.Function("f", [x, u], [ca.vertcat(x[n:], _chain_acceleration(am, ca, x, u))])
-
-
-def _chain_acceleration(am, ca, x, u):
-    """qdd = M^-1 (B u - H - G - D qd) of a chain, symbolically: the formulas of :mod:`paa_mj.model.chain`
-    (absolute angles, M = T^T M^abs T + diag(armature), H + G = T^T (c + grad_phi P)) written for CasADi."""
-    n = am.n_links
-    A, b, p = am.inertia_constants, am.gravity_constants, am.params
-    phi, rate, total, total_rate = [], [], 0, 0
-    for k in range(n):
-        total, total_rate = total + x[k], total_rate + x[n + k]
-        phi.append(total)
-        rate.append(total_rate)
-    absolute = [[A[i, j] * ca.cos(phi[i] - phi[j]) for j in range(n)] for i in range(n)]
-    mass = ca.SX(n, n)
-    for k in range(n):
-        for m in range(n):
-            mass[k, m] = sum(absolute[i][j] for i in range(k, n) for j in range(m, n)) + (p.armature[k] if k == m else 0)
-    c = [sum(A[i, j] * ca.sin(phi[i] - phi[j]) * rate[j] ** 2 for j in range(n)) - b[i] * ca.sin(phi[i])
-         for i in range(n)]
-    force = ca.vertcat(*[(u[k - 1] if k else 0) - sum(c[k:]) - p.damping[k] * x[n + k] for k in range(n)])
-    return ca.solve(mass, force)
+    return ca.Function("f", [x, u], [ca.vertcat(x[n:], am.symbolic_acceleration(ca, x, u))])
 
 
 @dataclass(frozen=True)
@@ -172,9 +148,9 @@ def _key(am, bound, objective, duration, intervals, x0, xN):
 
 
 def solve_kip(am: AnalyticModel, bound, objective="min-time", duration=None, intervals=INTERVALS, x0=None,
-              xN=None, use_cache=True, max_iter=3000, goal="folded") -> Kip:
-    """Solve (or load from the cache) the kip from ``x0`` to ``xN`` (default: from the task's start to the goal at
-    rest; for the gymnast from (65) to UDD).
+              xN=None, use_cache=True, max_iter=3000, task: Task | None = None) -> Kip:
+    """Solve (or load from the cache) the kip from ``x0`` to ``xN`` (default: from the task's start to its goal at
+    rest; for the gymnast's folded task from (65) to UDD).
 
     Parameters
     ----------
@@ -186,8 +162,8 @@ def solve_kip(am: AnalyticModel, bound, objective="min-time", duration=None, int
         T [s] of a min-effort kip (required there); the initial guess of a min-time one.
     intervals : int
         Collocation intervals N.
-    goal : {"folded", "stretched"}
-        The default start and end (:func:`~paa_mj.model.states.start_state`, the goal at rest).
+    task : Task, optional
+        The default start and end (its start, its goal at rest); default the folded task.
 
     Raises
     ------
@@ -222,8 +198,9 @@ def solve_kip(am: AnalyticModel, bound, objective="min-time", duration=None, int
                        " solution stored over the whole duration")
     if not (isinstance(intervals, (int, np.integer)) and 4 <= intervals <= 2000):
         raise PaaError(f"collocation intervals must be an integer in [4, 2000], got {intervals}")
-    x0 = start_state(links, goal) if x0 is None else _real(x0, "the kip's initial state x0")
-    xN = np.concatenate([goal_angles(goal, links), np.zeros(links)]) if xN is None else \
+    task = Task.named("folded", am) if task is None else task
+    x0 = np.array(task.start) if x0 is None else _real(x0, "the kip's initial state x0")
+    xN = np.concatenate([task.goal, np.zeros(links)]) if xN is None else \
         _real(xN, "the kip's final state xN")
     for name, state in (("x0", x0), ("xN", xN)):
         if state.shape != (2 * links,) or not np.all(np.isfinite(state)):

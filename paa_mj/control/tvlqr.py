@@ -28,6 +28,7 @@ from numba.extending import register_jitable
 from ..errors import PaaError
 from ..model.dynamics import AnalyticModel
 from ..model.states import wrap
+from ..task import Task
 from ..theory.linear import LQR_Q, LQR_R, LQR_WEIGHT, goal_linearization
 from .base import CompiledForm, Controller, kernel
 from .combined import CombinedController, TimeCondition
@@ -99,9 +100,9 @@ def riccati_field(t, s_flat, step, A_all, B_all, R_inv, Q):
     return out
 
 
-def riccati_gains(am: AnalyticModel, times, x_ref, u_ref, Q=None, R=None, goal="folded"):
-    """K(t) at ``times`` (n, nu, nx) of the LQR along the reference, S(T) from (67)'s Riccati equation at the goal
-    (UDD for the gymnast); Q, R default to the paper's weights sized for the robot."""
+def riccati_gains(am: AnalyticModel, times, x_ref, u_ref, task: Task, Q=None, R=None):
+    """K(t) at ``times`` (n, nu, nx) of the LQR along the reference, S(T) from (67)'s Riccati equation at the task's
+    goal (UDD for the gymnast); Q, R default to the paper's weights sized for the robot."""
     from scipy.integrate import solve_ivp
     from scipy.linalg import solve_continuous_are
 
@@ -115,7 +116,7 @@ def riccati_gains(am: AnalyticModel, times, x_ref, u_ref, Q=None, R=None, goal="
     pairs = [jac(x_ref[i], u_ref[i]) for i in range(len(times))]
     A_all = np.array([np.array(a) for a, _ in pairs], dtype=float)
     B_all = np.array([np.array(b) for _, b in pairs], dtype=float)
-    A_goal, B_goal = goal_linearization(am, goal)
+    A_goal, B_goal = goal_linearization(am, task)
     S_end = solve_continuous_are(A_goal, B_goal, Q, R)
     R_inv = np.ascontiguousarray(np.linalg.inv(R), dtype=float)
     Q = np.ascontiguousarray(Q, dtype=float)
@@ -142,15 +143,18 @@ class TVLQRController(Controller):
     kip : Kip
     table_dt : float
         Step of the reference and gain table [s].
+    task : Task
+        The task whose goal the kip ends at (the Riccati equation's end condition is its LQR's).
     """
 
     name = "tvlqr"
 
-    def __init__(self, model: AnalyticModel, kip: Kip, table_dt=TABLE_DT, goal="folded"):
+    def __init__(self, model: AnalyticModel, kip: Kip, task: Task, table_dt=TABLE_DT):
         self.model, self.kip = model, kip
         n = int(np.ceil(kip.duration / table_dt)) + 1
         self.times = np.arange(n) * table_dt
-        self.params = _cached_table(model, kip, self.times, table_dt, goal)
+        self.params = _cached_table(model, kip, self.times, table_dt, task)
+        self.bind(model, task)
 
     @property
     def duration(self):
@@ -161,8 +165,8 @@ class TVLQRController(Controller):
         x, u = self.kip.sample(np.atleast_1d(t), self.model)
         return x[0], u[0]
 
-    def torque(self, q, qd, t=0.0):
-        x = np.concatenate(np.broadcast_arrays(np.asarray(q, float), np.asarray(qd, float)), axis=-1)
+    def law(self, q, qd, t):
+        x = np.concatenate(np.broadcast_arrays(q, qd), axis=-1)
         tau = np.empty(x.shape[:-1] + (x.shape[-1] // 2 - 1,))
         tvlqr_torque(self.params, float(t), np.moveaxis(x, -1, 0), np.moveaxis(tau, -1, 0))
         return tau
@@ -174,7 +178,7 @@ class TVLQRController(Controller):
         return {"controller": self.name, "plan": self.kip.plan()}
 
 
-def _cached_table(model, kip, times, table_dt, goal="folded"):
+def _cached_table(model, kip, times, table_dt, task: Task):
     """The controller's table [n, dt, x_ref, u_ref, K], from the trajectory cache when it is there."""
     import hashlib
 
@@ -186,7 +190,7 @@ def _cached_table(model, kip, times, table_dt, goal="folded"):
     nx, nu = 2 * model.n_links, model.n_links - 1
     weights = (LQR_Q.tolist(), LQR_R.tolist()) if nx == 6 else (LQR_WEIGHT, nx, nu)
     digest = hashlib.sha256(repr((package_digest(), model.key(), table_dt, *weights)
-                                 + ((goal,) if goal != "folded" else ())).encode()
+                                 + ((task.name,) if task.name != "folded" else ())).encode()
                             + b"".join(np.ascontiguousarray(a).tobytes() for a in (kip.x, kip.u, kip.x_mid, kip.u_mid))
                             ).hexdigest()[:24]
     path = cache_dir() / f"tvlqr-{digest}.npz"
@@ -201,7 +205,7 @@ def _cached_table(model, kip, times, table_dt, goal="folded"):
                 and np.all(np.isfinite(kept)):
             return kept  # else: not this table (damaged, or written by other code), computed again
     x_ref, u_ref = kip.sample(times, model)
-    K = riccati_gains(model, times, x_ref, u_ref, goal=goal)
+    K = riccati_gains(model, times, x_ref, u_ref, task)
     params = np.concatenate([[len(times), table_dt], x_ref.reshape(-1), u_ref.reshape(-1), K.reshape(-1)])
     try:
         write_npz(path, params=params)
@@ -210,9 +214,10 @@ def _cached_table(model, kip, times, table_dt, goal="folded"):
     return params
 
 
-def kip_controller(model: AnalyticModel, kip: Kip, name="trajopt", goal="folded", lqr_weights=None) -> CombinedController:
-    """Track ``kip`` by TVLQR, then balance by the LQR (67) at the goal once it has ended (t >= T); ``lqr_weights``
-    (q, r) weigh that LQR (default the paper's)."""
-    tracking = TVLQRController(model, kip, goal=goal)
-    return CombinedController(tracking, LQRController.for_model(model, goal, lqr_weights), TimeCondition(kip.duration),
+def kip_controller(model: AnalyticModel, kip: Kip, task: Task, name="trajopt", lqr_weights=None) \
+        -> CombinedController:
+    """Track ``kip`` by TVLQR, then balance by the LQR (67) at the task's goal once it has ended (t >= T);
+    ``lqr_weights`` (q, r) weigh that LQR (default the paper's)."""
+    tracking = TVLQRController(model, kip, task)
+    return CombinedController(tracking, LQRController.for_model(model, task, lqr_weights), TimeCondition(kip.duration),
                               name=name)

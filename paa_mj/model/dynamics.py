@@ -6,15 +6,16 @@
 
 Every method takes arrays with any leading batch shape: ``q`` and ``qd`` of
 shape (..., n) [rad, rad/s], ``tau`` of shape (..., n - 1) [N m]. Energies are in J.
-For the paper's gymnast (three links, no damping, no armature) the formulas are
-the paper's closed forms of :mod:`paa_mj.model.equations` (shared with the compiled
-controllers); for every other chain they are the general ones of
-:mod:`paa_mj.model.chain`. An :class:`AnalyticModel` is built from
-:class:`~paa_mj.model.params.RobotParams`, normally read back from the MuJoCo
-model being simulated.
+An :class:`AnalyticModel` is one protocol with two implementations, chosen once by
+:meth:`AnalyticModel.from_params`: :class:`PaperModel`, the paper's closed forms (2)-(7) of
+:mod:`paa_mj.model.equations` (shared with the compiled controllers) for its gymnast (three links,
+no damping, no armature), and :class:`ChainModel`, the general formulas of :mod:`paa_mj.model.chain`
+for every other chain. It is built from :class:`~paa_mj.model.params.RobotParams`, normally read
+back from the MuJoCo model being simulated.
 """
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -40,15 +41,11 @@ def _split(x):
 
 @dataclass(frozen=True, eq=False)
 class AnalyticModel:
-    """M, H, G, P and E of a chain of the family; the paper's closed forms (2)-(7) for the gymnast.
+    """M, H, G, P and E of a chain of the family (:class:`PaperModel` or :class:`ChainModel`).
 
     Attributes
     ----------
     params : RobotParams
-    constants : ndarray (9,) or None
-        For the paper's shape (:attr:`RobotParams.is_paper_shape`) the vector ``c`` of
-        :mod:`paa_mj.model.equations`: a11, a22, a33, a12, a13, a23 (3) [kg m^2] and
-        b1, b2, b3 (4) [J], also as attributes; None for other chains.
     inertia_constants : ndarray (n, n)
         A of :mod:`paa_mj.model.chain` [kg m^2].
     gravity_constants : ndarray (n,)
@@ -56,28 +53,18 @@ class AnalyticModel:
     """
 
     params: RobotParams
-    constants: np.ndarray | None = field(repr=False)
     inertia_constants: np.ndarray = field(repr=False, default=None)
     gravity_constants: np.ndarray = field(repr=False, default=None)
+    #: The paper's gymnast, where (1)-(7) hold as written (three links, no damping, no armature).
+    paper_shape = False
 
     @classmethod
     def from_params(cls, p: RobotParams) -> "AnalyticModel":
+        """:class:`PaperModel` for the paper's shape (:attr:`RobotParams.is_paper_shape`), else :class:`ChainModel`."""
         A, b = chain.chain_constants(p)
-        return cls(params=p, constants=eq.robot_constants(p) if p.is_paper_shape else None, inertia_constants=A,
-                   gravity_constants=b)
-
-    def __getattr__(self, name):
-        if name in eq.CONSTANTS:
-            if self.constants is None:
-                raise AttributeError(f"{name} is a constant of the paper's 3-link model; this robot has"
-                                     f" {self.params.n_links} links (see inertia_constants, gravity_constants)")
-            return float(self.constants[eq.CONSTANTS.index(name)])
-        raise AttributeError(name)
-
-    @property
-    def paper_shape(self) -> bool:
-        """The paper's gymnast: (1)-(7) hold as written (three links, no damping, no armature)."""
-        return self.constants is not None
+        if p.is_paper_shape:
+            return PaperModel(params=p, inertia_constants=A, gravity_constants=b, constants=eq.robot_constants(p))
+        return ChainModel(params=p, inertia_constants=A, gravity_constants=b)
 
     @property
     def n_links(self) -> int:
@@ -97,103 +84,18 @@ class AnalyticModel:
         return self.params.key()
 
     @property
+    def digest(self) -> str:
+        """A short digest of the parameters (what a built controller records of its robot)."""
+        return hashlib.sha256(np.asarray(self.key(), dtype=float).tobytes()).hexdigest()[:12]
+
+    @property
     def beta(self) -> np.ndarray:
         """The gravity constants [b1, ..., bn] [J] ((4) for the gymnast)."""
         return self.gravity_constants.copy()
 
-    @property
-    def E_r(self) -> float:
-        """Energy at the folded goal (8): link 1 up, the others hanging, E_r = b1 - b2 - ... - bn ((9) for n = 3) [J]."""
-        return self.goal_energy("folded")
-
-    def goal_energy(self, goal="folded") -> float:
-        """E_r = P(q*): the energy at rest at a goal of the family [J] ((9) for the gymnast's UDD)."""
-        from .states import goal_angles
-
-        if self.paper_shape and goal == "folded":
-            return float(eq.udd_energy(self.constants))
-        return float(self.potential(goal_angles(goal, self.n_links)))
-
-    def mass_matrix_23(self, q2, q3):
-        """Inertia matrix (2) of the gymnast as a function of (q2, q3) only; shape (..., 3, 3)."""
-        self._require_paper("mass_matrix_23")
-        return _matrix3(*eq.inertia(self.constants, np.asarray(q2, float), np.asarray(q3, float)))
-
-    def _require_paper(self, what):
-        if not self.paper_shape:
-            raise AttributeError(f"{what} is the paper's 3-link closed form; use mass_matrix(q) for this chain")
-
-    def mass_matrix(self, q):
-        """M(q) [kg m^2], shape (..., n, n); (2) for the gymnast."""
-        if self.paper_shape:
-            _, q2, q3 = _split(q)
-            return self.mass_matrix_23(q2, q3)
-        return chain.batch_mass_matrix(self.inertia_constants, self.params.armature, q)
-
-    def coriolis(self, q, qd):
-        """H(q, qd) [N m], shape (..., n)."""
-        if self.paper_shape:
-            _, q2, q3 = _split(q)
-            h = eq.coriolis(self.constants, q2, q3, *_split(qd))
-            return np.stack(np.broadcast_arrays(*h), -1)
-        return self.bias(q, qd) - self.gravity(q)
-
     def damping_force(self, qd):
         """D qd: the joints' viscous damping [N m], shape (..., n) (zero for the gymnast)."""
         return self.params.damping * np.asarray(qd, float)
-
-    def potential(self, q):
-        """P(q) = sum_k b_k cos(q1 + ... + qk) ((7) for the gymnast) [J]."""
-        if self.paper_shape:
-            return eq.potential(self.constants, *_split(q))
-        return chain.batch_potential(self.gravity_constants, q)
-
-    def gravity(self, q):
-        """G(q) = dP/dq [N m], shape (..., n)."""
-        if self.paper_shape:
-            return np.stack(eq.gravity(self.constants, *_split(q)), -1)
-        q = np.asarray(q, float)
-        return chain.batch_bias(self.inertia_constants, self.gravity_constants, q, np.zeros_like(q))
-
-    def gravity_jacobian(self, q):
-        """dG/dq = Hessian of P [N m/rad], shape (..., n, n); used to linearise (1)."""
-        if self.paper_shape:
-            k1, k2, k3 = eq.gravity_jacobian(self.constants, *_split(q))
-            return _matrix3(k1, k2, k3, k2, k3, k3)
-        return chain.batch_gravity_jacobian(self.gravity_constants, q)
-
-    def bias(self, q, qd):
-        """H(q, qd) + G(q): MuJoCo's ``qfrc_bias`` for this model [N m] (damping is in ``qfrc_passive``)."""
-        if self.paper_shape:
-            return self.coriolis(q, qd) + self.gravity(q)
-        return chain.batch_bias(self.inertia_constants, self.gravity_constants, q, qd)
-
-    def kinetic_energy(self, q, qd):
-        """1/2 qd^T M qd [J] (armature included, as MuJoCo counts it)."""
-        if self.paper_shape:
-            _, q2, q3 = _split(q)
-            return eq.kinetic(*eq.inertia(self.constants, q2, q3), *_split(qd))
-        qd = np.asarray(qd, float)
-        return 0.5 * np.einsum("...i,...ij,...j->...", qd, self.mass_matrix(q), qd)
-
-    def energy(self, q, qd):
-        """Total mechanical energy E = 1/2 qd^T M qd + P (6) [J]."""
-        if self.paper_shape:
-            return eq.energy(self.constants, *_split(q), *_split(qd))
-        return self.kinetic_energy(q, qd) + self.potential(q)
-
-    def acceleration(self, q, qd, tau):
-        """qdd = M^-1 (B tau - H - G - D qd) [rad/s^2], shape (..., n)."""
-        tau = np.asarray(tau, dtype=float)
-        if self.paper_shape:
-            qdd = eq.acceleration(self.constants, *_split(q), *_split(qd), tau[..., 0], tau[..., 1])
-            return np.stack(np.broadcast_arrays(*qdd), -1)
-        q, qd = np.asarray(q, float), np.asarray(qd, float)
-        mass = self.mass_matrix(q)
-        force = tau @ self.input_matrix.T - self.bias(q, qd) - self.damping_force(qd)
-        force = np.broadcast_to(force, np.broadcast_shapes(force.shape, mass.shape[:-1]))
-        mass = np.broadcast_to(mass, force.shape + mass.shape[-1:])
-        return np.linalg.solve(mass, force[..., None])[..., 0]
 
     def state_derivative(self, x, tau):
         """(1) as a first-order system: d/dt [q, qd] = [qd, qdd(q, qd, tau)], shape (..., 2n)."""
@@ -221,3 +123,186 @@ class AnalyticModel:
         B_lin = np.zeros((2 * n, n - 1))
         B_lin[n:, :] = np.linalg.solve(M, self.input_matrix)
         return A, B_lin
+
+    # --- the protocol, one implementation per subclass ---------------------------------------------------
+
+    def mass_matrix(self, q):
+        """M(q) [kg m^2], shape (..., n, n); (2) for the gymnast."""
+        raise NotImplementedError
+
+    def coriolis(self, q, qd):
+        """H(q, qd) [N m], shape (..., n)."""
+        raise NotImplementedError
+
+    def potential(self, q):
+        """P(q) = sum_k b_k cos(q1 + ... + qk) ((7) for the gymnast) [J]."""
+        raise NotImplementedError
+
+    def gravity(self, q):
+        """G(q) = dP/dq [N m], shape (..., n)."""
+        raise NotImplementedError
+
+    def gravity_jacobian(self, q):
+        """dG/dq = Hessian of P [N m/rad], shape (..., n, n); used to linearise (1)."""
+        raise NotImplementedError
+
+    def bias(self, q, qd):
+        """H(q, qd) + G(q): MuJoCo's ``qfrc_bias`` for this model [N m] (damping is in ``qfrc_passive``)."""
+        raise NotImplementedError
+
+    def kinetic_energy(self, q, qd):
+        """1/2 qd^T M qd [J] (armature included, as MuJoCo counts it)."""
+        raise NotImplementedError
+
+    def energy(self, q, qd):
+        """Total mechanical energy E = 1/2 qd^T M qd + P (6) [J]."""
+        raise NotImplementedError
+
+    def acceleration(self, q, qd, tau):
+        """qdd = M^-1 (B tau - H - G - D qd) [rad/s^2], shape (..., n)."""
+        raise NotImplementedError
+
+    def kernel_constants(self):
+        """(constants, closed_form): the robot as compiled code reads it, the paper's ``c`` (closed_form True) or
+        the chain's A (n x n, row by row), b, damping and armature (closed_form False)."""
+        raise NotImplementedError
+
+    def symbolic_acceleration(self, ca, x, u):
+        """qdd of (1) as a CasADi column of n expressions of the symbols x = [q, qd] and u = tau, with the
+        CasADi module ``ca`` (:func:`~paa_mj.model.equations.casadi_module`): the same formulas, for exact
+        derivatives and trajectory optimisation."""
+        raise NotImplementedError
+
+
+@dataclass(frozen=True, eq=False)
+class PaperModel(AnalyticModel):
+    """The paper's gymnast: (1)-(7) in their closed forms (:mod:`paa_mj.model.equations`).
+
+    Attributes
+    ----------
+    constants : ndarray (9,)
+        The vector ``c`` of :mod:`paa_mj.model.equations`: a11, a22, a33, a12, a13, a23 (3) [kg m^2] and
+        b1, b2, b3 (4) [J], also as attributes.
+    """
+
+    constants: np.ndarray = field(repr=False, default=None)
+    paper_shape = True
+
+    def __getattr__(self, name):
+        if name in eq.CONSTANTS:
+            return float(self.constants[eq.CONSTANTS.index(name)])
+        raise AttributeError(name)
+
+    @property
+    def E_r(self) -> float:
+        """E_r = b1 - b2 - b3 (9): the energy of the folded up-down-down equilibrium (8) [J]."""
+        return float(eq.udd_energy(self.constants))
+
+    def mass_matrix_23(self, q2, q3):
+        """Inertia matrix (2) of the gymnast as a function of (q2, q3) only; shape (..., 3, 3)."""
+        return _matrix3(*eq.inertia(self.constants, np.asarray(q2, float), np.asarray(q3, float)))
+
+    def mass_matrix(self, q):
+        _, q2, q3 = _split(q)
+        return self.mass_matrix_23(q2, q3)
+
+    def coriolis(self, q, qd):
+        _, q2, q3 = _split(q)
+        h = eq.coriolis(self.constants, q2, q3, *_split(qd))
+        return np.stack(np.broadcast_arrays(*h), -1)
+
+    def potential(self, q):
+        return eq.potential(self.constants, *_split(q))
+
+    def gravity(self, q):
+        return np.stack(eq.gravity(self.constants, *_split(q)), -1)
+
+    def gravity_jacobian(self, q):
+        k1, k2, k3 = eq.gravity_jacobian(self.constants, *_split(q))
+        return _matrix3(k1, k2, k3, k2, k3, k3)
+
+    def bias(self, q, qd):
+        return self.coriolis(q, qd) + self.gravity(q)
+
+    def kinetic_energy(self, q, qd):
+        _, q2, q3 = _split(q)
+        return eq.kinetic(*eq.inertia(self.constants, q2, q3), *_split(qd))
+
+    def energy(self, q, qd):
+        return eq.energy(self.constants, *_split(q), *_split(qd))
+
+    def acceleration(self, q, qd, tau):
+        tau = np.asarray(tau, dtype=float)
+        qdd = eq.acceleration(self.constants, *_split(q), *_split(qd), tau[..., 0], tau[..., 1])
+        return np.stack(np.broadcast_arrays(*qdd), -1)
+
+    def kernel_constants(self):
+        return self.constants, True
+
+    def symbolic_acceleration(self, ca, x, u):
+        return ca.vertcat(*eq.acceleration(self.constants, x[0], x[1], x[2], x[3], x[4], x[5], u[0], u[1]))
+
+
+@dataclass(frozen=True, eq=False)
+class ChainModel(AnalyticModel):
+    """Any chain of the family: the general formulas of :mod:`paa_mj.model.chain` (damping and armature included)."""
+
+    def mass_matrix(self, q):
+        return chain.batch_mass_matrix(self.inertia_constants, self.params.armature, q)
+
+    def coriolis(self, q, qd):
+        return self.bias(q, qd) - self.gravity(q)
+
+    def potential(self, q):
+        return chain.batch_potential(self.gravity_constants, q)
+
+    def gravity(self, q):
+        q = np.asarray(q, float)
+        return chain.batch_bias(self.inertia_constants, self.gravity_constants, q, np.zeros_like(q))
+
+    def gravity_jacobian(self, q):
+        return chain.batch_gravity_jacobian(self.gravity_constants, q)
+
+    def bias(self, q, qd):
+        return chain.batch_bias(self.inertia_constants, self.gravity_constants, q, qd)
+
+    def kinetic_energy(self, q, qd):
+        qd = np.asarray(qd, float)
+        return 0.5 * np.einsum("...i,...ij,...j->...", qd, self.mass_matrix(q), qd)
+
+    def energy(self, q, qd):
+        return self.kinetic_energy(q, qd) + self.potential(q)
+
+    def acceleration(self, q, qd, tau):
+        tau = np.asarray(tau, dtype=float)
+        q, qd = np.asarray(q, float), np.asarray(qd, float)
+        mass = self.mass_matrix(q)
+        force = tau @ self.input_matrix.T - self.bias(q, qd) - self.damping_force(qd)
+        force = np.broadcast_to(force, np.broadcast_shapes(force.shape, mass.shape[:-1]))
+        mass = np.broadcast_to(mass, force.shape + mass.shape[-1:])
+        return np.linalg.solve(mass, force[..., None])[..., 0]
+
+    def kernel_constants(self):
+        p = self.params
+        return np.concatenate([self.inertia_constants.ravel(), self.gravity_constants, p.damping, p.armature]), False
+
+    def symbolic_acceleration(self, ca, x, u):
+        """The formulas of :mod:`paa_mj.model.chain` (absolute angles, M = T^T M^abs T + diag(armature),
+        H + G = T^T (c + grad_phi P)) written for CasADi."""
+        n = self.n_links
+        A, b, p = self.inertia_constants, self.gravity_constants, self.params
+        phi, rate, total, total_rate = [], [], 0, 0
+        for k in range(n):
+            total, total_rate = total + x[k], total_rate + x[n + k]
+            phi.append(total)
+            rate.append(total_rate)
+        absolute = [[A[i, j] * ca.cos(phi[i] - phi[j]) for j in range(n)] for i in range(n)]
+        mass = ca.SX(n, n)
+        for k in range(n):
+            for m in range(n):
+                mass[k, m] = sum(absolute[i][j] for i in range(k, n) for j in range(m, n)) + \
+                    (p.armature[k] if k == m else 0)
+        c = [sum(A[i, j] * ca.sin(phi[i] - phi[j]) * rate[j] ** 2 for j in range(n)) - b[i] * ca.sin(phi[i])
+             for i in range(n)]
+        force = ca.vertcat(*[(u[k - 1] if k else 0) - sum(c[k:]) - p.damping[k] * x[n + k] for k in range(n)])
+        return ca.solve(mass, force)

@@ -328,7 +328,7 @@ def compile_mjcf(xml: str, source: str = "<string>") -> mujoco.MjModel:
 
 @functools.lru_cache(maxsize=64)
 def _compiled(xml: str) -> mujoco.MjModel:
-    from ..sim.mujoco_log import mujoco_log_off  # here: paa_mj.sim imports this module
+    from ..mujoco_log import mujoco_log_off
 
     with mujoco_log_off():
         return mujoco.MjModel.from_xml_string(xml)

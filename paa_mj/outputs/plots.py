@@ -142,9 +142,7 @@ def series_figure(traj, series, ylabel, title):
 def angles_figure(traj, title):
     """Figs. 7, 9 and 13: q1, q2 + pi, q3 against t (for any chain, each angle from its goal: q_k, or q_k + pi where
     the goal has link k folded down)."""
-    from ..model.states import goal_angles
-
-    goal = goal_angles(traj.goal, traj.n_links)
+    goal = traj.task.goal
     series = [(traj.q[:, k] + np.pi, f"q$_{k + 1}$ + $\\pi$") if goal[k] == -np.pi else (traj.q[:, k], f"q$_{k + 1}$")
               for k in range(traj.n_links)]
     return series_figure(traj, series, "angle [rad]", title)
@@ -210,7 +208,7 @@ def basin_figure(summary, arrays):
         ax.set_ylabel(f"{b} {unit(b)}")
         ax.grid(False)
     left.set_title(f"{summary['robot']}, {summary.get('controller', 'vcl')}: outcome, "
-                   f"{100 * summary['success_fraction']:.0f} % balanced")
+                   f"{100 * summary['success']:.0f} % balanced")
     right.set_title(f"first switch time, {summary['cells']} starts, {summary['t_final']:g} s")
     return fig
 
@@ -314,11 +312,11 @@ def leaderboard_figure(summary):
 
 def overlay_figure(trajectories, summary):
     """All controllers' angles (from the goal: q1, q2 + pi, q3 for the gymnast's UDD) and torques against time."""
-    from ..model.states import goal_angles
+    from ..task import Task
 
     names = list(trajectories)
     n = next(iter(trajectories.values()))["q"].shape[1]
-    goal = goal_angles(summary.get("goal", "folded"), n)
+    goal = Task.from_description(summary["task"], n).goal
     fig, axes = new_figure(2 * n - 1, 1, figsize=(8, 10 * (2 * n - 1) / 5), sharex=True, constrained_layout=True)
     labels = [f"q$_{k + 1}$ + $\\pi$ [rad]" if goal[k] == -np.pi else f"q$_{k + 1}$ [rad]" for k in range(n)]
     labels += [f"$\\tau_{k + 2}$ [N m]" for k in range(n - 1)]

@@ -12,8 +12,9 @@ import numpy as np
 from ..control.gains import check_gain_range
 from ..control.closed_loop import duu_eigenvalues
 from ..model.dynamics import AnalyticModel
+from ..task import Task
 from ..theory.conditions import constraint_54, frozen_acrobot_controllable, thresholds
-from ..theory.linear import lqr_gain, sampled_spectral_radius, udd_controllability
+from ..theory.linear import goal_controllability, lqr_gain, sampled_spectral_radius
 
 
 @dataclass
@@ -43,6 +44,7 @@ class TheoryReport:
     #: Spectral radius of the LQR (67) loop sampled with zero-order hold at ``dt`` (< 1: stable), and ``dt`` [s].
     lqr_sampled_radius: float | None = None
     dt: float | None = None
+    goal: str = "folded"
 
     def to_json_dict(self):
         """The report as JSON data; the sampled LQR's keys only where a time step was given."""
@@ -53,15 +55,17 @@ class TheoryReport:
 
 
 def theory_report(am: AnalyticModel, kD, kP, kV, dt=None) -> TheoryReport:
-    """Compute every condition of Theorem 1, the linear analysis at UDD and the closed loop at DUU; with ``dt`` [s]
-    (the simulation's step), the spectral radius of the LQR (67) loop sampled with zero-order hold at ``dt``."""
+    """Compute every condition of Theorem 1, the linear analysis at UDD and the closed loop at DUU (the paper's
+    folded task); with ``dt`` [s] (the simulation's step), the spectral radius of the LQR (67) loop sampled with
+    zero-order hold at ``dt``."""
     check_gain_range(kD, kP, kV)
+    task = Task.named("folded", am)
     kd, e1, e2 = thresholds(am)
     c54 = constraint_54(am)
     frozen_ok, db_min, db_max = frozen_acrobot_controllable(am)
-    ctrb = udd_controllability(am)
+    ctrb = goal_controllability(am, task)
     eig, poly = duu_eigenvalues(am, kD, kP, kV)
-    K = lqr_gain(am)
+    K = lqr_gain(am, task)
     conditions = {
         "E_r > 0": bool(am.E_r > 0),
         "(54) holds": c54.holds,
@@ -79,7 +83,7 @@ def theory_report(am: AnalyticModel, kD, kP, kV, dt=None) -> TheoryReport:
         frozen_acrobot_ud_controllable=frozen_ok,
         udd_controllable=ctrb.controllable, udd_controllability=asdict(ctrb),
         lqr_K=K.tolist(), gains={"kD": kD, "kP": kP, "kV": kV},
-        lqr_sampled_radius=_sampled_radius(am, K, dt, "folded", ctrb.controllable), dt=dt,
+        lqr_sampled_radius=_sampled_radius(am, K, dt, task, ctrb.controllable), dt=dt,
         duu_eigenvalues=[[float(e.real), float(e.imag)] for e in eig],
         duu_charpoly=[float(c) for c in poly],
         duu_unstable=bool(np.max(eig.real) > 0),
@@ -87,13 +91,13 @@ def theory_report(am: AnalyticModel, kD, kP, kV, dt=None) -> TheoryReport:
     )
 
 
-def _sampled_radius(am, K, dt, goal, controllable):
+def _sampled_radius(am, K, dt, task, controllable):
     if dt is None or not controllable:
         return None
-    return float(sampled_spectral_radius(am, K, dt, goal=goal))
+    return float(sampled_spectral_radius(am, K, dt, task))
 
 
-def chain_theory_report(am: AnalyticModel, kD, kP, kV, goal="folded", dt=None) -> dict:
+def chain_theory_report(am: AnalyticModel, kD, kP, kV, task: Task, dt=None) -> dict:
     """What is defined and computable for a robot or goal beyond Theorem 1 (beyond the paper).
 
     The energy at the goal and its sign, the singularity bound (41) from its definition, linear
@@ -107,23 +111,23 @@ def chain_theory_report(am: AnalyticModel, kD, kP, kV, goal="folded", dt=None) -
     from ..theory.linear import goal_linearization
 
     check_gain_range(kD, kP, kV)
-    E_r = am.goal_energy(goal)
-    kd = chain_kd_min(am, goal)
-    A, B = goal_linearization(am, goal)
-    ctrb = udd_controllability(am, goal=goal)
+    E_r = task.goal_energy(am)
+    kd = chain_kd_min(am, task)
+    A, B = goal_linearization(am, task)
+    ctrb = goal_controllability(am, task)
     rank = int(np.linalg.matrix_rank(control.ctrb(A, B)))
     merged_ok, db_min, db_max = merged_acrobot_deltabar(am)
-    K = lqr_gain(am, goal=goal)
+    K = lqr_gain(am, task)
     why = (f"this robot has {am.n_links} links" if am.n_links != 3 else "this robot has damping or armature") \
-        if not am.paper_shape else f"the goal is {goal}"
+        if not am.paper_shape else f"the goal is {task.name}"
     return {
-        "links": am.n_links, "goal": goal, "beta": am.gravity_constants.tolist(), "E_r": E_r,
+        "links": am.n_links, "goal": task.name, "beta": am.gravity_constants.tolist(), "E_r": E_r,
         "E_r_positive": bool(E_r > 0),
         "kD_min": kd.value, "kD_min_at": list(kd.argmax), "kD_above_kD_min": bool(kD > kd.value),
         "goal_controllable": ctrb.controllable, "goal_controllability": asdict(ctrb), "ctrb_rank": rank,
         "state_dimension": int(A.shape[0]),
         "lqr_K": K.tolist(),
-        "lqr_sampled_radius": _sampled_radius(am, K, dt, goal, ctrb.controllable), "dt": dt,
+        "lqr_sampled_radius": _sampled_radius(am, K, dt, task, ctrb.controllable), "dt": dt,
         "merged_acrobot_ud_controllable": merged_ok, "deltabar_min": db_min, "deltabar_max": db_max,
         "gains": {"kD": kD, "kP": kP, "kV": kV},
         "theorem1": f"not covered: Theorem 1 and the bounds (54), (59), (60) are proved for the paper's 3-link gymnast"

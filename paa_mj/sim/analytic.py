@@ -1,7 +1,8 @@
 """The exact closed loop: (1) integrated by SciPy's DOP853 (rtol 1e-10) with the torque evaluated continuously.
 
 No zero-order hold and no time step: the reference against which MuJoCo's
-discretisation is judged. A switching controller switches where its
+discretisation is judged. The run is judged by its task as MuJoCo's runs are (the task's book of
+success, :func:`~paa_mj.task.book_update`), on the dense solution every :data:`JUDGE_DT` seconds. A switching controller switches where its
 condition's margin first turns negative, watched on the integrator's dense
 output every millisecond (a short visit of the region is not stepped over)
 and located by bisection; integration then restarts under the second controller. Stateless
@@ -16,16 +17,18 @@ import numpy as np
 from numba import njit, types
 from tqdm import tqdm
 
-from ..control.base import KERNEL_TYPE, CompiledForm, KernelAddress, mode_of, reset_controller, torque_of
+from ..control.base import (KERNEL_TYPE, CompiledForm, KernelAddress, check_binding, mode_of, reset_controller,
+                            torque_of)
 from ..control.combined import CombinedController
 from ..errors import PaaError, SimulationDiverged
 from ..limits import check_memory, check_steps, positive_finite
 from ..model.robot import Robot
-from ..model.states import start_state
-from .engine import MAX_SPEED, NONFINITE_TORQUE, RUNAWAY, STATUS_TEXT
-from .batch import check_initial_state, check_robot, controllers_for, sample_interval, steps_for
+from ..task import BOOK, Task, as_task, book_rows
+from .batch import controllers_for
+from .inputs import check_initial_state, check_robot, sample_interval, steps_for
 from .rk4 import acceleration_into, rk4_constants, work_size
 from .rollout import describe_controller, trajectory_quantities
+from .step import MAX_SPEED, NONFINITE_TORQUE, RUNAWAY, STATUS_TEXT
 from .trajectory import Trajectory
 
 
@@ -33,6 +36,9 @@ from .trajectory import Trajectory
 MIN_STEP = 1e-10
 #: Finest interval at which the switching condition may be watched [s].
 MIN_EVENT_RESOLUTION = 1e-9
+#: The dense solution is judged by the task (success, region (68)) every this many seconds: the step of MuJoCo's
+#: runs of the named robots, so that both engines judge the same instants.
+JUDGE_DT = 1e-3
 
 
 class _NonFiniteTorque(Exception):
@@ -144,16 +150,21 @@ def _first_entry(margin, dense, t_start, t_end, resolution):
     return hi, dense(hi)
 
 
-def simulate_analytic(robot: Robot, controller="vcl", x0=None, t_final: float = 30.0, sample_dt: float = 0.01,
-                      rtol: float = 1e-10, atol: float = 1e-10, method: str = "DOP853", torque_limit=None,
-                      event_resolution: float = 1e-3, progress: bool = False, goal: str = "folded") -> Trajectory:
+def simulate_analytic(robot: Robot, controller="vcl", x0=None, t_final: float | None = None, *,
+                      task: Task | str | None = None, sample_dt: float = 0.01, rtol: float = 1e-10,
+                      atol: float = 1e-10, method: str = "DOP853", torque_limit=None, event_resolution: float = 1e-3,
+                      progress: bool = False) -> Trajectory:
     """Integrate (1) closed by ``controller`` with continuous-time control.
 
     Parameters
     ----------
     controller : controller, name or ControllerSpec
     x0 : array_like (2n,), optional
-        Initial [q, qd]; default hanging at rest ((65) for the gymnast).
+        Initial [q, qd]; default the task's start (hanging at rest, (65) for the gymnast).
+    t_final : float, optional
+        Duration [s]; default the task's horizon.
+    task : Task or str, optional
+        What the run aims at and is judged by; default the paper's folded task.
     torque_limit : float or (n - 1,), optional
         Saturation [N m], capped by the model's actuator ranges as in MuJoCo.
     rtol, atol, method
@@ -161,8 +172,6 @@ def simulate_analytic(robot: Robot, controller="vcl", x0=None, t_final: float = 
     event_resolution : float
         The switching condition is watched on the integrator's dense output every this many
         seconds [s], so that no visit of the region longer than that is stepped over.
-    goal : {"folded", "stretched"}
-        The goal the controllers named here aim at and the run is judged against.
     """
     from scipy.integrate import DOP853, LSODA, RK45, Radau  # here: SciPy's integrate and optimize load slowly
 
@@ -170,8 +179,22 @@ def simulate_analytic(robot: Robot, controller="vcl", x0=None, t_final: float = 
     if method not in integrators:
         raise PaaError(f"unknown method {method!r}: use one of {', '.join(integrators)}")
     check_robot(robot)
+    task = as_task(task, robot)
     n = robot.params.n_links
-    x0 = check_initial_state(start_state(n, goal) if x0 is None else x0, n)[0]
+    x0 = check_initial_state(task.start if x0 is None else x0, n)[0]
+    t_final = task.horizon if t_final is None else t_final
+    t_final, sample_dt, rtol, atol = _check_sizes(t_final, sample_dt, rtol, atol, event_resolution)
+    controller = controllers_for(robot, controller, 1, task)[0]
+    check_binding(controller, robot, task)
+    limits = _limits(robot, torque_limit)
+    reset_controller(controller)
+    run = _Integration(robot, task, controller, limits, integrators[method], rtol, atol, event_resolution)
+    run.integrate(x0, t_final, sample_dt, progress)
+    return run.trajectory(x0, t_final, sample_dt, method, rtol)
+
+
+def _check_sizes(t_final, sample_dt, rtol, atol, event_resolution):
+    """The durations and tolerances, checked (one-line errors), and the run's cost against the budgets."""
     t_final = positive_finite("final time", t_final, allow_none=False)
     sample_dt = positive_finite("sample interval", sample_dt, allow_none=False)
     # SciPy takes a NaN or infinite tolerance without a word and then never finishes a step
@@ -190,7 +213,12 @@ def simulate_analytic(robot: Robot, controller="vcl", x0=None, t_final: float = 
     check_memory(t_final / sample_dt * 240.0, "recorded samples", "--t-final or raise --sample-dt")
     check_steps(t_final / 1e-3, f"the exact closed loop over {t_final:g} s (counted in 1 ms steps)", "--t-final",
                 cores=1)
-    controller = controllers_for(robot, controller, 1, goal)[0]
+    return t_final, sample_dt, rtol, atol
+
+
+def _limits(robot, torque_limit):
+    """The torque limits of the run [N m]: ``torque_limit`` capped by the model's actuator ranges."""
+    n = robot.params.n_links
     try:
         requested = np.broadcast_to(np.inf if torque_limit is None else np.asarray(torque_limit, float), (n - 1,))
     except (TypeError, ValueError):
@@ -199,110 +227,152 @@ def simulate_analytic(robot: Robot, controller="vcl", x0=None, t_final: float = 
     limits = np.minimum(requested, robot.torque_limits)
     if np.any(~(limits > 0)):
         raise PaaError("torque limits must be > 0")
-    reset_controller(controller)
-    laws, condition = _phases(controller)
+    return limits
 
-    def law_torque(law, q, qd, t):
-        return _clipped(torque_of(law, q[None], qd[None], t)[0], limits)
 
-    nonfinite_at = []  # times where the controller returned NaN or inf (the integrator then shrinks its step)
+class _Integration:
+    """One run of the exact closed loop: its phases (one law, or a swing-up then a balance controller), what
+    it recorded, and the task's book of success kept on the dense solution every :data:`JUDGE_DT` seconds."""
 
-    def field(law, start):
+    def __init__(self, robot, task, controller, limits, integrator, rtol, atol, event_resolution):
+        self.robot, self.task, self.controller, self.limits = robot, task, controller, limits
+        self.integrator, self.rtol, self.atol, self.resolution = integrator, rtol, atol, event_resolution
+        self.laws, self.condition = _phases(controller)
+        self.n = robot.params.n_links
+        self.nonfinite_at = []  # times where the controller returned NaN or inf (the integrator then shrinks its step)
+        self.ts, self.xs, self.modes = [], [], []
+        self.switch_time, self.failure, self.interrupted, self.phase = None, None, False, 0
+        self.book = np.full(len(BOOK), -1, np.int64)
+        self.params = task.params
+        self.judged = -1  # the last instant k JUDGE_DT judged
+
+    def _field(self, law, start):
         def nonfinite(t):
             if t == start:  # at the start itself no step helps, and SciPy's step floor is 0 at t = 0
                 raise _NonFiniteTorque
-            nonfinite_at.append(t)
+            self.nonfinite_at.append(t)
 
-        return exact_field(robot, law, limits, nonfinite)
+        return exact_field(self.robot, law, self.limits, nonfinite)
 
-    def stuck_on_nonfinite_torque(t):
-        return bool(nonfinite_at) and nonfinite_at[-1] - t < 1e-6
-
-    def margin(t, x):
+    def _margin(self, t, x):
         # one margin per state, also for a condition of time alone (a scalar)
-        return np.broadcast_to(np.asarray(condition.margin(x[:n].T, x[n:].T, t), dtype=float), x.shape[1:])
+        n = self.n
+        return np.broadcast_to(np.asarray(self.condition.margin(x[:n].T, x[n:].T, t), dtype=float), x.shape[1:])
 
-    t_eval = np.arange(0.0, t_final + 0.5 * sample_dt, sample_dt)
-    t_eval = t_eval[t_eval <= t_final]
-    ts, xs, modes = [], [], []
-    t0, x, switch_time, phase = 0.0, x0, None, 0
-    if condition is not None and margin(0.0, x0[:, None])[0] < 0:
-        switch_time, phase = 0.0, 1
-    bar = tqdm(total=t_final, unit="s", disable=None if progress else True, leave=False, desc=f"{robot.name} solve_ivp",
-               bar_format="{l_bar}{bar}| {n:.1f}/{total:.1f} s")
-    failure, interrupted, recorded = None, False, -np.inf
-    try:
-        while True:
-            solver = integrators[method](field(laws[phase], t0), t0, x, t_final, rtol=rtol, atol=atol)
-            watch = phase == 0 and condition is not None
-            segment_t, segment_x, entered = [], [], None
-            while solver.status == "running":
-                t_old = solver.t
-                solver.step()
-                stuck = solver.status == "failed" or (solver.step_size is not None and solver.step_size < MIN_STEP
-                                                      and solver.t < t_final)
-                if stuck and stuck_on_nonfinite_torque(solver.t):
-                    failure = STATUS_TEXT[NONFINITE_TORQUE]
+    def _judge(self, dense, end):
+        """Account for the instants k JUDGE_DT up to ``end`` in the task's book."""
+        last = int(np.floor(end / JUDGE_DT + 1e-9))
+        if last <= self.judged:
+            return
+        steps = np.arange(self.judged + 1, last + 1)
+        states = dense(steps * JUDGE_DT).T
+        n = self.n
+        book_rows(self.params, np.ascontiguousarray(states[:, :n]), np.ascontiguousarray(states[:, n:]), steps,
+                  self.book)
+        self.judged = last
+
+    def integrate(self, x0, t_final, sample_dt, progress):
+        """Integrate phase after phase from ``x0`` to ``t_final`` (or a failure, or Ctrl-C)."""
+        t_eval = np.arange(0.0, t_final + 0.5 * sample_dt, sample_dt)
+        self.t_eval = t_eval[t_eval <= t_final]
+        t0, x = 0.0, x0
+        book_rows(self.params, x0[None, :self.n].copy(), x0[None, self.n:].copy(), np.zeros(1, np.int64), self.book)
+        self.judged = 0
+        if self.condition is not None and self._margin(0.0, x0[:, None])[0] < 0:
+            self.switch_time, self.phase = 0.0, 1
+        bar = tqdm(total=t_final, unit="s", disable=None if progress else True, leave=False,
+                   desc=f"{self.robot.name} solve_ivp", bar_format="{l_bar}{bar}| {n:.1f}/{total:.1f} s")
+        self.recorded = -np.inf
+        try:
+            while True:
+                entered = self._phase(self.phase, t0, x, t_final, bar)
+                if entered is None or self.failure is not None:
                     break
-                if solver.status == "failed":
-                    failure = "the integrator failed (step size below its limit)"
-                    break
-                if stuck:
-                    # SciPy's own floor is relative to t, none near t = 0: a law that jumps (a wrapped angle
-                    # at +-pi, a bang-bang rule) would be chased for ever
-                    failure = (f"the integrator's step fell below {MIN_STEP:g} s (a torque law that jumps, or"
-                               " a stiff closed loop): use --engine mujoco")
-                    break
-                if np.any(np.abs(solver.y[n:]) > MAX_SPEED):
-                    failure = STATUS_TEXT[RUNAWAY]
-                    break
-                dense = solver.dense_output()
-                if watch:
-                    entered = _first_entry(margin, dense, t_old, solver.t, event_resolution)
-                end = solver.t if entered is None else entered[0]
-                grid = t_eval[(t_eval > recorded) & (t_eval <= end)]
-                if grid.size:
-                    segment_t.append(grid)
-                    segment_x.append(dense(grid).T)
-                    recorded = grid[-1]
-                bar.update(end - bar.n)
-                if entered is not None:
-                    break
-            ts.append(np.concatenate(segment_t) if segment_t else np.zeros(0))
-            xs.append(np.concatenate(segment_x) if segment_x else np.zeros((0, 2 * n)))
-            modes.append(np.full(len(ts[-1]), phase, np.int8))
-            if entered is not None and failure is None:
                 t0, x = entered
-                switch_time, phase = t0, 1
-                continue
-            break
-    except _NonFiniteTorque:
-        failure = STATUS_TEXT[NONFINITE_TORQUE]
-    except KeyboardInterrupt:
-        interrupted = True
-    bar.close()
-    t = np.concatenate(ts) if ts else np.zeros(0)
-    X = np.concatenate(xs) if xs else np.zeros((0, 2 * n))
-    mode = np.concatenate(modes) if modes else np.zeros(0, np.int8)
-    if failure and not len(t):
-        # failed at the start: the start state is what was computed (kept and summarised, as MuJoCo's first sample)
-        t, X, mode = np.zeros(1), x0[None].copy(), np.full(1, phase, np.int8)
-    q, qd = X[:, :n], X[:, n:]
-    tau = np.array([law_torque(laws[m], q[i], qd[i], t[i]) for i, m in enumerate(mode)]).reshape(-1, n - 1)
-    e_err, V = trajectory_quantities(controller, robot, q, qd, goal)
-    traj = Trajectory(t, q, qd, tau, e_err, V, mode, switch_time,
-                      meta={"robot": robot.name, "engine": "analytic", "integrator": f"solve_ivp {method}",
-                            "dt": None, "sample_dt": sample_dt, "rtol": rtol, "x0": x0.tolist(), "t_final": float(t_final),
-                            **describe_controller(controller),
-                            "torque_limit": None if np.all(np.isinf(limits)) else limits.tolist(),
-                            **({"goal": goal} if goal != "folded" else {})},
-                      robot_xml=robot.xml)
-    if failure or not np.all(np.isfinite(X)):
-        when = float(t[-1]) if len(t) else 0.0
-        traj.meta["status"] = f"diverged at t = {when:.4f} s: {failure or 'non-finite state'}"
-        raise SimulationDiverged(f"analytic integration failed at t = {when:.4f} s: {failure or 'non-finite state'}",
-                                 traj)
-    traj.meta["status"] = f"interrupted at t = {float(t[-1]) if len(t) else 0.0:.4f} s" if interrupted else "ok"
-    if interrupted:
-        traj.meta["interrupted"] = True
-    return traj
+                self.switch_time, self.phase = t0, 1
+        except _NonFiniteTorque:
+            self.failure = STATUS_TEXT[NONFINITE_TORQUE]
+        except KeyboardInterrupt:
+            self.interrupted = True
+        bar.close()
+
+    def _phase(self, phase, t0, x, t_final, bar):
+        """One law from (t0, x) until the switch (returned as (t, x)), the end or a failure (None)."""
+        solver = self.integrator(self._field(self.laws[phase], t0), t0, x, t_final, rtol=self.rtol, atol=self.atol)
+        watch = phase == 0 and self.condition is not None
+        segment_t, segment_x, entered = [], [], None
+        while solver.status == "running":
+            t_old = solver.t
+            solver.step()
+            self.failure = self._failure(solver, t_final)
+            if self.failure is not None:
+                break
+            dense = solver.dense_output()
+            if watch:
+                entered = _first_entry(self._margin, dense, t_old, solver.t, self.resolution)
+            end = solver.t if entered is None else entered[0]
+            self._judge(dense, end)
+            grid = self.t_eval[(self.t_eval > self.recorded) & (self.t_eval <= end)]
+            if grid.size:
+                segment_t.append(grid)
+                segment_x.append(dense(grid).T)
+                self.recorded = grid[-1]
+            bar.update(end - bar.n)
+            if entered is not None:
+                break
+        self.ts.append(np.concatenate(segment_t) if segment_t else np.zeros(0))
+        self.xs.append(np.concatenate(segment_x) if segment_x else np.zeros((0, 2 * self.n)))
+        self.modes.append(np.full(len(self.ts[-1]), phase, np.int8))
+        return entered
+
+    def _failure(self, solver, t_final):
+        """Why the integration cannot go on after this step, or None."""
+        stuck = solver.status == "failed" or (solver.step_size is not None and solver.step_size < MIN_STEP
+                                              and solver.t < t_final)
+        if stuck and self.nonfinite_at and self.nonfinite_at[-1] - solver.t < 1e-6:
+            return STATUS_TEXT[NONFINITE_TORQUE]
+        if solver.status == "failed":
+            return "the integrator failed (step size below its limit)"
+        if stuck:
+            # SciPy's own floor is relative to t, none near t = 0: a law that jumps (a wrapped angle at +-pi, a
+            # bang-bang rule) would be chased for ever
+            return (f"the integrator's step fell below {MIN_STEP:g} s (a torque law that jumps, or a stiff closed"
+                    " loop): use --engine mujoco")
+        if np.any(np.abs(solver.y[self.n:]) > MAX_SPEED):
+            return STATUS_TEXT[RUNAWAY]
+        return None
+
+    def trajectory(self, x0, t_final, sample_dt, method, rtol) -> Trajectory:
+        """The record of the run, judged by the task; raises :class:`SimulationDiverged` after a failure."""
+        n = self.n
+        t = np.concatenate(self.ts) if self.ts else np.zeros(0)
+        X = np.concatenate(self.xs) if self.xs else np.zeros((0, 2 * n))
+        mode = np.concatenate(self.modes) if self.modes else np.zeros(0, np.int8)
+        if self.failure and not len(t):
+            # failed at the start: the start state is what was computed (kept and summarised, as MuJoCo's first
+            # sample)
+            t, X, mode = np.zeros(1), x0[None].copy(), np.full(1, self.phase, np.int8)
+        q, qd = X[:, :n], X[:, n:]
+        tau = np.array([_clipped(torque_of(self.laws[m], q[i][None], qd[i][None], t[i])[0], self.limits)
+                        for i, m in enumerate(mode)]).reshape(-1, n - 1)
+        e_err, V = trajectory_quantities(self.controller, self.robot, self.task, q, qd)
+        limits = self.limits
+        traj = Trajectory(t, q, qd, tau, e_err, V, mode, self.switch_time, task=self.task,
+                          meta={"robot": self.robot.name, "engine": "analytic", "integrator": f"solve_ivp {method}",
+                                "dt": None, "sample_dt": sample_dt, "rtol": rtol, "x0": x0.tolist(),
+                                "t_final": float(t_final), **describe_controller(self.controller),
+                                "torque_limit": None if np.all(np.isinf(limits)) else limits.tolist()},
+                          robot_xml=self.robot.xml)
+        failed = bool(self.failure) or not np.all(np.isfinite(X))
+        finished = not failed and not self.interrupted
+        end = int(np.floor(t_final / JUDGE_DT + 1e-9)) if finished else self.judged
+        traj.meta["success"] = bool(self.task.succeeded(self.book[None], end, finished, False, JUDGE_DT)[0])
+        if failed:
+            when = float(t[-1]) if len(t) else 0.0
+            why = self.failure or "non-finite state"
+            traj.meta["status"] = f"diverged at t = {when:.4f} s: {why}"
+            raise SimulationDiverged(f"analytic integration failed at t = {when:.4f} s: {why}", traj)
+        traj.meta["status"] = f"interrupted at t = {float(t[-1]) if len(t) else 0.0:.4f} s" if self.interrupted else "ok"
+        if self.interrupted:
+            traj.meta["interrupted"] = True
+        return traj

@@ -5,7 +5,7 @@ plant and the controller's balance gain K is x_{k+1} = Phi x_k (x = [wrap(q - q*
 coordinates). Writing x = sum_m c_m v_m over the eigenvectors of Phi (all eigenvalues inside the unit
 circle), every future :math:`|x_i|` is at most :math:`\\sum_m |c_m| |v_{m,i}|` (the *modal bound*,
 tight when one mode dominates). A rollout retires when that bound is below
-:data:`RETIRE_FRACTION` x :data:`~paa_mj.control.region.BALANCE_TOL` in every coordinate: it would
+:data:`RETIRE_FRACTION` x the task's balance tolerance in every coordinate: it would
 stay balanced to the end, and its peak torques can no longer grow (:math:`|K x|` only shrinks there).
 Retirement is off where the bound does not hold: with noise, delay, pushes still to come, or an
 unstable sampled loop.
@@ -17,7 +17,6 @@ import math
 import numpy as np
 from numba import njit
 
-from ..control.region import BALANCE_TOL
 from ..model.states import wrap
 
 #: A rollout retires when its modal bound is below this fraction of BALANCE_TOL.
@@ -29,20 +28,20 @@ def certificate_size(n_links: int) -> int:
     return 3 * (2 * n_links) ** 2
 
 
-def retirement_certificate(plant, K, dt, goal="folded"):
+def retirement_certificate(plant, K, dt, task):
     """(certificate, level) of the retirement rule for ``plant`` under tau = -K x, or (zeros, 0) if none.
 
     The certificate holds Re V^-1, Im V^-1 and the moduli of V (row by row) for the
     eigenvectors V of the closed loop Phi = Ad - Bd K of the plant linearised at
-    the goal and sampled with zero-order hold at ``dt``; ``level`` =
-    :data:`RETIRE_FRACTION` x BALANCE_TOL.
+    the task's goal and sampled with zero-order hold at ``dt``; ``level`` =
+    :data:`RETIRE_FRACTION` x the task's ``balance_tol``.
     """
     from ..theory.linear import sampled_closed_loop
 
     none = np.zeros(certificate_size(plant.n_links)), 0.0
     if K is None:
         return none
-    phi = sampled_closed_loop(plant, K, dt, goal)
+    phi = sampled_closed_loop(plant, K, dt, task)
     if not np.all(np.isfinite(phi)):
         return none
     eigenvalues, vectors = np.linalg.eig(phi)
@@ -50,7 +49,7 @@ def retirement_certificate(plant, K, dt, goal="folded"):
         return none
     inverse = np.linalg.inv(vectors)
     cert = np.concatenate([inverse.real.reshape(-1), inverse.imag.reshape(-1), np.abs(vectors).reshape(-1)])
-    return cert, RETIRE_FRACTION * BALANCE_TOL
+    return cert, RETIRE_FRACTION * task.balance_tol
 
 
 @njit(cache=True)

@@ -29,13 +29,10 @@ def work_size(n):
 
 
 def rk4_constants(analytic, dt) -> np.ndarray:
-    """The constants :func:`rk4_step` takes for an :class:`~paa_mj.model.dynamics.AnalyticModel` and a step dt [s]."""
-    tail = [float(dt), 1.0 if analytic.paper_shape else 0.0, float(analytic.n_links)]
-    if analytic.paper_shape:
-        return np.concatenate([analytic.constants, tail])
-    params = analytic.params
-    return np.concatenate([analytic.inertia_constants.ravel(), analytic.gravity_constants, params.damping,
-                           params.armature, tail])
+    """The constants :func:`rk4_step` takes for an :class:`~paa_mj.model.dynamics.AnalyticModel` and a step dt [s]:
+    the model's own (:meth:`~paa_mj.model.dynamics.AnalyticModel.kernel_constants`), then the tail."""
+    constants, closed_form = analytic.kernel_constants()
+    return np.concatenate([constants, [float(dt), 1.0 if closed_form else 0.0, float(analytic.n_links)]])
 
 
 @register_jitable

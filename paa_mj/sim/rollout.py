@@ -11,35 +11,36 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..control.base import controller_name
 from ..errors import SimulationDiverged
 from ..model.robot import Robot
-from ..model.states import X0_HANGING, start_state
+from ..task import Task, as_task
 from . import engine
-from ..control.region import SUCCESS_DEFINITION
-from .batch import _lyapunov, build_plan, check_initial_state, check_robot, controllers_for, outcome_arrays, sample_interval
+from .batch import NO_DISTURBANCES, Disturbances, _lyapunov, build_plan, controllers_for, outcome_arrays
+from .inputs import check_initial_state, check_robot, sample_interval
 from .integrators import integrator_name, mujoco_model_for
 from .trajectory import Trajectory
 
-__all__ = ["X0_HANGING", "simulate_mujoco", "describe_controller", "trajectory_quantities", "divergence_reason"]
+__all__ = ["simulate_mujoco", "describe_controller", "trajectory_quantities", "divergence_reason"]
 
 
 def describe_controller(controller) -> dict:
     describe = getattr(controller, "describe", None)
-    return describe() if callable(describe) else {"controller": type(controller).__name__}
+    return describe() if callable(describe) else {"controller": controller_name(controller)}
 
 
-def trajectory_quantities(controller, robot: Robot, q, qd, goal="folded"):
-    """E - E_r [J] and V of (34) (NaN without an energy controller) at the recorded states."""
-    e_err = robot.analytic.energy(q, qd) - robot.analytic.goal_energy(goal)
+def trajectory_quantities(controller, robot: Robot, task: Task, q, qd):
+    """E - E_r [J] (E_r the task's goal energy) and V of (34) (NaN without an energy controller) at the recorded
+    states."""
+    e_err = robot.analytic.energy(q, qd) - task.goal_energy(robot.analytic)
     return e_err, np.broadcast_to(_lyapunov(controller, robot.analytic, q, qd), e_err.shape).astype(float)
 
 
-def simulate_mujoco(robot: Robot, controller="vcl", x0: ArrayLike | None = None, t_final: float = 30.0,
-                    dt: float | None = None, integrator: str | None = None, sample_dt: float = 0.01,
-                    progress: bool = False, stop_on_divergence: bool = True, retire: bool = False,
-                    torque_limit: ArrayLike | None = None, noise_std: ArrayLike | None = None,
-                    torque_noise: float | None = None, delay_steps: int | None = None,
-                    pushes: ArrayLike | None = None, seed: int = 0, goal: str = "folded") -> Trajectory:
+def simulate_mujoco(robot: Robot, controller="vcl", x0: ArrayLike | None = None, t_final: float | None = None, *,
+                    task: Task | str | None = None, dt: float | None = None, integrator: str | None = None,
+                    sample_dt: float = 0.01, torque_limit: ArrayLike | None = None,
+                    disturbances: Disturbances | None = None, retire: bool = False, progress: bool = False,
+                    stop_on_divergence: bool = True) -> Trajectory:
     """Run ``controller`` on the MuJoCo model for ``t_final`` seconds and record it.
 
     Parameters
@@ -48,20 +49,22 @@ def simulate_mujoco(robot: Robot, controller="vcl", x0: ArrayLike | None = None,
     controller : controller, name or ControllerSpec
         Reset before the run. Default: ``"vcl"`` with the robot's stored gains.
     x0 : array_like (2n,)
-        Initial [q, qd] [rad, rad/s]; default hanging at rest, (65) for the gymnast.
-    t_final : float
-        Duration [s].
+        Initial [q, qd] [rad, rad/s]; default the task's start (hanging at rest, (65) for the gymnast).
+    t_final : float, optional
+        Duration [s]; default the task's horizon.
+    task : Task or str, optional
+        What the run aims at and is judged by (:mod:`paa_mj.task`); default the paper's folded task.
     dt, integrator : float, str, optional
         Physics time step [s] and integrator (RK4, Euler, implicitfast, implicit);
         default: the model's own (RK4 at 1 ms for the named robots).
     sample_dt : float
-        Recording interval [s] (rounded to a whole number of steps, at most ``t_final``).
+        Recording interval [s] (a whole number of steps, at most ``t_final``).
+    torque_limit : float or (n - 1,), optional
+        Saturation [N m], capped by the model's actuator ranges.
+    disturbances : Disturbances, optional
+        Noise, delay, pushes and their seed (:class:`~paa_mj.sim.batch.Disturbances`, for one rollout).
     retire : bool
         Stop once the balance can no longer fail (as the batch engine does).
-    torque_limit, noise_std, torque_noise, delay_steps, pushes, seed
-        Disturbances, as in :func:`paa_mj.sim.batch.simulate_batch` for one rollout.
-    goal : {"folded", "stretched"}
-        The task (:func:`paa_mj.sim.batch.simulate_batch`).
 
     Raises
     ------
@@ -70,34 +73,33 @@ def simulate_mujoco(robot: Robot, controller="vcl", x0: ArrayLike | None = None,
         exception carries the trajectory recorded up to the last good state.
     """
     check_robot(robot)
+    task = as_task(task, robot)
     links = robot.params.n_links
-    x0 = check_initial_state(start_state(links, goal) if x0 is None else x0, links)
-    controllers = controllers_for(robot, controller, 1, goal)
+    x0 = check_initial_state(task.start if x0 is None else x0, links)
+    t_final = task.horizon if t_final is None else t_final
+    controllers = controllers_for(robot, controller, 1, task)
     model = mujoco_model_for(robot, dt, integrator)
     dt = float(model.opt.timestep)
     every = sample_interval(sample_dt, dt, t_final)
-    per_rollout = lambda v: None if v is None else np.asarray(v)[None]  # noqa: E731
-    plan = build_plan(robot, x0, t_final, controllers, dt, integrator, None, torque_limit, per_rollout(noise_std),
-                      per_rollout(torque_noise), per_rollout(delay_steps), per_rollout(pushes), seed, None, every,
-                      retire, goal)
+    plan = build_plan(robot, task, x0, t_final, controllers, dt=dt, integrator=integrator, torque_limit=torque_limit,
+                      disturbances=_one_rollout(disturbances or NO_DISTURBANCES), every=every, retire=retire)
     outcome = engine.run(plan, controllers, nthread=1, progress=progress, desc=f"{robot.name} mujoco")
     out = outcome_arrays(plan, outcome, controllers, [robot.analytic])
     count = int(outcome.samples["count"][0])
     s = {k: v[0, :count] for k, v in outcome.samples.items() if k != "count"}
-    e_err, V = trajectory_quantities(controllers[0], robot, s["q"], s["qd"], goal)
+    e_err, V = trajectory_quantities(controllers[0], robot, task, s["q"], s["qd"])
     switch = out["switch_time"][0]
     status = int(out["status"][0])
     traj = Trajectory(s["t"].copy(), s["q"].copy(), s["qd"].copy(), s["tau"].copy(), e_err, V, s["mode"].copy(),
-                      None if np.isnan(switch) else float(switch),
+                      None if np.isnan(switch) else float(switch), task=task,
                       meta={"robot": robot.name, "engine": "mujoco", "integrator": integrator_name(model), "dt": dt,
-                            "sample_dt": every * dt, "x0": x0[0].tolist(), "t_final": float(t_final), **describe_controller(controllers[0]),
-                            "torque_limit": _limit_meta(plan), **({"goal": goal} if goal != "folded" else {})},
+                            "sample_dt": every * dt, "x0": x0[0].tolist(), "t_final": float(t_final),
+                            **describe_controller(controllers[0]), "torque_limit": _limit_meta(plan)},
                       robot_xml=robot.xml)
     when = float(out["t_end"][0])
     traj.meta["success"] = bool(out["success"][0])
     # the engine's peak over every step, not only over the recorded samples
     traj.meta["max_abs_tau"] = out["max_abs_tau"][0].tolist()
-    traj.meta["success_definition"] = SUCCESS_DEFINITION
     if status in engine.DIVERGED:
         traj.meta["status"] = f"diverged at t = {when:.4f} s: {engine.STATUS_TEXT[status]}"
         if stop_on_divergence:
@@ -112,8 +114,15 @@ def simulate_mujoco(robot: Robot, controller="vcl", x0: ArrayLike | None = None,
     return traj
 
 
+def _one_rollout(disturbances: Disturbances) -> Disturbances:
+    """The disturbances of one rollout as the batch engine takes them: each per-rollout value as one row."""
+    row = lambda v: None if v is None else np.asarray(v)[None]  # noqa: E731
+    return Disturbances(row(disturbances.noise_std), row(disturbances.torque_noise), row(disturbances.delay_steps),
+                        row(disturbances.pushes), disturbances.seed, disturbances.rollout_ids)
+
+
 def _limit_meta(plan):
-    limits = plan.setup[0, engine.S_LIMITS:engine.S_LIMITS + plan.n_links - 1]
+    limits = plan.settings.limits[0]
     return None if np.all(np.isinf(limits)) else limits.tolist()
 
 

@@ -8,14 +8,13 @@ from pathlib import Path
 
 import numpy as np
 
-from ..control.region import BALANCE_TOL
 from ..errors import PaaError
 from ..io import json_writer, npz_writer, write_set
 from ..model.params import MAX_LINKS
-from ..model.states import goal_angles, goal_error
 from ..provenance import text_sha256
-FIELDS = ("t", "q", "qd", "tau", "E_minus_Er", "V", "mode")
+from ..task import Task
 
+FIELDS = ("t", "q", "qd", "tau", "E_minus_Er", "V", "mode")
 
 
 
@@ -31,9 +30,10 @@ class Trajectory:
     E_minus_Er : ndarray (n,)   E - E_r [J]
     V : ndarray (n,)            Lyapunov function (34) of controller (40) [J^2]
     mode : ndarray (n,) int8    0 swing-up (40), 1 balance (67)
-    switch_time : float or None first time the state entered region (68) [s]
+    switch_time : float or None first switch to the balance controller [s]
     meta : dict                 robot, engine, integrator, time step, gains, x0, status
     robot_xml : str or None     MJCF text of the robot simulated (None: unknown, a file of an older version)
+    task : Task or None         what the run aimed at and is judged by (None: the folded task)
     """
 
     t: np.ndarray
@@ -46,6 +46,11 @@ class Trajectory:
     switch_time: float | None = None
     meta: dict = field(default_factory=dict)
     robot_xml: str | None = None
+    task: Task | None = None
+
+    def __post_init__(self):
+        if self.task is None:
+            self.task = Task.from_description(self.meta.get("task", self.meta.get("goal")), int(self.q.shape[-1]))
 
     def __len__(self):
         return len(self.t)
@@ -65,15 +70,12 @@ class Trajectory:
 
     @property
     def goal(self) -> str:
-        """The goal the run aimed at (the paper's folded one unless the metadata says otherwise)."""
-        return self.meta.get("goal", "folded")
+        """The name of the goal the run aimed at."""
+        return self.task.name
 
-    def balanced(self, tol=BALANCE_TOL) -> bool:
-        """True when the final state is within ``tol`` of the goal, UDD for the paper's (angles mod 2 pi)."""
-        if not len(self):
-            return False
-        error = goal_error(self.q[-1], self.qd[-1], goal_angles(self.goal, self.n_links))
-        return bool(np.max(np.abs(error)) < tol)
+    def balanced(self) -> bool:
+        """True when the final state is within the task's balance tolerance of its goal (angles mod 2 pi)."""
+        return bool(len(self)) and bool(self.task.balanced(self.q[-1], self.qd[-1]))
 
     def summary(self) -> dict:
         return {
@@ -86,6 +88,7 @@ class Trajectory:
             "max_abs_tau": np.max(np.abs(self.tau), axis=0).tolist() if len(self) else None,
             "samples": len(self),
             **self.meta,
+            **self.task.describe(),
         }
 
     # --- files --------------------------------------------------------------------
@@ -111,7 +114,7 @@ class Trajectory:
 
         return write_set(out_dir, {
             f"{stem}.npz": npz_writer(**arrays, switch_time=np.nan if self.switch_time is None else self.switch_time,
-                                      meta=json.dumps(self.meta)),
+                                      meta=json.dumps({**self.meta, "task": self.task.describe()["task"]})),
             f"{stem}.csv": csv,
             "summary.json": json_writer(self.summary()),
         })
@@ -164,4 +167,7 @@ class Trajectory:
         arrays["mode"] = arrays["mode"].astype(np.int8)
         if robot_xml is not None and text_sha256(robot_xml) != sha:
             raise PaaError(f"corrupted trajectory file {path}: its robot's MJCF text does not match its sha256")
-        return cls(**arrays, switch_time=None if np.isnan(switch) else switch, meta=meta, robot_xml=robot_xml)
+        try:
+            return cls(**arrays, switch_time=None if np.isnan(switch) else switch, meta=meta, robot_xml=robot_xml)
+        except PaaError as err:  # its task is not one
+            raise PaaError(f"corrupted trajectory file {path}: {err}") from None

@@ -38,15 +38,14 @@ from ..limits import check_memory, check_steps
 from ..model.dynamics import AnalyticModel
 from ..model.params import RobotParams
 from ..model.robot import Robot
-from ..model.states import GOALS, start_state
+from ..task import Task, as_task
 from ..theory.conditions import chain_kd_min, constraint_54, eta1, eta2, frozen_acrobot_controllable, kd_min, \
     merged_acrobot_deltabar
 from ..control.closed_loop import duu_eigenvalues
 from ..control.gains import gain_rule
-from ..theory.linear import lqr_gain, sampled_spectral_radius, udd_controllability
+from ..theory.linear import goal_controllability, lqr_gain, sampled_spectral_radius, theorem1_covers
 from .basin import OUTCOME_NAMES, classify
-from ..control.region import SUCCESS_DEFINITION
-from .runner import CHUNK, RolloutSet, applied_limit, map_chunks, peak_torques, run_study
+from .runner import CHUNK, RolloutSet, applied_limit, map_chunks, peak_torques, run_study, task_definition
 from .settings import ATLAS_MAX_GRID as MAX_GRID, ATLAS_RANGE as DEFAULT_RANGE, atlas_parameters
 from .store import ChunkStore, check_arrays, study_key
 
@@ -118,13 +117,7 @@ def grid_factors(low, high, grid):
     return factors
 
 
-def theorem_covers(params: RobotParams, goal="folded") -> bool:
-    """Whether Theorem 1 covers the robot and goal: the paper's gymnast shape (three links, no damping or
-    armature) and its folded goal UDD."""
-    return params.is_paper_shape and goal == "folded"
-
-
-def robot_theory(params: RobotParams, base_gains=None, dt=1e-3, goal="folded") -> dict:
+def robot_theory(params: RobotParams, task: Task, base_gains=None, dt=1e-3) -> dict:
     """Everything the atlas says of one robot, from the theory alone.
 
     Besides the theory's quantities (the module's docstring): ``duu_growth``, the largest real part
@@ -134,9 +127,9 @@ def robot_theory(params: RobotParams, base_gains=None, dt=1e-3, goal="folded") -
     simulation's step).
     """
     am = AnalyticModel.from_params(params)
-    covered = theorem_covers(params, goal)
-    controllable = udd_controllability(am, goal=goal).controllable
-    E_r = float(am.goal_energy(goal))
+    covered = theorem1_covers(am, task)
+    controllable = goal_controllability(am, task).controllable
+    E_r = task.goal_energy(am)
     if covered:
         kd, e1, e2 = kd_min(am).value, eta1(am).value, eta2(am).value
         c54 = constraint_54(am)
@@ -146,12 +139,12 @@ def robot_theory(params: RobotParams, base_gains=None, dt=1e-3, goal="folded") -
         growth = float(np.max(duu_eigenvalues(am, **gains)[0].real)) if np.all(np.isfinite(list(gains.values()))) \
             else float("nan")
     else:
-        kd, e1, e2 = chain_kd_min(am, goal).value, float("nan"), float("nan")
+        kd, e1, e2 = chain_kd_min(am, task).value, float("nan"), float("nan")
         holds, f_min, f_max = False, float("nan"), float("nan")
         _, db_min, db_max = merged_acrobot_deltabar(am)
         gains = gain_rule(kd, None, None, base_gains)
         growth = float("nan")
-    radius = sampled_spectral_radius(am, lqr_gain(am, goal=goal), dt, goal=goal) if controllable else float("inf")
+    radius = sampled_spectral_radius(am, lqr_gain(am, task), dt, task) if controllable else float("inf")
     return {"params": {"m": params.m.tolist(), "l": params.l.tolist(), "lc": params.lc.tolist(), "J": params.J.tolist()},
             "E_r": E_r, "holds_54": holds, "f_min": f_min, "f_max": f_max,
             "deltabar_min": db_min, "deltabar_max": db_max, "udd_controllable": bool(controllable),
@@ -165,9 +158,9 @@ _FLAGS = ("holds_54", "udd_controllable", "lqr_sampled_stable", "theorem1")
 
 
 def _theory_task(shared, payload):
-    base_gains, dt, goal = shared
-    rows = [robot_theory(RobotParams(m=p[0], l=p[1], lc=p[2], J=p[3], g=p[4], damping=p[5], armature=p[6]),
-                         base_gains, dt, goal) for p in payload]
+    base_gains, dt, task = shared
+    rows = [robot_theory(RobotParams(m=p[0], l=p[1], lc=p[2], J=p[3], g=p[4], damping=p[5], armature=p[6]), task,
+                         base_gains, dt) for p in payload]
     out = {key: np.array([row[key] for row in rows], float) for key in _NUMBERS}
     out.update({key: np.array([row[key] for row in rows], bool) for key in _FLAGS})
     out["gains"] = np.array([[row["gains"][k] for k in ("kD", "kP", "kV")] for row in rows])
@@ -175,18 +168,18 @@ def _theory_task(shared, payload):
 
 
 def atlas(robot: Robot, vary=("l1", "m1"), factor_range=DEFAULT_RANGE, grid=32, simulate=False, starts=4,
-          t_final=30.0, seed=0, scheduler="inline", out_dir=None, fresh=False, progress=False, chunk=None,
-          torque_limit=None, goal="folded"):
+          t_final=None, seed=0, *, task: Task | str | None = None, scheduler="inline", out_dir=None, fresh=False,
+          progress=False, chunk=None, torque_limit=None):
     """The atlas of a family of robots; returns (summary, arrays).
 
     The family is ordered with the first parameter's factor as the slow index.
     ``chunk``: robots per chunk of the theory and kips per chunk of the simulation
     (default :data:`THEORY_CHUNK` and :data:`~paa_mj.studies.runner.CHUNK`);
-    ``torque_limit`` [N m] saturates every simulated kip; ``goal`` ("folded" or "stretched")
-    is the task the theory, the controllers and success are taken at.
+    ``torque_limit`` [N m] saturates every simulated kip; ``task`` (a Task or a goal's name, default the folded
+    task) is what the theory, the controllers and success are taken at, and ``t_final`` defaults to its horizon.
     """
-    if goal not in GOALS:
-        raise PaaError(f"--goal must be one of {', '.join(GOALS)}, got {goal!r}")
+    task = as_task(task, robot)
+    t_final = task.horizon if t_final is None else t_final
     if not (isinstance(grid, (int, np.integer)) and 2 <= grid <= MAX_GRID):
         raise PaaError(f"--grid must be an integer in [2, {MAX_GRID}], got {grid}")
     vary = parse_vary(",".join(map(str, vary)) if isinstance(vary, (tuple, list)) else vary, robot.params.n_links)
@@ -201,16 +194,16 @@ def atlas(robot: Robot, vary=("l1", "m1"), factor_range=DEFAULT_RANGE, grid=32, 
     f1, f2 = grid_factors(*factor_range, grid), grid_factors(*factor_range, grid)
     family = [scale(scale(robot.params, vary[0], a), vary[1], b) for a in f1 for b in f2]
     key = {"study": "atlas", "robot": robot.xml, "vary": list(vary), "range": list(factor_range), "grid": grid,
-           **({"goal": goal} if goal != "folded" else {})}
+           **task_definition(task)}
     theory_chunk = chunk or THEORY_CHUNK
     payloads = [[(p.m, p.l, p.lc, p.J, p.g, p.damping, p.armature) for p in family[i:i + theory_chunk]]
                 for i in range(0, n, theory_chunk)]
-    covered = theorem_covers(robot.params, goal)
+    covered = theorem1_covers(robot.analytic, task)
     store = ChunkStore(out_dir, study_key({**key, "part": "theory", "chunk": theory_chunk}), fresh,
                        study="atlas-theory")
     finished, interrupted = map_chunks(_theory_task, payloads, scheduler=scheduler, store=store, progress=progress,
                                        desc=f"theory of {n} robots", fits=_theory_fits,
-                                       shared=(robot.gains, float(robot.model.opt.timestep), goal))
+                                       shared=(robot.gains, float(robot.model.opt.timestep), task))
     arrays = {"factors_1": f1, "factors_2": f2}
     for name in _NUMBERS + _FLAGS + ("gains",):
         parts = [finished[i][name] if i in finished else
@@ -220,7 +213,7 @@ def atlas(robot: Robot, vary=("l1", "m1"), factor_range=DEFAULT_RANGE, grid=32, 
     arrays["theory_done"] = np.concatenate([np.full(len(payloads[i]), i in finished) for i in range(len(payloads))])
     summary = {"robot": robot.name, "robot_sha256": text_sha256(robot.xml), "vary": list(vary),
                "factors": [f1.tolist(), f2.tolist()],
-               "range": list(factor_range), "grid": grid, "links": robot.params.n_links, "goal": goal,
+               "range": list(factor_range), "grid": grid, "links": robot.params.n_links, **task.describe(),
                "theorem1_covers": covered,
                "gain_rule": "kD = 1.05 kD_min, kP = " + ("1.05 max(eta1, eta2)" if covered else
                                                           "kD x (kP/kD of the base robot)")
@@ -229,14 +222,15 @@ def atlas(robot: Robot, vary=("l1", "m1"), factor_range=DEFAULT_RANGE, grid=32, 
     if simulate and not interrupted:
         outcome, reached, balanced_starts, V_final, interrupted, peak = _simulate(
             robot, family, arrays, starts, t_final, seed, scheduler, out_dir, fresh, progress, key, chunk or CHUNK,
-            torque_limit, goal)
+            torque_limit, task)
         arrays["outcome"], arrays["reached_68"], arrays["balanced_starts"] = outcome, reached, balanced_starts
         arrays["V_final"] = V_final
         summary["interrupted"] = interrupted
         summary["starts"], summary["t_final"] = starts, t_final
         summary["torque_limit"] = applied_limit(robot, torque_limit)
         summary["max_abs_tau"] = peak
-        summary["success"] = SUCCESS_DEFINITION
+        summary["success"] = float(np.mean(arrays["outcome"][arrays["outcome"] >= 0] == 0)) \
+            if np.any(arrays["outcome"] >= 0) else None
     summary["robots"] = _robot_rows(family, arrays, f1, f2)
     summary["counts"] = _counts(arrays, simulate and "outcome" in arrays, covered)
     summary["findings"] = _findings(summary, arrays)
@@ -250,16 +244,16 @@ def _theory_fits(payload, result):
 
 
 def _simulate(robot, family, arrays, starts, t_final, seed, scheduler, out_dir, fresh, progress, key, chunk,
-              torque_limit, goal):
+              torque_limit, task):
     rng = np.random.default_rng(seed)
     links = robot.params.n_links
-    first = start_state(links, goal)
+    first = task.start
     x0, specs, plants, owner = [], [], [], []
     for r, params in enumerate(family):
         gains = tuple(arrays["gains"][r])
         if not np.all(np.isfinite(gains)) or min(gains) <= 0:
             continue
-        spec = ControllerSpec("vcl", gains, params, check=False, goal=goal)
+        spec = ControllerSpec("vcl", gains, params, check=False, task=task)
         starts_r = [first] + [np.concatenate([rng.uniform(-START_SPREAD[0], START_SPREAD[0], links),
                                               rng.uniform(-START_SPREAD[1], START_SPREAD[1], links)])
                               for _ in range(starts)]
@@ -275,13 +269,13 @@ def _simulate(robot, family, arrays, starts, t_final, seed, scheduler, out_dir, 
     V_final = np.full(len(family), np.nan)
     if not x0:
         return outcome, reached, balanced_starts, V_final, False, None
-    rollouts = RolloutSet(np.array(x0), specs, plants=plants, torque_limit=torque_limit, goal=goal)
+    rollouts = RolloutSet(np.array(x0), specs, task, plants=plants, torque_limit=torque_limit)
     store = ChunkStore(out_dir, study_key({**key, "part": "kips", "starts": starts, "t_final": t_final, "seed": seed,
                                            "chunk": chunk, **rollouts.definition()}), fresh, study="atlas-kips")
     result = run_study(robot, rollouts, t_final, seed=seed, scheduler=scheduler, store=store, progress=progress,
                        desc="atlas kips", chunk=chunk)
     done = result.meta["completed"]
-    codes = classify(result, goal)
+    codes = classify(result, task)
     for r in np.unique(owner):
         rows = np.flatnonzero(owner == r)
         kip = rows[0]

@@ -2,7 +2,7 @@
 
 A grid of initial states over two chosen coordinates (the others zero) runs
 through :func:`~paa_mj.studies.runner.run_study`; each cell records the first
-switch time (or never), whether the robot ended balanced at UDD, and how it
+switch time (or never), whether the run succeeded by the task's definition, and how it
 ended (:data:`OUTCOME_NAMES`).
 """
 from __future__ import annotations
@@ -15,7 +15,7 @@ from ..provenance import text_sha256
 from ..limits import check_memory, check_steps
 from ..model.robot import Robot
 from ..model.states import Q_DUU, wrap_angle
-from ..control.region import SUCCESS_DEFINITION
+from ..task import Task, as_task
 from .runner import CHUNK, RolloutSet, applied_limit, peak_torques, run_study
 from .settings import BASIN_MAX_GRID as MAX_GRID, BASIN_RANGE as DEFAULT_RANGE
 from .store import ChunkStore, study_key
@@ -59,11 +59,11 @@ def basin_grid(axes, grid, n_links=3):
     return x0, xs, ys
 
 
-def classify(result, goal="folded") -> np.ndarray:
+def classify(result, task: Task) -> np.ndarray:
     """The outcome code of each rollout (:data:`OUTCOME_NAMES`); "stuck at DUU" only for the gymnast's folded goal,
     where DUU is the other limit of Theorem 1."""
     final = np.nan_to_num(result.final_state, nan=1e9)
-    if final.shape[1] == 6 and goal == "folded":
+    if task.n_links == 3 and task.name == "folded":
         near_duu = np.max(np.abs(np.concatenate([wrap_angle(final[:, :3] - Q_DUU), final[:, 3:]], axis=1)),
                           axis=1) < DUU_TOL
     else:
@@ -74,21 +74,26 @@ def classify(result, goal="folded") -> np.ndarray:
     return np.where(result.diverged, DIVERGED, code).astype(np.int8)
 
 
-def basin(robot: Robot, axes: tuple[int, int] = (0, 1), grid: int = 64, t_final: float = 30.0,
-          controller: ControllerSpec | str = "vcl", progress: bool = False, scheduler: str = "inline",
-          out_dir=None, fresh: bool = False, chunk: int = CHUNK, torque_limit=None,
-          goal: str = "folded") -> tuple[dict, dict]:
+def basin(robot: Robot, axes: tuple[int, int] = (0, 1), grid: int = 64, t_final: float | None = None,
+          controller: ControllerSpec | str = "vcl", *, task: Task | str | None = None, progress: bool = False,
+          scheduler: str = "inline", out_dir=None, fresh: bool = False, chunk: int = CHUNK,
+          torque_limit=None) -> tuple[dict, dict]:
     """Run the basin study; returns (summary dict, arrays dict).
 
-    ``torque_limit`` [N m] (one value or one per motor) saturates every run, on top of
-    the model's actuator ranges; the summary reports the peak torques applied.
+    ``task`` (a :class:`~paa_mj.task.Task` or a goal's name, default the folded task) is what the controller
+    aims at and what success means; ``t_final`` defaults to its horizon. ``torque_limit`` [N m] (one value or
+    one per motor) saturates every run, on top of the model's actuator ranges; the summary reports the peak
+    torques applied.
 
     ``scheduler``: "inline", "local" (a local Dask cluster) or a Dask scheduler
     address; the results are identical whichever (:mod:`paa_mj.studies.runner`).
-    With ``out_dir``, finished chunks are kept there and a rerun resumes. ``goal`` is the task
-    (:mod:`paa_mj.model.states`): what named controllers aim at and what success means.
+    With ``out_dir``, finished chunks are kept there and a rerun resumes.
     """
-    spec = ControllerSpec(controller, goal=goal) if isinstance(controller, str) else controller
+    task = as_task(task, robot)
+    t_final = task.horizon if t_final is None else t_final
+    spec = ControllerSpec(controller, task=task) if isinstance(controller, str) else controller
+    if spec.task is None:
+        spec = spec.for_task(task)
     names = coordinates(robot.params.n_links)
     if not (len(axes) == 2 and all(isinstance(a, (int, np.integer)) and 0 <= a < len(names) for a in axes)
             and axes[0] != axes[1]):
@@ -101,8 +106,8 @@ def basin(robot: Robot, axes: tuple[int, int] = (0, 1), grid: int = 64, t_final:
         check_steps(grid * grid * t_final / float(robot.model.opt.timestep), f"{grid * grid} rollouts of {t_final:g} s",
                     "--grid or --t-final")
     x0, xs, ys = basin_grid(axes, grid, robot.params.n_links)
-    spec.build(robot)  # checks the gains (one line) before any work
-    rollouts = RolloutSet(x0, spec, torque_limit=torque_limit, goal=goal)
+    spec.build(robot)  # checks the gains, and that it is built for this task (one line), before any work
+    rollouts = RolloutSet(x0, spec, task, torque_limit=torque_limit)
     key = study_key({"study": "basin", "robot": robot.xml, "axes": list(axes), "grid": grid, "t_final": t_final,
                      "chunk": chunk, **rollouts.definition()})
     result = run_study(robot, rollouts, t_final, scheduler=scheduler, store=ChunkStore(out_dir, key, fresh, "basin"),
@@ -110,17 +115,17 @@ def basin(robot: Robot, axes: tuple[int, int] = (0, 1), grid: int = 64, t_final:
     completed = result.meta["completed"]
     success = result.success
     switched = result.switch_time[np.isfinite(result.switch_time)]
-    outcome = classify(result, goal)
+    outcome = classify(result, task)
 
     def fraction(mask):  # over the finished runs: an interrupted study says nothing of the others
         return float(np.mean(mask[completed])) if completed.any() else None
 
     summary = {
         "robot": robot.name, "robot_sha256": text_sha256(robot.xml), "controller": spec.short_name,
-        "axes": [names[a] for a in axes], "grid": grid, **({"goal": goal} if goal != "folded" else {}),
+        "axes": [names[a] for a in axes], "grid": grid, **task.describe(),
         "cells": int(grid * grid), "t_final": t_final, "t_reached": result.t_reached,
         "interrupted": result.interrupted, "completed_fraction": float(np.mean(completed)),
-        "success": SUCCESS_DEFINITION, "success_fraction": fraction(success),
+        "success": fraction(success),
         "torque_limit": applied_limit(robot, torque_limit),
         "max_abs_tau": peak_torques(result.max_abs_tau, completed),
         "switched_fraction": fraction(np.isfinite(result.switch_time)),

@@ -8,7 +8,7 @@
   their own), its time divided by 256 x 30000 bare steps (``basin_effective_ratio``);
 * analytic: the ``solve_ivp`` reference of the 30 s Table 1 run against the MuJoCo rollout;
 * vector env (with Gymnasium installed): CPU time per environment step of
-  :class:`~paa_mj.gym_vector.GymnastVectorEnv` of 64 robots against 64 :class:`~paa_mj.gym_env.GymnastEnv`
+  :class:`~paa_mj.envs.vector.GymnastVectorEnv` of 64 robots against 64 :class:`~paa_mj.envs.single.GymnastEnv`
   stepped one after the other with the same actions (``vector_env_speedup``: single / vector), against
   them in Gymnasium's ``SyncVectorEnv`` (``vector_env_speedup_vs_sync``), and the ``mj_step`` calls alone of
   the same steps: ``vector_env_physics_share`` (physics / vector) and ``vector_env_speedup_bound``
@@ -30,7 +30,7 @@ import numpy as np
 
 from ..control.registry import make_controller
 from ..model.robot import load_robot
-from ..model.states import start_state
+from ..task import Task, as_task
 from ..sim.analytic import simulate_analytic
 from ..sim.batch import simulate_batch
 from ..sim.rollout import simulate_mujoco
@@ -76,7 +76,7 @@ def python_loop_costs(robot, seconds=2.0, repeats=3):
     data = mujoco.MjData(model)
     steps = round(seconds / model.opt.timestep)
     n = robot.params.n_links
-    start = start_state(n)
+    start = Task.named("folded", robot).start
 
     def by_hand():
         data.qpos[:], data.qvel[:] = start[:n], start[n:]
@@ -115,12 +115,12 @@ def vector_env_costs(n_envs=64, steps=50, repeats=3, frame_skip=10):
     it) with the same random actions, measured in turns (single, sync, vector, physics, single, ...) so that
     other work on the machine weighs on all alike. A dict of costs, or None without Gymnasium:
 
-    * ``single``: the ``n_envs`` :class:`~paa_mj.gym_env.GymnastEnv` stepped one after the other in a Python
+    * ``single``: the ``n_envs`` :class:`~paa_mj.envs.single.GymnastEnv` stepped one after the other in a Python
       loop, the cheapest way to run them one by one (no wrapper, no batching of the results);
     * ``sync``: the same environments in :class:`gymnasium.vector.SyncVectorEnv` (what Gymnasium builds for an
       environment without its own vector version: results batched, as the vector environment returns them);
-    * ``vector``: :class:`~paa_mj.gym_vector.GymnastVectorEnv`, one thread;
-    * ``physics``: the ``mj_step`` calls alone of the same steps (:func:`~paa_mj.gym_vector.physics_only` on the
+    * ``vector``: :class:`~paa_mj.envs.vector.GymnastVectorEnv`, one thread;
+    * ``physics``: the ``mj_step`` calls alone of the same steps (:func:`~paa_mj.envs.vector.physics_only` on the
       vector environment's MjData, same torques, same starts): what no environment can go below, so
       ``single / physics`` bounds the speedup ``single / vector``;
     * ``single_analytic``, ``vector_analytic``: ``single`` and ``vector`` with ``physics="analytic"``.
@@ -128,12 +128,13 @@ def vector_env_costs(n_envs=64, steps=50, repeats=3, frame_skip=10):
     try:
         from gymnasium.vector import SyncVectorEnv
 
-        from ..gym_env import GymnastEnv, action_to_torque
-        from ..gym_vector import GymnastVectorEnv, physics_only
-        from ..sim.mujoco_log import mujoco_log_off
+        from ..envs.single import GymnastEnv
+        from ..envs.spaces import action_to_torque
+        from ..envs.vector import GymnastVectorEnv, physics_only
+        from ..mujoco_log import mujoco_log_off
     except ImportError:
         return None
-    options = dict(task="kip", frame_skip=frame_skip, max_episode_seconds=1e4)
+    options = dict(episode="kip", frame_skip=frame_skip, max_episode_seconds=1e4)
     singles = [GymnastEnv(**options) for _ in range(n_envs)]
     sync = SyncVectorEnv([lambda: GymnastEnv(**options) for _ in range(n_envs)])
     vector = GymnastVectorEnv(n_envs, **options)
@@ -162,7 +163,7 @@ def vector_env_costs(n_envs=64, steps=50, repeats=3, frame_skip=10):
 
     def run_physics():
         with mujoco_log_off():
-            physics_only(vector.model._address, robots.addresses, tau, robots.frame_skip)
+            physics_only(vector.model._address, robots.physics.addresses, tau, robots.physics.frame_skip)
 
     cases = {"single": (lambda: reset_all(singles), lambda: run_all(singles)),
              "sync": (lambda: sync.reset(seed=0), run_sync),
@@ -185,7 +186,7 @@ def vector_env_costs(n_envs=64, steps=50, repeats=3, frame_skip=10):
 
 
 def run_bench(batch_size=1024, batch_seconds=2.0, repeats=3, basin_grid=16, basin_seconds=30.0, progress=False,
-              vector_envs=64, vector_steps=50, robot="gymnast", goal="folded", rollout_seconds=30.0,
+              vector_envs=64, vector_steps=50, robot="gymnast", task=None, rollout_seconds=30.0,
               python_seconds=2.0, bare_steps=20000):
     """Measure every cost of the module docstring; each is the best of ``repeats`` runs (the basin: of 2).
 
@@ -193,8 +194,8 @@ def run_bench(batch_size=1024, batch_seconds=2.0, repeats=3, basin_grid=16, basi
     ``analytic_30s_seconds``: 30 s unless asked otherwise, ``rollout_t_final`` in the result), ``python_seconds``
     [s] that of the Python controllers' runs, ``bare_steps`` the number of bare ``mj_step`` calls timed.
 
-    ``robot`` (a name or MJCF path) and ``goal`` choose the robot and task measured; the vector environment is
-    the gymnast's, measured for it alone.
+    ``robot`` (a name or MJCF path) and ``task`` (a Task or a goal's name, default the folded one) choose the
+    robot and task measured; the vector environment is the gymnast's, measured for it alone.
     """
     from .basin import basin
 
@@ -205,7 +206,8 @@ def run_bench(batch_size=1024, batch_seconds=2.0, repeats=3, basin_grid=16, basi
     dt = model.opt.timestep
     n_bare = bare_steps
     n = robot.params.n_links
-    start = start_state(n, goal)
+    task = as_task(task, robot)
+    start = task.start
     bare_start = np.resize([-2.0, -1.0, 0.5], n), np.resize([1.0, -2.0, 0.5], n)
 
     def bare():
@@ -213,15 +215,15 @@ def run_bench(batch_size=1024, batch_seconds=2.0, repeats=3, basin_grid=16, basi
         for _ in range(n_bare):
             mujoco.mj_step(model, data)
 
-    ctrl = make_controller("vcl", robot, goal=goal)
+    ctrl = make_controller("vcl", robot, task=task)
     t_single = rollout_seconds
-    simulate_mujoco(robot, ctrl, start, 0.01, goal=goal)  # compile (or load) the kernels first
+    simulate_mujoco(robot, ctrl, start, 0.01, task=task)  # compile (or load) the kernels first
     bare_step = _best_of(bare, repeats) / n_bare
-    single = _best_of(lambda: simulate_mujoco(robot, ctrl, start, t_single, goal=goal), repeats)
+    single = _best_of(lambda: simulate_mujoco(robot, ctrl, start, t_single, task=task), repeats)
     single_step = single / round(t_single / dt)
     t_python = python_seconds
-    simulate_mujoco(robot, _Uncompiled(ctrl), start, 0.01, goal=goal)  # its compiled parts too, before the clock
-    python_step = _best_of(lambda: simulate_mujoco(robot, _Uncompiled(ctrl), start, t_python, goal=goal), 1) \
+    simulate_mujoco(robot, _Uncompiled(ctrl), start, 0.01, task=task)  # its compiled parts too, before the clock
+    python_step = _best_of(lambda: simulate_mujoco(robot, _Uncompiled(ctrl), start, t_python, task=task), 1) \
         / round(t_python / dt)
 
     hand_step, engine_step = python_loop_costs(robot, seconds=python_seconds, repeats=repeats)
@@ -229,37 +231,22 @@ def run_bench(batch_size=1024, batch_seconds=2.0, repeats=3, basin_grid=16, basi
     rng = np.random.default_rng(0)
     x0 = np.zeros((batch_size, 2 * n))
     x0[:, :n] = rng.uniform(-np.pi, np.pi, (batch_size, n))
-    simulate_batch(robot, x0[:4], 0.01, controller=ctrl)
-    batch = _best_of(lambda: simulate_batch(robot, x0, batch_seconds, controller=ctrl, retire=False,
-                                            progress=progress, goal=goal), repeats)
+    simulate_batch(robot, x0[:4], 0.01, task=task, controller=ctrl)
+    batch = _best_of(lambda: simulate_batch(robot, x0, batch_seconds, task=task, controller=ctrl, retire=False,
+                                            progress=progress), repeats)
     batch_state_step = batch / (batch_size * round(batch_seconds / dt))
 
-    basin_seconds_taken = _best_of(lambda: basin(robot, (0, 1), basin_grid, basin_seconds, progress=progress,
-                                                 scheduler="inline", goal=goal), min(repeats, 2))
+    basin_seconds_taken = _best_of(lambda: basin(robot, (0, 1), basin_grid, basin_seconds, task=task,
+                                                 progress=progress, scheduler="inline"), min(repeats, 2))
     basin_cell_steps = basin_grid**2 * round(basin_seconds / dt)
 
-    simulate_analytic(robot, make_controller("vcl", robot, goal=goal), start, 0.01, goal=goal)
-    analytic = _best_of(lambda: simulate_analytic(robot, make_controller("vcl", robot, goal=goal), start, t_single,
-                                                  goal=goal), 1)
-    vector = {}
-    costs = vector_env_costs(vector_envs, vector_steps, repeats) if name == "gymnast" and goal == "folded" else None
-    if costs is not None:
-        vector = {"vector_env_num_envs": vector_envs}
-        for suffix, c in (("", costs), ("_frame_skip_1", vector_env_costs(vector_envs, vector_steps, repeats, 1))):
-            vector |= {f"single_env_step_us{suffix}": c["single"] * 1e6,
-                       f"sync_vector_env_step_us{suffix}": c["sync"] * 1e6,
-                       f"vector_env_step_us{suffix}": c["vector"] * 1e6,
-                       f"vector_env_physics_us{suffix}": c["physics"] * 1e6,
-                       f"vector_env_speedup{suffix}": c["single"] / c["vector"],
-                       f"vector_env_speedup_vs_sync{suffix}": c["sync"] / c["vector"],
-                       f"vector_env_speedup_bound{suffix}": c["single"] / c["physics"],
-                       f"vector_env_physics_share{suffix}": c["physics"] / c["vector"],
-                       f"single_env_analytic_step_us{suffix}": c["single_analytic"] * 1e6,
-                       f"vector_env_analytic_step_us{suffix}": c["vector_analytic"] * 1e6,
-                       f"vector_env_analytic_speedup{suffix}": c["single_analytic"] / c["vector_analytic"],
-                       f"vector_env_analytic_vs_single_mujoco{suffix}": c["single"] / c["vector_analytic"]}
+    simulate_analytic(robot, make_controller("vcl", robot, task=task), start, 0.01, task=task)
+    analytic = _best_of(lambda: simulate_analytic(robot, make_controller("vcl", robot, task=task), start, t_single,
+                                                  task=task), 1)
+    vector = _vector_rows(vector_envs, vector_steps, repeats) if name == "gymnast" and task.name == "folded" \
+        else {}
     return {
-        "robot": robot.name, **({"goal": goal} if goal != "folded" else {}),
+        "robot": robot.name, "goal": task.name,
         "machine_cores": os.cpu_count(),
         "mujoco_version": mujoco.__version__,
         "bare_mj_step_us": bare_step * 1e6,
@@ -285,10 +272,32 @@ def run_bench(batch_size=1024, batch_seconds=2.0, repeats=3, basin_grid=16, basi
     }
 
 
+def _vector_rows(vector_envs, vector_steps, repeats) -> dict:
+    """The vector environments' rows of the bench (empty without Gymnasium), at 10 and 1 ms control periods."""
+    costs = vector_env_costs(vector_envs, vector_steps, repeats)
+    if costs is None:
+        return {}
+    vector = {"vector_env_num_envs": vector_envs}
+    for suffix, c in (("", costs), ("_frame_skip_1", vector_env_costs(vector_envs, vector_steps, repeats, 1))):
+        vector |= {f"single_env_step_us{suffix}": c["single"] * 1e6,
+                   f"sync_vector_env_step_us{suffix}": c["sync"] * 1e6,
+                   f"vector_env_step_us{suffix}": c["vector"] * 1e6,
+                   f"vector_env_physics_us{suffix}": c["physics"] * 1e6,
+                   f"vector_env_speedup{suffix}": c["single"] / c["vector"],
+                   f"vector_env_speedup_vs_sync{suffix}": c["sync"] / c["vector"],
+                   f"vector_env_speedup_bound{suffix}": c["single"] / c["physics"],
+                   f"vector_env_physics_share{suffix}": c["physics"] / c["vector"],
+                   f"single_env_analytic_step_us{suffix}": c["single_analytic"] * 1e6,
+                   f"vector_env_analytic_step_us{suffix}": c["vector_analytic"] * 1e6,
+                   f"vector_env_analytic_speedup{suffix}": c["single_analytic"] / c["vector_analytic"],
+                   f"vector_env_analytic_vs_single_mujoco{suffix}": c["single"] / c["vector_analytic"]}
+    return vector
+
+
 def format_bench(r) -> str:
     return "\n".join([
         f"paa-mj bench ({r['machine_cores']} cores, MuJoCo {r['mujoco_version']}, robot {r.get('robot', 'gymnast')}"
-        f"{', ' + r['goal'] + ' goal' if 'goal' in r else ''}, RK4 1 ms)",
+        f"{', ' + r['goal'] + ' goal' if r.get('goal', 'folded') != 'folded' else ''}, RK4 1 ms)",
         f"  bare mj_step (Python loop)         {r['bare_mj_step_us']:8.2f} us/step        = 1",
         f"  closed loop, compiled controller   {r['single_step_us']:8.2f} us/step        single_step_ratio = {r['single_step_ratio']:.2f}",
         f"  closed loop, controller in Python  {r['python_controller_step_us']:8.2f} us/step        ratio = {r['python_step_ratio']:.1f}",

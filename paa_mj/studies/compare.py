@@ -1,7 +1,7 @@
 """A leaderboard of kip controllers, scored the way the RealAIGym benchmark scores double-pendulum swing-ups.
 
-Every controller kips the same robot from (65) in MuJoCo (RK4, 1 ms) under the
-same torque limit (by default the peak torques of the paper's controller ``vcl``
+Every controller kips the same robot from the task's start ((65)) in MuJoCo (RK4, 1 ms)
+under the same torque limit (by default the peak torques of the paper's controller ``vcl``
 there), and is scored on
 
 - performance (:data:`METRICS`): when it first enters region (68) (``t_region``),
@@ -24,7 +24,7 @@ there), and is scored on
 Every run of every part, reach included, is saturated at the same torque limit,
 torque noise is a fraction of that same limit for every controller (so that
 each meets the same disturbance), and success has one meaning throughout
-(:data:`~paa_mj.control.region.SUCCESS_DEFINITION`).
+(the task's, :attr:`~paa_mj.task.Task.success_definition`).
 
 RealAIGym also folds the performance metrics into one score with normalisers
 fixed for the double pendulum; none exist for the gymnast, so the leaderboard
@@ -38,12 +38,12 @@ import numpy as np
 from ..control.catalog import PLANNERS
 from ..control.registry import ControllerSpec
 from ..errors import PaaError
-from ..provenance import text_sha256
+from ..limits import physical_torque_scale
 from ..progress import stage
+from ..provenance import text_sha256
 from ..model.robot import Robot
-from ..model.states import start_state
 from ..sim.batch import kip_peak_torques, simulate_batch
-from ..control.region import SUCCESS_DEFINITION
+from ..task import Task, as_task
 from .basin import basin
 from .robustness import MAX_TRIALS, robustness
 from .runner import CHUNK
@@ -53,9 +53,9 @@ from .settings import (BASIN_MAX_GRID, COMPARE_CONTROLLERS as DEFAULT_CONTROLLER
 METRICS = ("t_region", "t_balanced", "max_tau", "int_tau2", "work", "smoothness", "max_speed", "success")
 
 
-def _spec(name, limit, goal="folded"):
+def _spec(name, limit, task):
     options = (("limit", tuple(limit)),) if name in PLANNERS else ()
-    return ControllerSpec(name, options=options, goal=goal)
+    return ControllerSpec(name, options=options, task=task)
 
 
 def _why(result, i, t_final):
@@ -78,10 +78,11 @@ def sweep_levels(factor, quick=False):
     return levels[1::2] if quick else levels
 
 
-def performance(robot: Robot, controller, limit, t_final=30.0, goal="folded"):
-    """The metrics of one kip from (65) (the task's start), and its trajectory (t, q, qd, tau, mode)."""
-    result = simulate_batch(robot, start_state(robot.params.n_links, goal)[None], t_final, controller=controller,
-                            torque_limit=limit, retire=False, record=True, sample_dt=0.01, goal=goal)
+def performance(robot: Robot, controller, limit, task: Task, t_final=None):
+    """The metrics of one run from the task's start (the kip from (65)), and its trajectory (t, q, qd, tau, mode)."""
+    t_final = task.horizon if t_final is None else t_final
+    result = simulate_batch(robot, task.start[None], t_final, task=task, controller=controller, torque_limit=limit,
+                            retire=False, record=True, sample_dt=0.01)
     if result.interrupted:  # a truncated kip would give wrong metrics: stop the study here
         raise KeyboardInterrupt
     n = int(result.trajectories["count"][0])
@@ -95,31 +96,20 @@ def performance(robot: Robot, controller, limit, t_final=30.0, goal="folded"):
     return metrics, trajectory
 
 
-def compare(robot: Robot, controllers=DEFAULT_CONTROLLERS, torque_limit=None, trials=None, quick=False,
-            t_final=None, seed=0, scheduler="inline", out_dir=None, fresh=False, progress=False, grid=None,
-            chunk=CHUNK, goal="folded"):
-    """The leaderboard; returns (summary, trajectories by controller, basins by controller).
-
-    Parameters
-    ----------
-    controllers : sequence of str
-        Built-in names or ``file.py:ClassName``.
-    torque_limit : float, optional
-        The same saturation [N m] for every controller (default: vcl's peak torques from (65)).
-    goal : {"folded", "stretched"}
-        The task every controller aims at and is judged by.
-    """
+def _sizes(quick, trials, t_final, grid, task):
     sizes = dict(SIZES["quick" if quick else "full"])
-    if trials is not None:
-        sizes["trials"] = trials
-    if t_final is not None:
-        sizes["t_final"] = t_final
-    if grid is not None:
-        sizes["grid"] = grid
+    sizes["t_final"] = task.horizon
+    for key, value in (("trials", trials), ("t_final", t_final), ("grid", grid)):
+        if value is not None:
+            sizes[key] = value
     if not (isinstance(sizes["grid"], (int, np.integer)) and 2 <= sizes["grid"] <= BASIN_MAX_GRID):
         raise PaaError(f"--grid must be an integer in [2, {BASIN_MAX_GRID}], got {sizes['grid']}")
     if not (isinstance(sizes["trials"], (int, np.integer)) and 1 <= sizes["trials"] <= MAX_TRIALS):
         raise PaaError(f"--trials must be an integer in [1, {MAX_TRIALS}], got {sizes['trials']}")
+    return sizes
+
+
+def _names(controllers):
     names = list(dict.fromkeys(controllers))
     if not names:
         raise PaaError("--controllers needs at least one controller")
@@ -129,23 +119,65 @@ def compare(robot: Robot, controllers=DEFAULT_CONTROLLERS, torque_limit=None, tr
         if other != name:
             raise PaaError(f"controllers {other} and {name} would share the name {folder_name(name)} in the results:"
                            " rename one file or class")
-    specs = {name: None for name in names}
+    return names
+
+
+def _limit(robot, task, torque_limit):
+    """The leaderboard's torque limit [N m]: the one given, or the peak torques of vcl's run from the task's start,
+    checked to be physical."""
     motors = robot.params.n_links - 1
-    limit = np.minimum(np.full(motors, float(torque_limit)) if torque_limit is not None else
-                       kip_peak_torques(robot, ControllerSpec("vcl", goal=goal), goal=goal), robot.torque_limits)
-    for name in names:
-        specs[name] = _spec(name, limit, goal)
-        if name in PLANNERS:
-            stage(f"compare: planning the {name} kip (collocation, IPOPT; cached after the first solve)", progress)
-        specs[name].build(robot)  # gains, files and solves checked (one line) before any study runs
-    sweeps = {factor: sweep_levels(factor, quick) for factor in SWEEPS}
+    if torque_limit is not None:
+        limit = np.full(motors, float(torque_limit))
+    else:
+        limit = kip_peak_torques(robot, ControllerSpec("vcl", task=task), task)
+        physical_torque_scale(np.max(limit), robot, f"the peak torque of vcl's run from the {task.name} task's start"
+                                                    " (the leaderboard's default torque limit)", "give --torque-limit")
+    limit = np.minimum(limit, robot.torque_limits)
     if not np.all(np.isfinite(limit)):
         raise PaaError("the leaderboard needs a finite torque limit: give --torque-limit (the default, vcl's peak"
-                       " torques from (65), is not finite here)")
-    summary = {"robot": robot.name, "robot_sha256": text_sha256(robot.xml), **({"goal": goal} if goal != "folded" else {}),
+                       " torques from the task's start, is not finite here)")
+    return limit
+
+
+def _specs(robot, names, limit, task, progress):
+    """Every controller's recipe, each built once (gains, files, solves): the refusals of all of them in one line."""
+    specs, refused = {}, []
+    for name in names:
+        specs[name] = _spec(name, limit, task)
+        if name in PLANNERS:
+            stage(f"compare: planning the {name} kip (collocation, IPOPT; cached after the first solve)", progress)
+        try:
+            specs[name].build(robot)
+        except PaaError as err:
+            refused.append(f"{name}: {err}")
+    if refused:
+        raise PaaError(f"{len(refused)} of {len(names)} controllers refused: " + "; ".join(refused))
+    return specs
+
+
+def compare(robot: Robot, controllers=DEFAULT_CONTROLLERS, torque_limit=None, trials=None, quick=False,
+            t_final=None, seed=0, *, task: Task | str | None = None, scheduler="inline", out_dir=None, fresh=False,
+            progress=False, grid=None, chunk=CHUNK):
+    """The leaderboard; returns (summary, trajectories by controller, basins by controller).
+
+    Parameters
+    ----------
+    controllers : sequence of str
+        Built-in names or ``file.py:ClassName``.
+    torque_limit : float, optional
+        The same saturation [N m] for every controller (default: vcl's peak torques from the task's start).
+    task : Task or str, optional
+        What every controller aims at and is judged by; default the folded task.
+    """
+    task = as_task(task, robot)
+    sizes = _sizes(quick, trials, t_final, grid, task)
+    names = _names(controllers)
+    limit = _limit(robot, task, torque_limit)
+    specs = _specs(robot, names, limit, task, progress)
+    sweeps = {factor: sweep_levels(factor, quick) for factor in SWEEPS}
+    summary = {"robot": robot.name, "robot_sha256": text_sha256(robot.xml), **task.describe(),
                "torque_limit": limit.tolist(),
                "t_final": sizes["t_final"], "trials": sizes["trials"], "grid": sizes["grid"], "seed": seed,
-               "success": SUCCESS_DEFINITION,
                "intervals": "95 % Wilson intervals over the independent draws of a random factor (random: true);"
                             " a swept deterministic factor's rate is the share of its levels that succeed, one run"
                             " each (random: false), without an interval",
@@ -156,35 +188,41 @@ def compare(robot: Robot, controllers=DEFAULT_CONTROLLERS, torque_limit=None, tr
                "interrupted": False, "controllers": {}}
     trajectories, basins = {}, {}
     for number, name in enumerate(names, start=1):
-        spec = specs[name]
-        controller = spec.build(robot)
-        stage(f"compare [{number}/{len(names)}] {name}: the kip from (65), then robustness and reach", progress)
-        metrics, trajectories[name] = performance(robot, controller, limit, sizes["t_final"], goal)
-        folder = None if out_dir is None else f"{out_dir}/studies/{folder_name(name)}"
-        levels = {k: [v] for k, v in FACTORS.items()} | {k: list(v) for k, v in sweeps.items()}
-        rob, _ = robustness(robot, trials=sizes["trials"], t_final=sizes["t_final"], seed=seed, controller=spec,
-                            factors=list(FACTOR_ORDER), levels=levels, start="hanging", progress=progress,
-                            scheduler=scheduler, out_dir=folder, fresh=fresh, torque_limit=limit, chunk=chunk,
-                            torque_scale=float(np.max(limit)))
-        rates = {factor: _factor_rate(rob["factors"][factor]["levels"], factor in sweeps) for factor in FACTOR_ORDER}
-        complete = [r["rate"] for r in rates.values() if r["rate"] is not None]
-        basin_summary, basins[name] = basin(robot, (0, 1), sizes["grid"], sizes["t_final"], controller=spec,
-                                            progress=progress, scheduler=scheduler, out_dir=folder, fresh=fresh,
-                                            chunk=chunk, torque_limit=limit, goal=goal)
-        peaks = [p for p in (metrics["max_tau"], rob["max_abs_tau"], basin_summary["max_abs_tau"]) if p is not None]
-        description = controller.describe() if hasattr(controller, "describe") else {}
-        summary["controllers"][name] = {
-            **metrics, "robustness": rates,
-            "robustness_score": float(np.mean(complete)) if len(complete) == len(rates) else None,
-            "reach": basin_summary["success_fraction"], "reach_runs": basin_summary["cells"],
-            "max_abs_tau": np.max(peaks, axis=0).tolist(),
-            "plan": description.get("plan"), "describe": description,
-        }
-        summary["interrupted"] |= bool(rob["interrupted"] or basin_summary["interrupted"])
+        stage(f"compare [{number}/{len(names)}] {name}: the kip from the task's start, then robustness and reach",
+              progress)
+        row, trajectories[name], basins[name], interrupted = _score(
+            robot, task, specs[name], limit, sizes, sweeps, seed, scheduler, out_dir, fresh, progress, chunk)
+        summary["controllers"][name] = row
+        summary["interrupted"] |= interrupted
         if summary["interrupted"]:
             break
+    summary["success"] = {name: row["success"] for name, row in summary["controllers"].items()}
     summary["versus_vcl"] = _versus(summary["controllers"])
     return summary, trajectories, basins
+
+
+def _score(robot, task, spec, limit, sizes, sweeps, seed, scheduler, out_dir, fresh, progress, chunk):
+    """One controller's row: performance, robustness and reach; its trajectory and basin."""
+    controller = spec.build(robot)
+    metrics, trajectory = performance(robot, controller, limit, task, sizes["t_final"])
+    folder = None if out_dir is None else f"{out_dir}/studies/{folder_name(spec.short_name)}"
+    levels = {k: [v] for k, v in FACTORS.items()} | {k: list(v) for k, v in sweeps.items()}
+    rob, _ = robustness(robot, trials=sizes["trials"], t_final=sizes["t_final"], seed=seed, controller=spec,
+                        factors=list(FACTOR_ORDER), levels=levels, start="hanging", task=task, progress=progress,
+                        scheduler=scheduler, out_dir=folder, fresh=fresh, torque_limit=limit, chunk=chunk,
+                        torque_scale=float(np.max(limit)))
+    rates = {factor: _factor_rate(rob["factors"][factor]["levels"], factor in sweeps) for factor in FACTOR_ORDER}
+    complete = [r["rate"] for r in rates.values() if r["rate"] is not None]
+    basin_summary, basin_arrays = basin(robot, (0, 1), sizes["grid"], sizes["t_final"], controller=spec, task=task,
+                                        progress=progress, scheduler=scheduler, out_dir=folder, fresh=fresh,
+                                        chunk=chunk, torque_limit=limit)
+    peaks = [p for p in (metrics["max_tau"], rob["max_abs_tau"], basin_summary["max_abs_tau"]) if p is not None]
+    description = controller.describe() if hasattr(controller, "describe") else {}
+    row = {**metrics, "robustness": rates,
+           "robustness_score": float(np.mean(complete)) if len(complete) == len(rates) else None,
+           "reach": basin_summary["success"], "reach_runs": basin_summary["cells"],
+           "max_abs_tau": np.max(peaks, axis=0).tolist(), "plan": description.get("plan"), "describe": description}
+    return row, trajectory, basin_arrays, bool(rob["interrupted"] or basin_summary["interrupted"])
 
 
 def _factor_rate(levels, swept):

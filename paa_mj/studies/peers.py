@@ -46,7 +46,7 @@ Per start: the largest difference of the angles [rad] and of the speeds [rad/s] 
 :data:`WINDOW` seconds, the first time each loop's LQR acts (Drake's: the first sample whose cost-to-go,
 computed with the S of Drake's own ``LinearQuadraticRegulator`` on Drake's own ``Linearize``, is below the
 threshold; paa_mj's: the controller's mode), the time from which each stays within
-:data:`~paa_mj.control.region.BALANCE_TOL` of the upright (every angle error and speed) to the end, and
+the stretched task's balance tolerance of the upright (every angle error and speed) to the end, and
 whether the outcomes (balanced at the end or not) agree.
 """
 from __future__ import annotations
@@ -60,6 +60,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import PaaError
+from ..task import STRETCHED_START_OFFSET, Task
 
 #: The one line that says how to get Drake.
 INSTALL_HINT = 'paa-mj peers needs Drake: pip install "paa_mj[peers]"'
@@ -72,7 +73,7 @@ STARTS = {
     "drake-example": (1.2, 0.0, 0.0, 0.0),            # examples/acrobot/test/example_scenario.yaml
     "theta-1-1": (1.0, 1.0, 0.0, 0.0),
     "run-swing-up": (0.1, -0.1, 0.0, 0.02),           # examples/acrobot/run_swing_up.cc
-    "paa-stretched": (0.1, 0.0, 0.0, 0.0),            # paa_mj's start for the stretched goal
+    "paa-stretched": (STRETCHED_START_OFFSET, 0.0, 0.0, 0.0),  # the stretched task's start, in Drake's angles
     "scenario-low": (1.1, -0.1, -0.1, -0.1),          # corners of example_stochastic_scenario.yaml
     "scenario-high": (1.3, 0.1, 0.1, 0.1),
 }
@@ -461,21 +462,21 @@ def mujoco_loop(x0, t_final, dt=None):
     from ..sim.rollout import simulate_mujoco
 
     robot = load_robot("acrobot")
-    controller = make_controller("spong", robot, goal="stretched")
+    task = Task.named("stretched", robot)
+    controller = make_controller("spong", robot, task=task)
     step = float(robot.model.opt.timestep) if dt is None else dt
-    traj = simulate_mujoco(robot, controller, np.asarray(x0, float), t_final=t_final, dt=step, sample_dt=step,
-                           goal="stretched", stop_on_divergence=False)
+    traj = simulate_mujoco(robot, controller, np.asarray(x0, float), t_final, task=task, dt=step, sample_dt=step,
+                           stop_on_divergence=False)
     return traj.t, np.concatenate([traj.q, traj.qd], axis=1), traj.mode.astype(int), controller
 
 
 def balanced_from(t, x, tol=None):
-    """The time from which every angle error from the upright (wrapped) and every speed stays below ``tol``
-    (default :data:`~paa_mj.control.region.BALANCE_TOL`) to the end, or None."""
-    from ..control.region import BALANCE_TOL
-    from ..model.states import wrap
-
-    tol = BALANCE_TOL if tol is None else tol
-    distance = np.max(np.abs(np.concatenate([wrap(x[:, :2]), x[:, 2:]], axis=1)), axis=1)
+    """The time from which the acrobot's states x (K, 4) stay within ``tol`` of the stretched task's goal, the
+    upright (every angle error, wrapped, and every speed; default the task's balance tolerance), to the end,
+    or None."""
+    task = Task.named("stretched", 2)
+    tol = task.balance_tol if tol is None else tol
+    distance = task.distance(x[:, :2], x[:, 2:])
     outside = np.nonzero(distance >= tol)[0]
     if outside.size == 0:
         return float(t[0])
@@ -630,7 +631,7 @@ def closed_loop(t_final=30.0, quick=False, progress=False, window=WINDOW):
     robot = load_robot("acrobot")
     dt = float(robot.model.opt.timestep)
     S_drake, K_drake = drake_lqr()
-    ours = make_controller("spong", robot, goal="stretched")
+    ours = make_controller("spong", robot, task="stretched")
     lqr = {"S_relative_difference": float(np.max(np.abs(S_drake - ours.S)) / np.max(np.abs(S_drake))),
            "K_relative_difference": float(np.max(np.abs(K_drake - ours.K)) / np.max(np.abs(K_drake))),
            "K_drake": np.asarray(K_drake).reshape(-1).tolist(), "K_paa_mj": ours.K.reshape(-1).tolist()}

@@ -9,9 +9,10 @@ from (65) under model error, delay or a torque limit, or any factor at level 0)
 is one run, without an interval: repeating it would repeat one number. The
 draws of a run depend on (seed, factor, run) alone, the same whatever other
 factors run beside it and shared by the factor's levels. Success is the
-package's one definition (:data:`~paa_mj.control.region.SUCCESS_DEFINITION`):
-the true state inside region (68) over the last second, without divergence,
-whatever the controller says of itself.
+task's (:attr:`~paa_mj.task.Task.success_definition`): the true state inside
+region (68) over the last second, without divergence, whatever the controller
+says of itself. Every scale a factor is a fraction of comes from the study's own
+task and robot, and is checked to be physical before anything runs.
 
 Factors (:data:`FACTORS`):
 
@@ -19,7 +20,7 @@ Factors (:data:`FACTORS`):
   while MuJoCo simulates the true robot [%];
 - ``noise``: Gaussian measurement noise on q [rad] and qd [rad/s];
 - ``torque_noise``: Gaussian noise on each applied torque, as a fraction of the
-  nominal peak torque of the controller's kip from (65);
+  nominal peak torque of the controller's run from the task's start (the kip from (65));
 - ``torque_limit``: saturation at a fraction of that peak;
 - ``delay``: control delay [ms];
 - ``pushes``: three Gaussian pulses of torque on the hands (joint 1) at random
@@ -29,7 +30,7 @@ Factors (:data:`FACTORS`):
   [rad] and speed [rad/s].
 
 Starts: ``random`` (angles uniform over a full turn, speeds in +-1 rad/s) or
-``hanging`` (the kip from (65)).
+``hanging`` (the task's start: the kip from (65)).
 """
 from __future__ import annotations
 
@@ -40,12 +41,11 @@ import numpy as np
 from ..control.registry import ControllerSpec
 from ..errors import PaaError
 from ..provenance import text_sha256
-from ..limits import check_memory, check_seed, check_steps
+from ..limits import check_memory, check_seed, check_steps, physical_torque_scale
 from ..model.robot import Robot
-from ..model.states import start_state
 from ..sim.batch import kip_peak_torques
+from ..task import Task, as_task
 from .runner import CHUNK, RolloutSet, applied_limit, peak_torques, run_study
-from ..control.region import SUCCESS_DEFINITION
 from .settings import ROBUSTNESS_DEFAULT_FACTORS as DEFAULT_FACTORS, ROBUSTNESS_FACTORS as FACTORS, STARTS
 from .store import ChunkStore, study_key
 
@@ -92,21 +92,17 @@ def rate_entry(successes, runs, random) -> dict:
             "random": bool(random)}
 
 
-def initial_states(trials, seed=0, start="random", n_links=3, goal="folded"):
+def initial_states(trials, task: Task, seed=0, start="random"):
     """The trials' initial states: random over a full turn (speeds +-1 rad/s), or the task's start for every
-    trial ((65) for the gymnast; see :func:`~paa_mj.model.states.start_state`)."""
+    trial ((65) for the gymnast's kip)."""
+    n_links = task.n_links
     if start == "hanging":
-        return np.tile(start_state(n_links, goal), (trials, 1))
+        return np.tile(task.start, (trials, 1))
     rng = np.random.default_rng(seed)
     x0 = np.empty((trials, 2 * n_links))
     x0[:, :n_links] = rng.uniform(-np.pi, np.pi, (trials, n_links))
     x0[:, n_links:] = rng.uniform(-1.0, 1.0, (trials, n_links))
     return x0
-
-
-def random_initial_states(trials, seed=0):
-    """Angles uniform over a full turn, speeds uniform in +-1 rad/s."""
-    return initial_states(trials, seed, "random")
 
 
 def _pushes(rng, level, b1, n_links=3):
@@ -117,42 +113,18 @@ def _pushes(rng, level, b1, n_links=3):
     return out
 
 
-def nominal_peak(robot: Robot, spec: ControllerSpec, torque_limit=None, t_final=30.0) -> float:
-    """The largest torque of the controller's kip from (65) (the scale of the torque factors) [N m]."""
-    peak = float(np.max(kip_peak_torques(robot, spec.build(robot), torque_limit, t_final)))
-    if not peak > 0:
-        raise PaaError(f"the torque_limit and torque_noise factors are fractions of the peak torque of the kip from"
-                       f" (65), and {spec.short_name} uses no torque there")
-    return peak
+def nominal_peak(robot: Robot, spec: ControllerSpec, torque_limit=None, t_final=None) -> float:
+    """The largest torque of the controller's run from its task's start (the kip from (65)): the scale of the
+    torque factors [N m], checked to be physical (:func:`~paa_mj.limits.physical_torque_scale`)."""
+    task = as_task(spec.task, robot)
+    peak = float(np.max(kip_peak_torques(robot, spec.build(robot), task, torque_limit, t_final)))
+    return physical_torque_scale(peak, robot, f"the peak torque of {spec.short_name}'s run from the {task.name}"
+                                              " task's start (the scale of the torque_limit and torque_noise factors)",
+                                 "give the scale with torque_scale (or drop those factors)")
 
 
-def robustness(robot: Robot, trials=64, t_final=30.0, seed=0, controller: ControllerSpec | str = "vcl",
-               factors=DEFAULT_FACTORS, levels=None, start="random", progress=False, scheduler="inline",
-               out_dir=None, fresh=False, model_error=None, chunk=CHUNK, torque_limit=None, torque_scale=None,
-               goal="folded"):
-    """Success rate against each factor; returns (summary dict, arrays dict).
-
-    Parameters
-    ----------
-    factors : sequence of names of :data:`FACTORS`
-    levels : dict, optional
-        Levels to use instead of a factor's defaults (``model_error`` also takes ``model_error=``).
-    start : "random" or "hanging"
-    torque_limit : float or (n - 1,), optional
-        A saturation [N m] for every rollout (the torque_limit factor goes below it).
-    torque_scale : float, optional
-        The torque [N m] the ``torque_limit`` and ``torque_noise`` levels are fractions of
-        (default: the peak torque of the controller's own kip from (65)); a leaderboard gives
-        every controller the same scale, so that each meets the same disturbance.
-    goal : {"folded", "stretched"}
-        The task, for a controller given by name (a ControllerSpec carries its own).
-    """
-    spec = ControllerSpec(controller, goal=goal) if isinstance(controller, str) else controller
-    if not (isinstance(trials, (int, np.integer)) and 1 <= trials <= MAX_TRIALS):
-        raise PaaError(f"--trials must be an integer in [1, {MAX_TRIALS}], got {trials}")
-    check_seed(seed, "--seed")
-    if start not in STARTS:
-        raise PaaError(f"--start must be one of {', '.join(STARTS)}, got {start!r}")
+def _chosen_levels(factors, levels, model_error) -> dict:
+    """The factors and their levels, checked (one-line errors)."""
     factors = [f for f in factors if f]
     if not factors:
         raise PaaError(f"no robustness factor given: use some of {', '.join(FACTORS)}")
@@ -172,23 +144,13 @@ def robustness(robot: Robot, trials=64, t_final=30.0, seed=0, controller: Contro
         if name == "model_error" and any(v > MAX_MODEL_ERROR for v in values):
             raise PaaError(f"--model-error percentages must lie in [0, {MAX_MODEL_ERROR:g}], got {values}")
         chosen[name]["levels"] = values
-    runs = {(factor, level_i): trials if is_random(factor, level, start) else 1
-            for factor, fspec in chosen.items() for level_i, level in enumerate(fspec["levels"])}
-    total = sum(runs.values())
-    check_memory(total * 1000.0, "robustness rollouts", "--trials or the levels")
-    if scheduler in ("inline", "local"):
-        check_steps(total * t_final / float(robot.model.opt.timestep), f"{total} rollouts of {t_final:g} s",
-                    "--trials, the levels or --t-final")
-    spec.build(robot)  # checks the gains (one line) before any work
-    goal, links = spec.goal, robot.params.n_links
-    quiet = ControllerSpec(spec.name, spec.gains, spec.believed, check=False, options=spec.options, goal=goal)
-    base_limit = np.broadcast_to(np.inf if torque_limit is None else np.asarray(torque_limit, float), (links - 1,))
-    if torque_scale is not None and not (math.isfinite(torque_scale) and torque_scale > 0):
-        raise PaaError(f"the torque scale must be finite and > 0 [N m], got {torque_scale}")
-    peak = None
-    if {"torque_limit", "torque_noise"} & set(chosen):
-        peak = float(torque_scale) if torque_scale is not None else nominal_peak(robot, spec, base_limit)
-    base = initial_states(trials, seed, start, links, goal)
+    return chosen
+
+
+def _rollouts(robot, spec, task, chosen, runs, base, base_limit, peak, seed):
+    """Every (factor, level, run) rollout, and which (factor, level) each is."""
+    links = robot.params.n_links
+    quiet = ControllerSpec(spec.name, spec.gains, spec.believed, check=False, options=spec.options, task=task)
     dt = robot.model.opt.timestep
     x0, specs, limit, noise, tau_noise, delay, pushes, index, noise_ids = [], [], [], [], [], [], [], [], []
     for factor, fspec in chosen.items():
@@ -204,7 +166,7 @@ def robustness(robot: Robot, trials=64, t_final=30.0, seed=0, controller: Contro
                 x0.append(x_start)
                 e = level / 100 if factor == "model_error" else 0.0
                 specs.append(ControllerSpec(spec.name, spec.gains, robot.params.scaled(1 + e, 1 - e), check=False,
-                                            options=spec.options, goal=goal)
+                                            options=spec.options, task=task)
                              if e else quiet)
                 limit.append(np.minimum(base_limit, level * peak if factor == "torque_limit" else math.inf))
                 noise.append([level, level] if factor == "noise" else [0.0, 0.0])
@@ -212,32 +174,94 @@ def robustness(robot: Robot, trials=64, t_final=30.0, seed=0, controller: Contro
                 delay.append(int(round(level * 1e-3 / dt)) if factor == "delay" else 0)
                 pushes.append(_pushes(rng, level, robot.analytic.gravity_constants[0], links)
                               if factor == "pushes" and level > 0 else np.zeros((PUSHES_PER_RUN, 2 + links)))
-                index.append((factor, level_i))
+                index.append(f"{factor}:{level_i}")
                 noise_ids.append(code << 32 | trial)
-    rollouts = RolloutSet(np.array(x0), specs, torque_limit=np.array(limit),
-                          noise_std=np.array(noise), torque_noise=np.array(tau_noise), delay_steps=np.array(delay),
-                          pushes=np.array(pushes) if "pushes" in chosen else None, noise_ids=np.array(noise_ids),
-                          goal=goal)
+    rollouts = RolloutSet(np.array(x0), specs, task, torque_limit=np.array(limit), noise_std=np.array(noise),
+                          torque_noise=np.array(tau_noise), delay_steps=np.array(delay),
+                          pushes=np.array(pushes) if "pushes" in chosen else None, noise_ids=np.array(noise_ids))
+    return rollouts, np.array(index)
+
+
+def robustness(robot: Robot, trials=64, t_final=None, seed=0, controller: ControllerSpec | str = "vcl",
+               factors=DEFAULT_FACTORS, levels=None, start="random", *, task: Task | str | None = None,
+               progress=False, scheduler="inline", out_dir=None, fresh=False, model_error=None, chunk=CHUNK,
+               torque_limit=None, torque_scale=None):
+    """Success rate against each factor; returns (summary dict, arrays dict).
+
+    Parameters
+    ----------
+    t_final : float, optional
+        Each run's duration [s]; default the task's horizon.
+    factors : sequence of names of :data:`FACTORS`
+    levels : dict, optional
+        Levels to use instead of a factor's defaults (``model_error`` also takes ``model_error=``).
+    start : "random" or "hanging"
+    task : Task or str, optional
+        What the controller aims at and what success means (a controller given by name is built for it; a
+        ControllerSpec built for another is refused); default the folded task.
+    torque_limit : float or (n - 1,), optional
+        A saturation [N m] for every rollout (the torque_limit factor goes below it).
+    torque_scale : float, optional
+        The torque [N m] the ``torque_limit`` and ``torque_noise`` levels are fractions of
+        (default: the peak torque of the controller's own run from the task's start); a leaderboard gives
+        every controller the same scale, so that each meets the same disturbance.
+    """
+    task = as_task(task, robot)
+    t_final = task.horizon if t_final is None else t_final
+    spec = ControllerSpec(controller, task=task) if isinstance(controller, str) else controller
+    if spec.task is None:
+        spec = spec.for_task(task)
+    if not (isinstance(trials, (int, np.integer)) and 1 <= trials <= MAX_TRIALS):
+        raise PaaError(f"--trials must be an integer in [1, {MAX_TRIALS}], got {trials}")
+    check_seed(seed, "--seed")
+    if start not in STARTS:
+        raise PaaError(f"--start must be one of {', '.join(STARTS)}, got {start!r}")
+    chosen = _chosen_levels(factors, levels, model_error)
+    runs = {(factor, level_i): trials if is_random(factor, level, start) else 1
+            for factor, fspec in chosen.items() for level_i, level in enumerate(fspec["levels"])}
+    total = sum(runs.values())
+    check_memory(total * 1000.0, "robustness rollouts", "--trials or the levels")
+    if scheduler in ("inline", "local"):
+        check_steps(total * t_final / float(robot.model.opt.timestep), f"{total} rollouts of {t_final:g} s",
+                    "--trials, the levels or --t-final")
+    spec.build(robot)  # checks the gains, and that it is built for this task (one line), before any work
+    links = robot.params.n_links
+    base_limit = np.broadcast_to(np.inf if torque_limit is None else np.asarray(torque_limit, float), (links - 1,))
+    if torque_scale is not None and not (math.isfinite(torque_scale) and torque_scale > 0):
+        raise PaaError(f"the torque scale must be finite and > 0 [N m], got {torque_scale}")
+    peak = None
+    if {"torque_limit", "torque_noise"} & set(chosen):
+        peak = float(torque_scale) if torque_scale is not None else nominal_peak(robot, spec, base_limit, t_final)
+    rollouts, index = _rollouts(robot, spec, task, chosen, runs, initial_states(trials, task, seed, start),
+                                base_limit, peak, seed)
     key = study_key({"study": "robustness", "robot": robot.xml, "t_final": t_final, "seed": seed, "chunk": chunk,
                      **rollouts.definition()})
     result = run_study(robot, rollouts, t_final, seed=seed, scheduler=scheduler, chunk=chunk,
                        store=ChunkStore(out_dir, key, fresh, study="robustness"), progress=progress,
                        desc="robustness")
+    summary = _summary(robot, spec, task, result, index, chosen, start, trials, t_final, seed, base_limit, peak,
+                       torque_scale, total)
+    arrays = {"x0": rollouts.x0, "success": result.success, "diverged": result.diverged,
+              "switch_time": result.switch_time, "final_state": result.final_state, "max_abs_tau": result.max_abs_tau,
+              "completed": result.meta["completed"]}
+    return summary, arrays
+
+
+def _summary(robot, spec, task, result, index, chosen, start, trials, t_final, seed, base_limit, peak, torque_scale,
+             total) -> dict:
     completed = result.meta["completed"]
     success = result.success
     summary = {"robot": robot.name, "robot_sha256": text_sha256(robot.xml), "controller": spec.short_name,
                "trials": trials, "t_final": t_final, "seed": seed,
-               "torque_limit": applied_limit(robot, base_limit),
-               "start": start, **({"goal": goal} if goal != "folded" else {}), "runs": total,
+               "torque_limit": applied_limit(robot, base_limit), "start": start, **task.describe(), "runs": total,
                "completed_fraction": float(np.mean(completed)),
-               "success": SUCCESS_DEFINITION,
+               "success": float(np.mean(success[completed])) if completed.any() else None,
                "intervals": "95 % Wilson intervals over independent draws only (random: true); a deterministic"
                             " setting is one run (random: false) and has none",
                "max_abs_tau": peak_torques(result.max_abs_tau, completed),
                "torque_scale": peak, "torque_scale_is": None if peak is None else
-               "given" if torque_scale is not None else "the peak torque of the controller's kip from (65)",
+               "given" if torque_scale is not None else "the peak torque of the controller's run from the task's start",
                "interrupted": result.interrupted, "factors": {}}
-    index = np.array([f"{factor}:{level_i}" for factor, level_i in index])
     for factor, fspec in chosen.items():
         rates = []
         for level_i, level in enumerate(fspec["levels"]):
@@ -246,7 +270,4 @@ def robustness(robot: Robot, trials=64, t_final=30.0, seed=0, controller: Contro
             rates.append({"level": None if not math.isfinite(level) else float(level), **entry,
                           "diverged_rate": float(np.mean(result.diverged[rows])) if len(rows) else None})
         summary["factors"][factor] = {"label": fspec["label"], "levels": rates}
-    arrays = {"x0": np.array(x0), "success": success, "diverged": result.diverged, "switch_time": result.switch_time,
-              "final_state": result.final_state, "max_abs_tau": result.max_abs_tau, "completed": completed}
-    return summary, arrays
-
+    return summary

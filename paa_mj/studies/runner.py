@@ -32,7 +32,8 @@ from ..errors import PaaError, StudyIncomplete
 from ..progress import progress as progress_bar
 from ..limits import check_memory, check_steps
 from ..model.robot import Robot, robot_from_xml
-from ..sim.batch import OUTCOMES, BatchResult, simulate_batch
+from ..sim.batch import OUTCOMES, BatchResult, Disturbances, simulate_batch
+from ..task import Task
 from .store import ChunkStore, check_arrays
 
 CHUNK = 128
@@ -138,12 +139,13 @@ class RolloutSet:
     noise_ids : ndarray (N,) of int, optional
         The number that keys each rollout's noise stream with the seed (default: its
         index); a study gives a rollout the same number whatever runs beside it.
-    goal : {"folded", "stretched"}
-        The task every rollout is judged by (the controllers' specs aim at it too).
+    task : Task
+        What every rollout aims at and is judged by (the controllers' specs are built for it).
     """
 
     x0: np.ndarray
     controllers: list
+    task: Task
     plants: list | None = None
     torque_limit: np.ndarray | None = None
     noise_std: np.ndarray | None = None
@@ -152,16 +154,19 @@ class RolloutSet:
     pushes: np.ndarray | None = None
     noise_ids: np.ndarray | None = None
     labels: dict = field(default_factory=dict)
-    goal: str = "folded"
 
     def __post_init__(self):
         n = len(self.x0)
         self.x0 = np.asarray(self.x0, dtype=float)
         motors = self.x0.shape[1] // 2 - 1 if self.x0.ndim == 2 else 2
+        if not isinstance(self.task, Task):
+            raise PaaError(f"a study's rollouts need their Task, got {type(self.task).__name__}")
         if isinstance(self.controllers, (str, ControllerSpec)):
-            spec = ControllerSpec(self.controllers, goal=self.goal) if isinstance(self.controllers, str) \
+            spec = ControllerSpec(self.controllers, task=self.task) if isinstance(self.controllers, str) \
                 else self.controllers
             self.controllers = [spec] * n
+        self.controllers = [spec.for_task(self.task) if isinstance(spec, ControllerSpec) and spec.task is None
+                            else spec for spec in self.controllers]
         defaults = {"torque_limit": ((n, motors), np.inf), "noise_std": ((n, 2), 0.0), "torque_noise": ((n,), 0.0),
                     "delay_steps": ((n,), 0.0)}
         for name, (shape, value) in defaults.items():
@@ -181,10 +186,10 @@ class RolloutSet:
         part = slice(start, stop)
         return {"x0": self.x0[part], "controller": self.controllers[part],
                 "plants": None if self.plants is None else self.plants[part],
-                "torque_limit": self.torque_limit[part], "noise_std": self.noise_std[part],
-                "torque_noise": self.torque_noise[part], "delay_steps": self.delay_steps[part],
-                "pushes": None if self.pushes is None else self.pushes[part],
-                "rollout_ids": self.noise_ids[part], "goal": self.goal}
+                "torque_limit": self.torque_limit[part], "task": self.task,
+                "disturbances": Disturbances(self.noise_std[part], self.torque_noise[part], self.delay_steps[part],
+                                             None if self.pushes is None else self.pushes[part],
+                                             rollout_ids=self.noise_ids[part])}
 
     def definition(self) -> dict:
         """What identifies these rollouts (for the chunk store's key)."""
@@ -192,14 +197,23 @@ class RolloutSet:
         return {"x0": self.x0, "controllers": [_spec_dict(s) for s in self.controllers], "plants": plants,
                 "torque_limit": np.where(np.isinf(self.torque_limit), -1.0, self.torque_limit),
                 "noise_std": self.noise_std, "torque_noise": self.torque_noise, "delay_steps": self.delay_steps,
-                "pushes": self.pushes, "noise_ids": self.noise_ids,
-                **({"goal": self.goal} if self.goal != "folded" else {})}
+                "pushes": self.pushes, "noise_ids": self.noise_ids, **task_definition(self.task)}
+
+
+def task_definition(task: Task | None) -> dict:
+    """What identifies a task in a study's key: nothing for the folded task's defaults, the goal's name for another
+    goal's defaults, else every field (so that chunks judged by another task are never reused)."""
+    if task is None or task == Task.named("folded", task.n_links):
+        return {}
+    if task == Task.named(task.name, task.n_links):
+        return {"goal": task.name}
+    return {"task": list(task.key())}
 
 
 def _spec_dict(spec: ControllerSpec):
     return {"name": spec.name, "gains": spec.gains, "check": spec.check, "options": [list(o) for o in spec.options],
             "believed": None if spec.believed is None else spec.believed.as_dict(), "source": spec.source_digest(),
-            **({"goal": spec.goal} if spec.goal != "folded" else {})}
+            **task_definition(spec.task)}
 
 
 def applied_limit(robot, torque_limit):
@@ -218,8 +232,11 @@ def peak_torques(max_abs_tau, completed):
 
 
 def _run_chunk(xml, name, kwargs, t_final, seed, nthread, retire):
+    from dataclasses import replace
+
     robot = robot_from_xml(xml, name=name)
-    result = simulate_batch(robot, t_final=t_final, seed=seed, nthread=nthread, retire=retire, **kwargs)
+    kwargs = dict(kwargs, disturbances=replace(kwargs["disturbances"], seed=seed))
+    result = simulate_batch(robot, t_final=t_final, nthread=nthread, retire=retire, **kwargs)
     out = {key: getattr(result, key) for key in OUTCOMES}
     out["completed"] = result.meta["completed"]
     out["interrupted"] = result.interrupted  # read and dropped by map_chunks, never stored
@@ -456,6 +473,6 @@ def _merge(rollouts, starts, finished, chunk, n, interrupted, scheduler) -> Batc
                 out[key][start:stop] = finished[index][key]
             done[start:stop] = True
     t_end = out["t_end"][done]
-    return BatchResult(**out, t_reached=float(np.max(t_end, initial=0.0)),
+    return BatchResult(**out, t_reached=float(np.max(t_end, initial=0.0)), task=rollouts.task,
                        interrupted=interrupted or not done.all(),
                        meta={"scheduler": scheduler, "completed": done})

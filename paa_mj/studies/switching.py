@@ -18,25 +18,34 @@ from __future__ import annotations
 import numpy as np
 
 from ..control.combined import CombinedController, ReadingCondition, RegionCondition
-from ..control.region import distance_from_udd
 from ..control.registry import make_controller
 from ..model.robot import Robot
-from ..model.states import X0_HANGING
+from ..task import Task
 from ..progress import progress as progress_bar
 from ..sim.analytic import exact_field
 from ..sim.batch import simulate_batch
 from ..sim.rollout import simulate_mujoco
 
 RESOLUTION = 1e-3
-CONDITIONS = {"region": RegionCondition, "reading": ReadingCondition}
+
+
+def paper_task(robot: Robot) -> Task:
+    """The paper's task, every study here is of: the folded goal (UDD) from (65)."""
+    return Task.named("folded", robot)
+
+
+def switch_condition(name, robot):
+    """The switching condition ``name``: "region", the paper's (68), or "reading", the candidate reading."""
+    return RegionCondition(paper_task(robot)) if name == "region" else ReadingCondition()
 
 
 def exact_swing_up(robot: Robot, t_final=40.0, rtol=1e-10):
     """The dense solution of (1) closed by (40) alone from (65), as SciPy returns it."""
     from scipy.integrate import solve_ivp
 
-    field = exact_field(robot, make_controller("vcl-only", robot))
-    return solve_ivp(field, (0.0, t_final), X0_HANGING, method="DOP853", rtol=rtol, atol=rtol, dense_output=True)
+    task = paper_task(robot)
+    field = exact_field(robot, make_controller("vcl-only", robot, task=task))
+    return solve_ivp(field, (0.0, t_final), task.start, method="DOP853", rtol=rtol, atol=rtol, dense_output=True)
 
 
 def _margin(condition, times, states):
@@ -82,12 +91,14 @@ def region_visits(solution, condition, count=5, resolution=RESOLUTION):
 
 
 def lqr_balances_from(robot: Robot, state, seconds=15.0, rtol=1e-10):
-    """Whether the LQR (67), started at ``state``, brings the exact closed loop within 1e-3 of UDD."""
+    """Whether the LQR (67), started at ``state``, brings the exact closed loop within the task's balance tolerance
+    (1e-3) of UDD."""
     from scipy.integrate import solve_ivp
 
-    field = exact_field(robot, make_controller("lqr", robot))
+    task = paper_task(robot)
+    field = exact_field(robot, make_controller("lqr", robot, task=task))
     end = solve_ivp(field, (0.0, seconds), state, method="DOP853", rtol=rtol, atol=rtol).y[:, -1]
-    return bool(distance_from_udd(end[:3], end[3:]) < 1e-3)
+    return bool(task.balanced(end[:3], end[3:]))
 
 
 def switch_entries(robot: Robot, count=5, t_final=40.0, condition="region", solution=None):
@@ -98,19 +109,20 @@ def switch_entries(robot: Robot, count=5, t_final=40.0, condition="region", solu
     region's tightest limit and a value near 0 is a graze.
     """
     solution = solution or exact_swing_up(robot, t_final)
-    visits = region_visits(solution, CONDITIONS[condition](), count)
+    visits = region_visits(solution, switch_condition(condition, robot), count)
     return [{"t_enter": float(t_in), "duration": float(t_out - t_in), "min_margin": depth,
              "lqr_balances": lqr_balances_from(robot, state)} for t_in, t_out, depth, state in visits]
 
 
-def _switched_controller(robot, condition):
-    return CombinedController(make_controller("vcl-only", robot), make_controller("lqr", robot),
-                              CONDITIONS[condition](), name=f"vcl ({condition})")
+def _switched_controller(robot, name):
+    task = paper_task(robot)
+    return CombinedController(make_controller("vcl-only", robot, task=task), make_controller("lqr", robot, task=task),
+                              switch_condition(name, robot), name=f"vcl ({name})")
 
 
-def perturbed_starts(size, n, seed=0):
+def perturbed_starts(robot, size, n, seed=0):
     """(65) with each angle moved by a uniform random amount in [-size, size] rad."""
-    x0 = np.tile(X0_HANGING, (n, 1))
+    x0 = np.tile(paper_task(robot).start, (n, 1))
     x0[:, :3] += np.random.default_rng([seed, int(round(-np.log10(size) * 100))]).uniform(-size, size, (n, 3))
     return x0
 
@@ -124,7 +136,7 @@ def switch_sensitivity(robot: Robot, sizes=(1e-9, 1e-6, 1e-3), n=200, t_final=40
     """
     rows = []
     for size in sizes:
-        result = simulate_batch(robot, perturbed_starts(size, n, seed), t_final,
+        result = simulate_batch(robot, perturbed_starts(robot, size, n, seed), t_final, task=paper_task(robot),
                                 controller=_switched_controller(robot, condition), progress=progress)
         times = result.switch_time
         switched = times[np.isfinite(times)]
@@ -166,8 +178,8 @@ def candidate_reading(robot: Robot, solution=None, t_final=40.0, cases=INTEGRATO
                "binding": names[int(np.argmax(ratios))], "lqr_balances": lqr_balances_from(robot, state)}
     rows = []
     for integrator, dt in progress_bar(cases, desc="integrators", unit="run", enabled=progress):
-        traj = simulate_mujoco(robot, _switched_controller(robot, "reading"), X0_HANGING, 60.0, dt=dt,
-                               integrator=integrator, retire=True, stop_on_divergence=False)
+        traj = simulate_mujoco(robot, _switched_controller(robot, "reading"), None, 60.0, task=paper_task(robot),
+                               dt=dt, integrator=integrator, retire=True, stop_on_divergence=False)
         rows.append({"integrator": integrator, "dt": dt, "switch_time": traj.switch_time, "balanced": traj.balanced()})
     out["integrators"] = rows
     out["sensitivity"] = [{k: v for k, v in row.items() if k != "times"}

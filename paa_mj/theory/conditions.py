@@ -69,7 +69,7 @@ def chain_actuated_inertia_lambda_max(am: AnalyticModel, q_a):
     return np.linalg.eigvalsh(S)[..., -1]
 
 
-def chain_kd_min(am: AnalyticModel, goal="folded") -> Maximum:
+def chain_kd_min(am: AnalyticModel, task) -> Maximum:
     """kD_min of (41) from its definition, for any chain and goal [J kg m^2].
 
     E - E_r >= -(E_r + mu(q_a)) at every state (kinetic energy >= 0, P >= -mu), so Lambda =
@@ -78,7 +78,7 @@ def chain_kd_min(am: AnalyticModel, goal="folded") -> Maximum:
     (41), (42) (:func:`kd_min`); elsewhere it is beyond the paper: the same definition, maximised
     on a grid of the n - 1 actuated angles and refined.
     """
-    E_r = am.goal_energy(goal)
+    E_r = task.goal_energy(am)
     dim = am.n_links - 1
     coarse = {1: 721, 2: 121, 3: 41, 4: 17}.get(dim, 9)
 

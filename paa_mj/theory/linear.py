@@ -1,12 +1,17 @@
-"""Linear analysis at the goal: linearisation of (1) at UDD (or any goal), controllability, the LQR gain of (67)."""
+"""Linear analysis at a task's goal: linearisation of (1) at UDD (or any goal), controllability, the LQR gain (67).
+
+Every function takes the :class:`~paa_mj.task.Task` whose goal it linearises at; the ``udd_*`` ones are the
+paper's case, the folded goal of its gymnast.
+"""
 from __future__ import annotations
 
 from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import PaaError
 from ..model.dynamics import AnalyticModel
-from ..model.states import goal_angles
+from ..task import Task
 
 #: The paper's LQR weights for (67): Q = 1e4 I, R = I (sized for the gymnast, 6 and 2; for n links 2n and n - 1).
 LQR_WEIGHT = 10000.0
@@ -14,14 +19,14 @@ LQR_Q = LQR_WEIGHT * np.eye(6)
 LQR_R = np.eye(2)
 
 
-def goal_linearization(am: AnalyticModel, goal="folded"):
-    """(A, B) of (1) linearised at the goal with x = [q - q*, qd]: at UDD, x = [q1, q2 + pi, q3, d1, d2, d3]."""
-    return am.linearize(goal_angles(goal, am.n_links))
+def goal_linearization(am: AnalyticModel, task: Task):
+    """(A, B) of (1) linearised at the task's goal with x = [q - q*, qd]: at UDD, x = [q1, q2 + pi, q3, d1, d2, d3]."""
+    return am.linearize(task.goal)
 
 
 def udd_linearization(am: AnalyticModel):
-    """(A, B) of (1) linearised at UDD with x = [q1, q2 + pi, q3, d1, d2, d3]."""
-    return goal_linearization(am, "folded")
+    """(A, B) of (1) linearised at UDD with x = [q1, q2 + pi, q3, d1, d2, d3] (the folded task)."""
+    return goal_linearization(am, Task.named("folded", am))
 
 
 @dataclass(frozen=True)
@@ -55,29 +60,50 @@ def linear_controllability(A, B, tol=1e-10) -> Controllability:
                            sigma_min_ratio=float(s[-1] / s[0]), pbh_min=pbh_rel)
 
 
-def udd_controllability(am: AnalyticModel, tol=1e-10, goal="folded") -> Controllability:
-    """Linear controllability of the robot at UDD, or at ``goal`` (:func:`linear_controllability`)."""
-    return linear_controllability(*goal_linearization(am, goal), tol=tol)
+def goal_controllability(am: AnalyticModel, task: Task, tol=1e-10) -> Controllability:
+    """Linear controllability of the robot at the task's goal (:func:`linear_controllability`)."""
+    return linear_controllability(*goal_linearization(am, task), tol=tol)
 
 
-def lqr_gain(am: AnalyticModel, Q=None, R=None, goal="folded"):
-    """LQR gain K of (67) on the linearisation at the goal: tau = -K x, K = R^-1 B^T S with S the stabilising
-    solution of the continuous algebraic Riccati equation (SciPy); Q, R default to the paper's 1e4 I and I."""
+def udd_controllability(am: AnalyticModel, tol=1e-10) -> Controllability:
+    """Linear controllability of the robot at UDD (the folded task)."""
+    return goal_controllability(am, Task.named("folded", am), tol)
+
+
+def lqr_gain(am: AnalyticModel, task: Task, Q=None, R=None):
+    """LQR gain K of (67) on the linearisation at the task's goal: tau = -K x, K = R^-1 B^T S with S the
+    stabilising solution of the continuous algebraic Riccati equation (SciPy); Q, R default to the paper's
+    1e4 I and I.
+
+    Raises
+    ------
+    PaaError
+        The Riccati equation has no stabilising solution that SciPy can compute with these weights (weights
+        too far apart, or a goal that is not stabilisable), or the gain is not finite.
+    """
     from scipy.linalg import solve_continuous_are
 
     n = am.n_links
     Q = LQR_WEIGHT * np.eye(2 * n) if Q is None else Q
     R = np.eye(n - 1) if R is None else R
-    A, Bl = goal_linearization(am, goal)
-    S = solve_continuous_are(A, Bl, Q, R)
-    return np.linalg.solve(R, Bl.T @ S)
+    A, Bl = goal_linearization(am, task)
+    try:
+        S = solve_continuous_are(A, Bl, Q, R)
+        K = np.linalg.solve(R, Bl.T @ S)
+    except (np.linalg.LinAlgError, ValueError) as err:
+        raise PaaError(f"the LQR (67) at the {task.name} goal has no finite gain with these weights"
+                       f" ({type(err).__name__}: {' '.join(str(err).split())})") from None
+    if not np.all(np.isfinite(K)):
+        raise PaaError(f"the LQR (67) at the {task.name} goal has no finite gain with these weights")
+    return K
 
 
-def sampled_closed_loop(am: AnalyticModel, K, dt, goal="folded"):
-    """Phi = Ad - Bd K: the linearisation at the goal sampled with zero-order hold at ``dt`` [s], under tau = -K x."""
+def sampled_closed_loop(am: AnalyticModel, K, dt, task: Task):
+    """Phi = Ad - Bd K: the linearisation at the task's goal sampled with zero-order hold at ``dt`` [s], under
+    tau = -K x."""
     from scipy.linalg import expm
 
-    A, B = goal_linearization(am, goal)
+    A, B = goal_linearization(am, task)
     m, k = B.shape
     block = np.zeros((m + k, m + k))
     block[:m, :m], block[:m, m:] = A, B
@@ -85,7 +111,13 @@ def sampled_closed_loop(am: AnalyticModel, K, dt, goal="folded"):
     return sampled[:m, :m] - sampled[:m, m:] @ np.asarray(K, float)
 
 
-def sampled_spectral_radius(am: AnalyticModel, K, dt, goal="folded") -> float:
+def sampled_spectral_radius(am: AnalyticModel, K, dt, task: Task) -> float:
     """The spectral radius of :func:`sampled_closed_loop` (below 1: the sampled balance is stable)."""
-    phi = sampled_closed_loop(am, K, dt, goal)
+    phi = sampled_closed_loop(am, K, dt, task)
     return float(np.max(np.abs(np.linalg.eigvals(phi)))) if np.all(np.isfinite(phi)) else float("inf")
+
+
+def theorem1_covers(am: AnalyticModel, task: Task) -> bool:
+    """Whether Theorem 1 (and the paper's closed forms of (40)) covers the robot and task: the paper's gymnast
+    shape (three links, no damping, no armature) and its folded goal UDD (8). The one test of it."""
+    return bool(am.paper_shape and task.name == "folded")

@@ -1,17 +1,18 @@
-"""A trained policy as a controller of the package: every command runs it like any other controller.
+"""Policies and controllers, both ways: a controller of the package as a policy of the environments
+(:func:`controller_policy`), and a trained policy as a controller that every command runs (:class:`SB3Policy`).
 
 :class:`SB3Policy` maps the controller interface ``torque(q, qd, t)`` (batches (..., n) [rad, rad/s]
 to torques (..., n - 1) [N m]; (..., 3) and (..., 2) for the gymnast) to ``model.predict(obs, deterministic=True)`` of a Stable-Baselines3 model
-trained on the environments of :mod:`paa_mj.gym_env`, through their own maps: the observations are
-:func:`~paa_mj.gym_env.observation` of the state the controller sees and the torques are
-:func:`~paa_mj.gym_env.action_to_torque` of the actions. As in the environment, an action is held over
+trained on the environments of :mod:`paa_mj.envs`, through their own maps: the observations are
+:func:`~paa_mj.envs.spaces.observation` of the state the controller sees and the torques are
+:func:`~paa_mj.envs.spaces.action_to_torque` of the actions. As in the environment, an action is held over
 ``frame_skip`` physics steps (the 10 ms control period of the v1 environments).
 
 A user's file configures it and the commands take it as ``FILE.py:Class``::
 
     # mine.py
     from pathlib import Path
-    from paa_mj.control.policy import SB3Policy
+    from paa_mj.envs.policy import SB3Policy
 
     class Balance(SB3Policy):
         path = Path(__file__).with_name("ppo_balance.zip")   # what model.save() wrote
@@ -45,12 +46,35 @@ def require_sb3():
     return stable_baselines3
 
 
+def controller_policy(controller, env):
+    """A policy ``policy(obs, info) -> action`` from a controller of the package (a name, or a controller built for
+    the environment's robot and task).
+
+    The controller reads the unwrapped state and the time in ``info`` and its torques become actions of
+    ``env`` (normalised when the environment's actions are). Call ``policy.reset()`` with ``env.reset()``.
+    """
+    from ..control.base import check_binding, reset_controller, torque_of
+    from ..control.registry import make_controller
+
+    env = getattr(env, "unwrapped", env)
+    if isinstance(controller, str):
+        controller = make_controller(controller, env.robot, task=env.task)
+    check_binding(controller, env.robot, env.task)
+
+    def policy(obs, info):
+        return env.torque_to_action(torque_of(controller, info["q"][None], info["qd"][None], info["time"])[0])
+
+    policy.reset = lambda: reset_controller(controller)
+    policy.controller = controller
+    return policy
+
+
 def _gym_maps():
     try:
-        from .. import gym_env
+        from . import spaces
     except ImportError:  # gymnasium missing: the maps live with the environments
         raise PaaError(f"a trained policy needs the Gymnasium environments' maps (gymnasium): {RL_INSTALL}") from None
-    return gym_env
+    return spaces
 
 
 class SB3Policy:
@@ -62,10 +86,11 @@ class SB3Policy:
         The model file (``model.save(path)``); relative paths are from the working folder.
     algorithm : str
         The class of ``stable_baselines3`` that saved it ("PPO", "SAC", "TD3", ...).
-    task : str
-        The environment's task, "balance" (``paa_mj/GymnastBalance-v1``) or "kip": its default torque limit.
+    episode : str
+        The environment's episode type, "balance" (``paa_mj/GymnastBalance-v1``) or "kip": its default torque
+        limit.
     torque_limit : float or None
-        As the environment's ``torque_limit`` [N m] (None: the task's default).
+        As the environment's ``torque_limit`` [N m] (None: the episode type's default).
     normalize_actions : bool
         As the environment's: actions in [-1, 1] scaled by the torque limits.
     frame_skip : int
@@ -84,7 +109,7 @@ class SB3Policy:
     name = "sb3-policy"
     path = None
     algorithm = "PPO"
-    task = "balance"
+    episode = "balance"
     torque_limit = None
     normalize_actions = True
     frame_skip = 10
@@ -93,11 +118,12 @@ class SB3Policy:
 
     def __init__(self, robot, model=None):
         maps = _gym_maps()
-        if self.task not in maps.TASKS:
-            raise PaaError(f"{type(self).__name__}.task must be one of {', '.join(maps.TASKS)}, got {self.task!r}")
+        if self.episode not in maps.EPISODES:
+            raise PaaError(f"{type(self).__name__}.episode must be one of {', '.join(maps.EPISODES)}, got"
+                           f" {self.episode!r}")
         self._observation, self._action_to_torque = maps.observation, maps.action_to_torque
         #: The torque limits T [N m], (n - 1,), as the environment computes them.
-        self.torque_limits = maps.torque_limits_for(robot, self.task, self.torque_limit)
+        self.torque_limits = maps.torque_limits_for(robot, self.episode, self.torque_limit)
         self.robot = robot
         self.period = self.frame_skip * robot.model.opt.timestep
         self.model = self.load_model() if model is None else model

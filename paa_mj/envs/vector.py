@@ -1,11 +1,11 @@
 """N gymnasts stepped together: a Gymnasium vector environment on compiled stepping (extra ``paa_mj[gym]``).
 
 ``gym.make_vec("paa_mj/GymnastBalance-v1", num_envs=64)`` (or ``paa_mj/GymnastKip-v1``) builds a
-:class:`GymnastVectorEnv`: the sub-environments are those of :class:`paa_mj.gym_env.GymnastEnv`, same
+:class:`GymnastVectorEnv`: the sub-environments are those of :class:`paa_mj.envs.single.GymnastEnv`, same
 arguments, spaces, rewards and information, but one environment step of all of them is one compiled call
 (N MjData, each with its torque set and ``frame_skip`` ``mj_step`` from numba; the actions' torques, the
 observations, rewards, terminations, truncations and information are computed in the same call). The
-observations, rewards, terminations and truncations equal those of N :class:`~paa_mj.gym_env.GymnastEnv`
+observations, rewards, terminations and truncations equal those of N :class:`~paa_mj.envs.single.GymnastEnv`
 stepped with the same actions, bit for bit (the same compiled code computes both), and so do the resets:
 sub-environment i is seeded with ``seed + i`` as :class:`gymnasium.vector.SyncVectorEnv` seeds its copies.
 
@@ -27,12 +27,14 @@ Autoreset (Gymnasium 1.x, ``metadata["autoreset_mode"]``):
 - ``DISABLED``: reset ended sub-environments with ``reset(options={"reset_mask": mask})``.
 
 ``info`` holds the sub-environments' ``q``, ``qd`` (N, n), ``time``, ``diverged`` and ``is_success`` (N,),
-each with its mask ``_key``, as :class:`gymnasium.vector.SyncVectorEnv` would batch them.
+each with its mask ``_key``, as :class:`gymnasium.vector.SyncVectorEnv` would batch them. ``copy.deepcopy`` and
+``pickle`` give an independent vector environment in the same state.
 """
 from __future__ import annotations
 
 import math
 from concurrent.futures import ThreadPoolExecutor
+from typing import NamedTuple
 
 import numpy as np
 from gymnasium.utils import seeding
@@ -40,15 +42,46 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 from numba import njit
 
-from .control.region import SUCCESS_WINDOW
-from .sim.mujoco_log import mujoco_log_off
-from .sim.engine import _mj_step
-from .gym_env import (_CTRL, _DATA, DIVERGED_REWARD, GymnastEnv, _advance, _check_options, _check_x0, _float64_at,
-                      _real_array, _Robots, _whole, action_to_torque, perturbed)
+from ..mujoco_log import mujoco_log_off
+from ..sim.mujoco_lib import mj_step as _mj_step
+from ..task import book_succeeded
+from .single import GymnastEnv, perturbed
+from .spaces import _check_options, _check_x0, _real_array, _whole, action_to_torque
+from .stepper import _CTRL, _DATA, Robots, _float64_at, advance
 
 #: The most sub-environments of one vector environment.
 MAX_ENVS = 1_000_000
 _MODES = {mode.value: mode for mode in AutoresetMode}
+
+
+class Counters(NamedTuple):
+    """The vector environment's own episode counters and rules."""
+
+    steps: np.ndarray  # (N,) environment steps since reset
+    ended: np.ndarray  # (N,) of bool: terminated or truncated at the last step
+    terminate_margin: float
+    max_steps: float
+    window: int  # the success window in physics steps
+    timestep: float  # of the physics [s]
+
+
+class StepOut(NamedTuple):
+    """What a vector step returns: observations, rewards, terminations, truncations and the information."""
+
+    obs: np.ndarray
+    reward: np.ndarray
+    terminated: np.ndarray
+    truncated: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray
+    time: np.ndarray
+    diverged: np.ndarray
+    success: np.ndarray
+
+
+def _step_out(n, links):
+    return StepOut(np.empty((n, 3 * links), np.float32), np.empty(n), np.empty(n, bool), np.empty(n, bool),
+                   np.empty((n, links)), np.empty((n, links)), np.empty(n), np.empty(n, bool), np.empty(n, bool))
 
 
 @njit(nogil=True, cache=True)
@@ -62,19 +95,16 @@ def _first_bad_action(actions):
 
 
 @njit(nogil=True, cache=True)
-def _vector_step(lo, hi, actions, normalized, restart, terminate_margin, max_steps, window, timestep, steps, ended,
-                 model_ptr, addresses, warn_stride, constants, tau, limits, frame_skip, kind, diverged_reward, phys_step,
-                 last_exit, diverged, q, qd, obs, reward, margin, goal,
-                 out_obs, out_reward, out_terminated, out_truncated, out_q, out_qd, out_time, out_diverged,
-                 out_success):
+def _vector_step(lo, hi, actions, normalized, restart, physics, rules, episodes, counters, out):
     """One environment step of the sub-environments lo..hi-1, in one call (the actions checked finite before).
 
-    The torques of :func:`~paa_mj.gym_env.action_to_torque` (clip(a T, -T, T), the same operations), the physics,
-    observation and reward of :func:`~paa_mj.gym_env._advance` (the code of the single environment) for the rows
-    not in ``restart``, then the step counters, terminations, truncations and the information of
-    :meth:`GymnastVectorEnv._info` (time, success as :func:`~paa_mj.control.region.succeeded` computes them),
-    written into the ``out_`` arrays. ``restart`` rows (reset by the caller) get reward 0, neither ended.
+    The torques of :func:`~paa_mj.envs.spaces.action_to_torque` (clip(a T, -T, T), the same operations), the
+    physics, observation and reward of :func:`~paa_mj.envs.stepper.advance` (the code of the single environment)
+    for the rows not in ``restart``, then the step counters, terminations, truncations and the information of
+    :meth:`GymnastVectorEnv._info` (time, and success as :func:`~paa_mj.task.book_succeeded` judges it), written
+    into ``out``. ``restart`` rows (reset by the caller) get reward 0, neither ended.
     """
+    limits = rules.limits
     rows = np.empty(hi - lo, np.intp)
     m = 0
     for i in range(lo, hi):
@@ -86,35 +116,35 @@ def _vector_step(lo, hi, actions, normalized, restart, terminate_margin, max_ste
                 a = -limits[j]
             elif a > limits[j]:
                 a = limits[j]
-            tau[i, j] = a
+            episodes.tau[i, j] = a
         if not restart[i]:
             rows[m] = i
             m += 1
-    _advance(model_ptr, addresses, warn_stride, constants, rows[:m], tau, limits, frame_skip, kind, diverged_reward,
-             phys_step, last_exit, diverged, q, qd, obs, reward, margin, goal)
+    advance(physics, rules, episodes, rows[:m])
     for i in range(lo, hi):
         if restart[i]:
-            terminated, truncated, out_reward[i] = False, False, 0.0
+            terminated, truncated, out.reward[i] = False, False, 0.0
         else:
-            steps[i] += 1
-            terminated = diverged[i] or margin[i] >= terminate_margin
-            truncated = steps[i] >= max_steps and not terminated
-            out_reward[i] = reward[i]
-        ended[i] = terminated or truncated
-        out_terminated[i], out_truncated[i] = terminated, truncated
-        for j in range(obs.shape[1]):
-            out_obs[i, j] = obs[i, j]
-        for j in range(q.shape[1]):
-            out_q[i, j], out_qd[i, j] = q[i, j], qd[i, j]
-        out_time[i] = phys_step[i] * timestep
-        out_diverged[i] = diverged[i]
-        out_success[i] = not diverged[i] and last_exit[i] < phys_step[i] - min(window, phys_step[i])
+            counters.steps[i] += 1
+            terminated = episodes.diverged[i] or episodes.margin[i] >= counters.terminate_margin
+            truncated = counters.steps[i] >= counters.max_steps and not terminated
+            out.reward[i] = episodes.reward[i]
+        counters.ended[i] = terminated or truncated
+        out.terminated[i], out.truncated[i] = terminated, truncated
+        for j in range(episodes.obs.shape[1]):
+            out.obs[i, j] = episodes.obs[i, j]
+        for j in range(episodes.q.shape[1]):
+            out.q[i, j], out.qd[i, j] = episodes.q[i, j], episodes.qd[i, j]
+        out.time[i] = episodes.phys_step[i] * counters.timestep
+        out.diverged[i] = episodes.diverged[i]
+        out.success[i] = book_succeeded(episodes.book[i], episodes.phys_step[i], not episodes.diverged[i], False,
+                                        counters.window)
 
 
 @njit(nogil=True, cache=True)
 def physics_only(model_ptr, addresses, tau, frame_skip):
     """The physics alone of ``tau.shape[0]`` environment steps (``paa-mj bench``): the torques ``tau[k, i]`` [N m]
-    held over ``frame_skip`` ``mj_step`` of the MjData at ``addresses[i]`` (a vector environment's ``_robots``),
+    held over ``frame_skip`` ``mj_step`` of the MjData at ``addresses[i]`` (a vector environment's robots),
     nothing else: no check, observation, reward or information."""
     for k in range(tau.shape[0]):
         for i in range(tau.shape[1]):
@@ -151,6 +181,8 @@ class GymnastVectorEnv(VectorEnv):
 
     def __init__(self, num_envs=64, max_episode_steps=None, autoreset_mode=AutoresetMode.NEXT_STEP, num_threads=1,
                  **kwargs):
+        self._init_args = dict(num_envs=num_envs, max_episode_steps=max_episode_steps,
+                               autoreset_mode=autoreset_mode, num_threads=num_threads, **kwargs)
         num_envs = _whole("num_envs", num_envs, 1, MAX_ENVS)
         num_threads = _whole("num_threads", num_threads, 1, 1024)
         if kwargs.get("render_mode") is not None:
@@ -176,18 +208,17 @@ class GymnastVectorEnv(VectorEnv):
         self.single_action_space = proto.action_space
         self.observation_space = batch_space(proto.observation_space, num_envs)
         self.action_space = batch_space(proto.action_space, num_envs)
-        self._robots = _Robots(self.model, num_envs, proto.frame_skip, proto._robots.kind, self.torque_limits,
-                               proto._robots.goal, proto.physics, proto.robot.analytic)
-        self._links = proto._robots.goal.size
+        self.task = proto.task
+        self._robots = Robots(self.model, num_envs, proto.frame_skip, proto._robots.rules.kind, self.torque_limits,
+                              self.task, proto.physics, proto.robot.analytic)
+        self._links = self.task.n_links
         self._rngs = [None] * num_envs
-        self._steps = np.zeros(num_envs, np.int64)
-        self._ended = np.zeros(num_envs, bool)
+        self._counters = Counters(np.zeros(num_envs, np.int64), np.zeros(num_envs, bool), proto.terminate_margin,
+                                  float(self.max_steps), self._robots.window, self.model.opt.timestep)
         self._reset_once = False
         self.num_threads = min(num_threads, num_envs)
         self._pool = None
         self._no_restart = np.zeros(num_envs, bool)
-        self._state = None
-        self._window = int(round(SUCCESS_WINDOW / self.model.opt.timestep))  # as succeeded() computes it
 
     # --- resets ---------------------------------------------------------------------------------------------
 
@@ -210,8 +241,8 @@ class GymnastVectorEnv(VectorEnv):
             self._rngs[i], _ = seeding.np_random(seed)
         proto = self.prototype
         self._robots.reset(i, perturbed(x0, self._rngs[i], proto.init_noise, proto.init_speed_noise))
-        self._steps[i] = 0
-        self._ended[i] = False
+        self._counters.steps[i] = 0
+        self._counters.ended[i] = False
 
     def reset(self, *, seed=None, options=None):
         """Reset every sub-environment, or those of ``options["reset_mask"]`` (bool (N,)); ``options["x0"]``:
@@ -236,7 +267,7 @@ class GymnastVectorEnv(VectorEnv):
         for i in np.flatnonzero(mask):
             self._reset_one(i, x0[i], seeds[i])
         self._reset_once = True
-        return self._robots.obs.copy(), self._info(mask)
+        return self._robots.episodes.obs.copy(), self._info(mask)
 
     # --- steps ----------------------------------------------------------------------------------------------
 
@@ -274,7 +305,7 @@ class GymnastVectorEnv(VectorEnv):
         """
         if not self._reset_once:
             raise ValueError("call reset() before step()")
-        mode, ended = self.autoreset_mode, self._ended
+        mode, ended = self.autoreset_mode, self._counters.ended
         if mode == AutoresetMode.DISABLED and ended.any():
             self._actions(actions)  # a wrong action is named first, as before any other check
             raise ValueError(f"sub-environment(s) {np.flatnonzero(ended)[:5].tolist()} ended: reset them with"
@@ -286,17 +317,15 @@ class GymnastVectorEnv(VectorEnv):
             for i in np.flatnonzero(restart):
                 self._reset_one(i, self.prototype.start)
         n = self.num_envs
-        out = (np.empty((n, self._robots.obs.shape[1]), np.float32), np.empty(n), np.empty(n, bool),
-               np.empty(n, bool), np.empty((n, self._links)), np.empty((n, self._links)), np.empty(n), np.empty(n, bool),
-               np.empty(n, bool))
+        out = _step_out(n, self._links)
         self._run_step(actions, restart, out)
         obs, rewards, terminated, truncated, q, qd, time, diverged, success = out
         ones = np.ones(n, bool)
         info = {"q": q, "_q": ones, "qd": qd, "_qd": ones.copy(), "time": time, "_time": ones.copy(),
                 "diverged": diverged, "_diverged": ones.copy(), "is_success": success, "_is_success": ones.copy()}
-        if mode != AutoresetMode.SAME_STEP or not self._ended.any():
+        if mode != AutoresetMode.SAME_STEP or not self._counters.ended.any():
             return obs, rewards, terminated, truncated, info
-        ended = self._ended.copy()
+        ended = self._counters.ended.copy()
         final_obs = np.full(n, None, dtype=object)
         for i in np.flatnonzero(ended):
             final_obs[i] = obs[i].copy()
@@ -305,19 +334,14 @@ class GymnastVectorEnv(VectorEnv):
             self._reset_one(i, self.prototype.start)
         info = self._info() | {"final_obs": final_obs, "_final_obs": ended, "final_info": final_info,
                                "_final_info": ended}
-        return self._robots.obs.copy(), rewards, terminated, truncated, info
+        return self._robots.episodes.obs.copy(), rewards, terminated, truncated, info
 
     def _run_step(self, actions, restart, out):
         """:func:`_vector_step` of every sub-environment: one call, or contiguous chunks on ``num_threads`` threads
         (each writes rows of the shared arrays that no other thread touches)."""
-        if self._state is None:  # the arrays are updated in place: their tuple holds for the environment's life
-            robots = self._robots
-            self._state = (self._steps, self._ended, robots.model_address, robots.addresses, robots.warn_stride,
-                           robots.constants, robots.tau, robots.torque_limits, robots.frame_skip, robots.kind,
-                           DIVERGED_REWARD[robots.kind], robots.phys_step, robots.last_exit, robots.diverged, robots.q,
-                           robots.qd, robots.obs, robots.reward, robots.margin, robots.goal)
-        args = (actions, self.normalize_actions, restart, self.prototype.terminate_margin, float(self.max_steps),
-                self._window, self.model.opt.timestep) + self._state + out
+        robots = self._robots
+        args = (actions, self.normalize_actions, restart, robots.physics, robots.rules, robots.episodes,
+                self._counters, out)
         # a diverging step ends the episode; MuJoCo's warning must not leave MUJOCO_LOG.TXT
         with mujoco_log_off():
             if self.num_threads == 1:
@@ -331,7 +355,7 @@ class GymnastVectorEnv(VectorEnv):
     def _info(self, mask=None):
         """The information of the sub-environments in ``mask`` (all by default), batched with masks."""
         robots = self._robots
-        values = {"q": robots.q, "qd": robots.qd, "time": robots.time(), "diverged": robots.diverged,
+        values = {"q": robots.q, "qd": robots.qd, "time": robots.time(), "diverged": robots.episodes.diverged,
                   "is_success": robots.success()}
         info = {}
         for key, value in values.items():
@@ -347,3 +371,16 @@ class GymnastVectorEnv(VectorEnv):
             self._pool.shutdown()
             self._pool = None
         self.prototype.close()
+
+    # --- copies: an independent vector environment in the same state, its physics rebuilt ------------------
+
+    def __getstate__(self):
+        counters = self._counters
+        return {"init": self._init_args, "robots": self._robots.snapshot(), "rngs": self._rngs,
+                "steps": counters.steps.copy(), "ended": counters.ended.copy(), "reset_once": self._reset_once}
+
+    def __setstate__(self, state):
+        self.__init__(**state["init"])
+        self._robots.restore(state["robots"])
+        self._rngs, self._reset_once = list(state["rngs"]), state["reset_once"]
+        self._counters.steps[:], self._counters.ended[:] = state["steps"], state["ended"]

@@ -36,9 +36,9 @@ class _Damped:
 
 
 def _rollouts():
-    from ..model import load_robot
-    from .batch import simulate_batch
-    from .rollout import simulate_mujoco
+    from .model import load_robot
+    from .sim.batch import simulate_batch
+    from .sim.rollout import simulate_mujoco
 
     gymnast = load_robot("gymnast")
     simulate_mujoco(gymnast, "vcl", t_final=_T)
@@ -47,15 +47,15 @@ def _rollouts():
 
 
 def _family():
-    from ..model import load_robot
-    from ..control.registry import ControllerSpec
-    from .rollout import simulate_mujoco
+    from .control.registry import make_controller
+    from .model import load_robot
+    from .sim.rollout import simulate_mujoco
 
     acrobot = load_robot("acrobot")
     for name in ("vcl", "spong"):
-        simulate_mujoco(acrobot, name, t_final=_T, goal="stretched")
+        simulate_mujoco(acrobot, name, t_final=_T, task="stretched")
     for name in ("vcl-only", "spong"):  # their laws over a batch of states, as ``torque`` evaluates them
-        ControllerSpec(name, goal="stretched").build(acrobot).torque(np.zeros((2, 2)), np.zeros((2, 2)))
+        make_controller(name, acrobot, task="stretched").torque(np.zeros((2, 2)), np.zeros((2, 2)))
     model = acrobot.analytic
     q = np.zeros((2, 2))
     model.mass_matrix(q), model.bias(q, q), model.potential(q), model.gravity_jacobian(q)
@@ -63,8 +63,9 @@ def _family():
 
 def _environments():
     try:
-        from ..gym_env import GymnastEnv, observation
-        from ..gym_vector import GymnastVectorEnv, physics_only
+        from .envs.single import GymnastEnv
+        from .envs.spaces import observation
+        from .envs.vector import GymnastVectorEnv, physics_only
     except ImportError:  # Gymnasium is an extra: without it there is nothing to compile here
         return
     from .mujoco_log import mujoco_log_off
@@ -75,7 +76,7 @@ def _environments():
             env.step(np.zeros(env.action_space.shape, env.action_space.dtype))
             if physics == "mujoco" and isinstance(env, GymnastVectorEnv):
                 with mujoco_log_off():
-                    physics_only(env.model._address, env._robots.addresses, np.zeros((1, 2, 2)), 1)
+                    physics_only(env.model._address, env._robots.physics.addresses, np.zeros((1, 2, 2)), 1)
             env.close()
     observation(np.zeros(3), np.zeros((2, 3)))  # the observation map of any states, broadcast
 
@@ -93,7 +94,7 @@ def compile_kernels(progress=None) -> list[dict]:
     on import (they have a fixed signature). ``progress``: called with each stage's description as it starts.
     """
     start = time.process_time()
-    from ..control import catalog  # noqa: F401  (imports every controller: their kernels compile on import)
+    from .control import catalog  # noqa: F401  (imports every controller: their kernels compile on import)
 
     stages = []
     for description, stage in STAGES:

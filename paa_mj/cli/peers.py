@@ -5,7 +5,7 @@ from .common import folder, output_lock, positive, positive_int, print_json, see
 
 
 def cmd_peers(args):
-    from ..studies.peers import require_drake
+    from ..studies.drake import require_drake
 
     require_drake()  # before anything else: one line that says how to install it
     from ..outputs.peers import write_peers

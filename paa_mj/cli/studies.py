@@ -173,11 +173,8 @@ def cmd_compile(args):
     return 0
 
 
-def register(sub, parser_class):
-    from ..studies.settings import (ATLAS_MAX_GRID, ATLAS_PARAMETERS, ATLAS_RANGE, BASIN_COORDINATES as COORDINATES,
-                                    BASIN_MAX_GRID as MAX_GRID, COMPARE_CONTROLLERS, COMPARE_SIZES, FACTOR_LABELS,
-                                    FACTOR_ORDER, ROBUSTNESS_DEFAULT_FACTORS as DEFAULT_FACTORS,
-                                    ROBUSTNESS_FACTORS as FACTORS, STARTS)
+def _register_basin(sub):
+    from ..studies.settings import BASIN_COORDINATES as COORDINATES, BASIN_MAX_GRID as MAX_GRID
 
     p = sub.add_parser("basin", parents=[robot_parent(), goal_parent(), controller_parent(), study_parent(),
                                          output_parent("basin.png, basin.svg, basin.npz, summary.json and the"
@@ -194,6 +191,11 @@ def register(sub, parser_class):
                    help="saturate each torque of every run at T [N m] (the model's actuator ranges also apply)")
     p.set_defaults(func=cmd_basin)
 
+
+def _register_robustness(sub):
+    from ..studies.settings import ROBUSTNESS_DEFAULT_FACTORS as DEFAULT_FACTORS, ROBUSTNESS_FACTORS as FACTORS, \
+        STARTS
+
     p = sub.add_parser("robustness", parents=[robot_parent(), goal_parent(), controller_parent(), study_parent(),
                                               output_parent("one chart per factor (PNG, SVG), robustness.npz,"
                                                             " summary.json and the finished chunks")],
@@ -207,12 +209,17 @@ def register(sub, parser_class):
     p.add_argument("--factors", default=",".join(DEFAULT_FACTORS), metavar="F,...",
                    help=f"comma-separated, out of {', '.join(FACTORS)}")
     p.add_argument("--start", choices=STARTS, default="random",
-                   help="random: angles over a full turn, speeds +-1 rad/s; hanging: the kip from (65)")
+                   help="random: angles over a full turn, speeds +-1 rad/s; hanging: the task's start (the kip from"
+                        " (65))")
     p.add_argument("--model-error", type=non_negative, nargs="+", metavar="PCT",
                    help="controller model errors to test [%%] (default: 0 2 5 10)")
     p.add_argument("--torque-limit", type=positive, metavar="T",
                    help="saturate each torque of every run at T [N m] (the torque_limit factor goes below it)")
     p.set_defaults(func=cmd_robustness)
+
+
+def _register_compare(sub):
+    from ..studies.settings import COMPARE_CONTROLLERS, COMPARE_SIZES, FACTOR_LABELS, FACTOR_ORDER
 
     p = sub.add_parser("compare", parents=[robot_parent(), goal_parent(), study_parent(),
                                            output_parent("leaderboard.md, leaderboard.json, the charts, kips.npz,"
@@ -226,7 +233,8 @@ def register(sub, parser_class):
     p.add_argument("--controllers", default=",".join(COMPARE_CONTROLLERS), metavar="A,B,...",
                    help="built-in names or FILE.py:Class, comma-separated")
     p.add_argument("--torque-limit", type=positive, metavar="T",
-                   help="the same torque limit for every controller [N m] (default: vcl's peak torques from (65))")
+                   help="the same torque limit for every controller [N m] (default: vcl's peak torques from the"
+                        " task's start, (65))")
     p.add_argument("--trials", type=positive_int,
                    help=f"draws per random robustness factor (default {COMPARE_SIZES['full']['trials']},"
                         f" {COMPARE_SIZES['quick']['trials']} with --quick)")
@@ -240,6 +248,10 @@ def register(sub, parser_class):
     p.add_argument("--no-video", action="store_true", help="skip the side-by-side video")
     p.add_argument("--gl", choices=("auto", "egl", "osmesa"), help="GL backend for the video (default: auto)")
     p.set_defaults(func=cmd_compare)
+
+
+def _register_atlas(sub):
+    from ..studies.settings import ATLAS_MAX_GRID, ATLAS_PARAMETERS, ATLAS_RANGE
 
     p = sub.add_parser("atlas", parents=[robot_parent(), goal_parent(), study_parent(),
                                          output_parent("atlas.json, atlas.npz, the maps and the finished chunks")],
@@ -265,6 +277,8 @@ def register(sub, parser_class):
     p.add_argument("--seed", type=seed, help="seed of the random starts with --simulate (default 0)")
     p.set_defaults(func=cmd_atlas)
 
+
+def _register_bench(sub):
     p = sub.add_parser("bench", parents=[robot_parent(), goal_parent()],
                        help="costs per step: bare mj_step, closed loop, batch, basin, analytic reference",
                        description="Costs measured in one process, reported as ratios of things measured together.")
@@ -272,10 +286,18 @@ def register(sub, parser_class):
     p.add_argument("--json", action="store_true", help="one JSON object on stdout")
     p.set_defaults(func=cmd_bench)
 
+
+def _register_compile(sub):
     p = sub.add_parser("compile", help="compile every numba kernel into the cache now (once per install)",
                        description="Compile (or load from the cache) every compiled kernel of the package, once:"
                                    " a fresh install compiles each kernel the first time a process needs it, so"
                                    " processes started together (Dask or pytest workers) would each compile the"
-                                   " same ones. About 28 CPU-s the first time, a second when cached.")
+                                   " same ones. Tens of CPU-seconds the first time, about a second when cached.")
     p.add_argument("--json", action="store_true", help="one JSON object on stdout")
     p.set_defaults(func=cmd_compile)
+
+
+def register(sub, parser_class):
+    for add in (_register_basin, _register_robustness, _register_compare, _register_atlas, _register_bench,
+                _register_compile):
+        add(sub)

@@ -121,19 +121,22 @@ class Binding:
         :attr:`~paa_mj.model.dynamics.AnalyticModel.digest` of the robot's parameters; None: any robot of
         ``n_links`` links (a gain given as it is).
     task : Task
+    controller : str or None
+        The name the user gave the controller (``vcl``, ``mine.py:Balance``), for messages.
     """
 
     robot: str
     n_links: int
     digest: str | None
     task: Task
+    controller: str | None = None
 
     @classmethod
-    def of(cls, robot, task: Task) -> "Binding":
+    def of(cls, robot, task: Task, controller: str | None = None) -> "Binding":
         """The binding to a :class:`~paa_mj.model.robot.Robot` or an AnalyticModel, and ``task``."""
         model = getattr(robot, "analytic", robot)
         name = getattr(robot, "name", None) or model.params.name
-        return cls(str(name), model.n_links, model.digest, task)
+        return cls(str(name), model.n_links, model.digest, task, controller)
 
     def robot_text(self) -> str:
         parts = f"{self.n_links} links" + (f", parameters {self.digest}" if self.digest else "")
@@ -141,27 +144,32 @@ class Binding:
 
 
 def controller_name(controller) -> str:
-    """The name a controller is known by in messages: its ``name``, else its class."""
+    """The name a controller is known by in messages: the one the user gave it (its :class:`Binding`'s), else its
+    ``name``, else its class."""
+    binding = getattr(controller, "binding", None)
+    if isinstance(binding, Binding) and binding.controller:
+        return binding.controller
     name = getattr(controller, "name", None)
     return name if isinstance(name, str) and name else type(controller).__name__
 
 
-def check_binding(controller, robot, task: Task):
+def check_binding(controller, robot, task: Task | None):
     """Refuse, in one line naming both, a controller built for another robot or task than the run's.
 
     ``robot`` is the :class:`~paa_mj.model.robot.Robot` the run simulates (its nominal model: the plants of a
-    model-error study vary on purpose), ``task`` the run's. A controller without a :class:`Binding` (a user's
-    object) is not checked here; its torques' shape is (:func:`torque_of`).
+    model-error study vary on purpose), ``task`` the run's (None: the robot alone is checked). A controller without
+    a :class:`Binding` (a user's object) is not checked here; its torques' shape is (:func:`torque_of`).
     """
     binding = getattr(controller, "binding", None)
     if not isinstance(binding, Binding):
         return
-    ours = Binding.of(robot, task)
+    model = getattr(robot, "analytic", robot)
+    ours = Binding(str(getattr(robot, "name", None) or model.params.name), model.n_links, model.digest, task)
     name = controller_name(controller)
     if binding.n_links != ours.n_links or (binding.digest is not None and binding.digest != ours.digest):
         raise PaaError(f"controller {name} was built for {binding.robot_text()}, not for {ours.robot_text()}"
                        " that runs it: build it for this robot")
-    if binding.task.aim() != task.aim():
+    if task is not None and binding.task.aim() != task.aim():
         raise PaaError(f"controller {name} was built for the {binding.task.name} task, not for the {task.name} task"
                        " this run is judged by: build it for this task")
 
@@ -217,7 +225,7 @@ def _user_call(controller, what, call, *args):
         raise
     except (Exception, SystemExit) as err:  # a user's controller may fail in any way, exit included
         detail = " ".join(str(err).split())
-        raise PaaError(f"controller {type(controller).__name__}.{what} failed: {type(err).__name__}"
+        raise PaaError(f"controller {controller_name(controller)}.{what} failed: {type(err).__name__}"
                        + (f": {detail}" if detail else "")) from None
 
 
@@ -244,7 +252,7 @@ def torque_of(controller, q, qd, t, copy=True):
     if type(raw) is np.ndarray and raw.dtype == np.float64 and raw.shape == expected:
         return raw.copy() if copy else raw  # the common case, checked at once (this runs every step of a rollout)
     raw = _user_call(controller, "torque", np.asarray, raw)
-    name = type(controller).__name__
+    name = controller_name(controller)
     if raw.dtype.kind not in "fiu":
         # np.asarray(.., float) would drop an imaginary part (a warning at most) and read booleans as 0 and 1
         raise PaaError(f"controller {name}.torque returned {raw.dtype} torques; it must return real numbers"
@@ -268,11 +276,11 @@ def mode_of(controller, shape=(), plain=False):
         return mode if plain else np.full(shape, mode, np.int8)
     mode = _user_call(controller, "mode", np.asarray, mode)
     if mode.dtype.kind not in "biu" or not (mode.shape == () or mode.shape == shape):
-        raise PaaError(f"controller {type(controller).__name__}.mode must be an integer or one integer per state"
+        raise PaaError(f"controller {controller_name(controller)}.mode must be an integer or one integer per state"
                        f" (shape {shape}), got {mode.dtype} of shape {mode.shape}")
     if np.any((mode != 0) & (mode != 1)):
         bad = mode[(mode != 0) & (mode != 1)].reshape(-1)[0]
-        raise PaaError(f"controller {type(controller).__name__}.mode must be 0 (swing-up) or 1 (balance), got {bad}")
+        raise PaaError(f"controller {controller_name(controller)}.mode must be 0 (swing-up) or 1 (balance), got {bad}")
     return np.broadcast_to(mode, shape).astype(np.int8) if mode.shape != shape else mode.astype(np.int8)
 
 

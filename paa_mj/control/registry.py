@@ -281,10 +281,12 @@ class ControllerSpec:
         believed = robot if self.believed is None else robot.with_params(self.believed)
         if is_user_controller(self.name):
             controller = self._build_user(believed, task)
+            if isinstance(getattr(controller, "binding", None), Binding):
+                return controller  # bound already (a built-in the user's class made): the run checks that binding
         else:
             gains = None if self.gains is None else dict(zip(("kD", "kP", "kV"), self.gains))
             controller = BUILTIN[self.name][0](believed, task, gains=gains, check=self.check, **dict(self.options))
-        _bind(controller, robot, task)  # to the plant: a controller that believes in another model does so on purpose
+        _bind(controller, robot, task, self.short_name)  # to the plant: believing another model is on purpose
         return controller
 
     def _build_user(self, robot, task):
@@ -303,11 +305,11 @@ class ControllerSpec:
         return controller
 
 
-def _bind(controller, robot, task):
-    """Record on ``controller`` the robot and task it is built for, where it takes attributes (a user's object
-    with ``__slots__`` may not: it is then not checked against the run)."""
+def _bind(controller, robot, task, name):
+    """Record on ``controller`` the robot and task it is built for and the name it was asked by, where it takes
+    attributes (a user's object with ``__slots__`` may not: it is then not checked against the run)."""
     try:
-        controller.binding = Binding.of(robot, task)
+        controller.binding = Binding.of(robot, task, name)
     except AttributeError:
         pass
 

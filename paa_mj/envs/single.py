@@ -56,9 +56,8 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from ..errors import PaaError
 from ..model.robot import load_robot
-from ..task import Task, as_task
+from ..task import as_task
 from .spaces import (EPISODES, MAX_EPISODE_STEPS, MAX_TORQUE_LIMIT, _check_options, _check_x0, _number, _real_array,
                      _whole, action_to_torque, torque_limit_for, torque_limits_for, torque_to_action)
 from .stepper import PHYSICS, REWARD_BALANCE, REWARD_KIP, REWARD_V0, Robots

@@ -18,8 +18,10 @@ import numpy as np
 from ..errors import PaaError
 
 #: Plausible ranges of the parameters: outside them a model is refused as absurd (its
-#: energies would overflow or vanish below rounding).
-PLAUSIBLE = {"m": (1e-6, 1e6), "l": (1e-4, 1e3), "J": (1e-10, 1e9)}
+#: energies would overflow or vanish below rounding). Damping and armature may also be 0.
+PLAUSIBLE = {"m": (1e-6, 1e6), "l": (1e-4, 1e3), "J": (1e-10, 1e9), "damping": (0.0, 1e9), "armature": (0.0, 1e9)}
+#: Plausible range of gravity [m/s^2]: from a millionth of the Earth's to a hundred times it.
+PLAUSIBLE_GRAVITY = (1e-5, 1e3)
 #: The most links of a chain (a limit of sense, not of the formulas: the cost of a step grows as n^3).
 MAX_LINKS = 64
 #: Per-link parameters, in their order; damping and armature may be left out (zero).
@@ -105,6 +107,12 @@ class RobotParams:
             if bad.size:
                 i = bad[0]
                 raise PaaError(f"non-physical parameters: {key}{i + 1} = {values[i]:g} must be > 0")
+        for key in ("damping", "armature"):
+            values = getattr(self, key)
+            bad = np.flatnonzero(values < 0)
+            if bad.size:
+                i = bad[0]
+                raise PaaError(f"non-physical parameters: {key}{i + 1} = {values[i]:g} must be >= 0")
         for key, (low, high) in PLAUSIBLE.items():
             values = getattr(self, key)
             bad = np.flatnonzero((values < low) | (values > high))
@@ -117,14 +125,12 @@ class RobotParams:
             i = bad[0]
             raise PaaError(
                 f"non-physical parameters: lc{i + 1} = {self.lc[i]:g} must lie in [0, l{i + 1}] = [0, {self.l[i]:g}]")
-        for key in ("damping", "armature"):
-            values = getattr(self, key)
-            bad = np.flatnonzero(values < 0)
-            if bad.size:
-                i = bad[0]
-                raise PaaError(f"non-physical parameters: {key}{i + 1} = {values[i]:g} must be >= 0")
         if not (np.isfinite(self.g) and self.g > 0):
             raise PaaError(f"non-physical parameters: g = {self.g:g} must be > 0")
+        low, high = PLAUSIBLE_GRAVITY
+        if not low <= self.g <= high:
+            raise PaaError(f"non-physical parameters: g = {self.g:g} m/s^2 lies outside the plausible range"
+                           f" [{low:g}, {high:g}]")
 
     @classmethod
     def uniform_rods(cls, m, l, g=9.81, name="custom", damping=None, armature=None):

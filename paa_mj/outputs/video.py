@@ -11,7 +11,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import mujoco
 import numpy as np
 
 from ..errors import PaaError

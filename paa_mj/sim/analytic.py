@@ -89,6 +89,7 @@ def exact_field(robot: Robot, law, limits=None, on_nonfinite=None):
     :meth:`~paa_mj.model.dynamics.AnalyticModel.state_derivative`. The torques are clipped at +-``limits`` [N m]
     (default: the robot's actuator ranges); ``on_nonfinite(t)`` is called where the law returns NaN or inf.
     """
+    check_binding(law, robot, None)  # a compiled law of another robot would read past its arrays
     n = robot.params.n_links
     limits = robot.torque_limits if limits is None else np.asarray(limits, float)
     form = law.compiled() if callable(getattr(law, "compiled", None)) else None

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..control.base import controller_name
+from ..control.base import check_binding, controller_name
 from ..control.registry import ControllerSpec
 from ..errors import PaaError
 from ..limits import check_memory, check_seed, check_steps
@@ -175,7 +175,10 @@ def controllers_for(robot: Robot, controller, n, task: Task) -> list:
 
 def build_plan(robot: Robot, task: Task, x0, t_final, controllers, *, dt=None, integrator=None, plants=None,
                torque_limit=None, disturbances=NO_DISTURBANCES, every=0, retire=True) -> engine.Plan:
-    """An engine plan for these rollouts (checked; see :func:`simulate_batch`)."""
+    """An engine plan for these rollouts (checked; see :func:`simulate_batch`): every controller is checked against
+    the robot and task first (:func:`~paa_mj.control.base.check_binding`)."""
+    for controller in {id(c): c for c in controllers}.values():
+        check_binding(controller, robot, task)
     n = len(x0)
     links = robot.params.n_links
     base = mujoco_model_for(robot, dt, integrator)

@@ -31,7 +31,7 @@ from ..mujoco_log import mujoco_log_off
 from ..progress import progress as progress_bar
 from ..task import Task
 from .mujoco_lib import COMPILED_PHYSICS
-from .records import SETTING, Run, Settings, State, new_samples, new_state, physics_of
+from .records import Run, Settings, State, new_samples, new_state, physics_of
 from .retirement import RETIRE_FRACTION, certificate_size, retirement_certificate
 from .step import (DIVERGED, FINISHED, MAX_SPEED, RETIRED, RUNNING, STATUS_TEXT, STOPPED, advance_compiled,
                    check_state, evaluate_once, measure, python_step, start_rollout)

@@ -37,8 +37,10 @@ def _state_names(n_links):
 
 
 def _as_floats(x0, what, n_links):
+    """A float copy of ``x0``: the run's own, writable, whatever it was given (a task's read-only start, the user's
+    array, which a run must not share)."""
     try:
-        return np.asarray(x0, dtype=float)
+        return np.array(x0, dtype=float)
     except (TypeError, ValueError):
         raise PaaError(f"{what} must be numbers ({_state_names(n_links)}), got {x0!r:.60}") from None
 

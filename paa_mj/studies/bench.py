@@ -185,6 +185,21 @@ def vector_env_costs(n_envs=64, steps=50, repeats=3, frame_skip=10):
     return {name: cost / (n_envs * steps) for name, cost in best.items()}
 
 
+def _bare_step_cost(robot, steps, repeats):
+    """CPU-time per bare ``mj_step`` of the robot's model, called from a Python loop [s] (the best of ``repeats``)."""
+    model = robot.model
+    data = mujoco.MjData(model)
+    n = robot.params.n_links
+    start = np.resize([-2.0, -1.0, 0.5], n), np.resize([1.0, -2.0, 0.5], n)
+
+    def bare():
+        data.qpos[:], data.qvel[:] = start
+        for _ in range(steps):
+            mujoco.mj_step(model, data)
+
+    return _best_of(bare, repeats) / steps
+
+
 def run_bench(batch_size=1024, batch_seconds=2.0, repeats=3, basin_grid=16, basin_seconds=30.0, progress=False,
               vector_envs=64, vector_steps=50, robot="gymnast", task=None, rollout_seconds=30.0,
               python_seconds=2.0, bare_steps=20000):
@@ -201,24 +216,14 @@ def run_bench(batch_size=1024, batch_seconds=2.0, repeats=3, basin_grid=16, basi
 
     name = robot
     robot = load_robot(robot)
-    model = robot.model
-    data = mujoco.MjData(model)
-    dt = model.opt.timestep
-    n_bare = bare_steps
+    dt = robot.model.opt.timestep
     n = robot.params.n_links
     task = as_task(task, robot)
     start = task.start
-    bare_start = np.resize([-2.0, -1.0, 0.5], n), np.resize([1.0, -2.0, 0.5], n)
-
-    def bare():
-        data.qpos[:], data.qvel[:] = bare_start
-        for _ in range(n_bare):
-            mujoco.mj_step(model, data)
-
     ctrl = make_controller("vcl", robot, task=task)
     t_single = rollout_seconds
     simulate_mujoco(robot, ctrl, start, 0.01, task=task)  # compile (or load) the kernels first
-    bare_step = _best_of(bare, repeats) / n_bare
+    bare_step = _bare_step_cost(robot, bare_steps, repeats)
     single = _best_of(lambda: simulate_mujoco(robot, ctrl, start, t_single, task=task), repeats)
     single_step = single / round(t_single / dt)
     t_python = python_seconds

@@ -99,7 +99,7 @@ def exact_field(robot: Robot, law, limits=None, on_nonfinite=None):
 
         def f(t, x):
             out = np.empty(2 * n)
-            if not closed_loop_field(kernel, np.ascontiguousarray(x, dtype=float), float(t), params, memory,
+            if not closed_loop_field(kernel, np.require(x, float, ("C", "W")), float(t), params, memory,
                                      limits, constants, out, work) and on_nonfinite is not None:
                 on_nonfinite(t)
             return out

@@ -90,8 +90,8 @@ def pfl_run():
 
     robot = load_robot("realaigym_acrobot_v1")
     controller = make_controller(f"{EXAMPLES / 'realaigym' / 'pfl_controller.py'}:PFLCollocatedLQR_C03", robot,
-                                 goal="stretched")
-    traj = simulate_mujoco(robot, controller, [-np.pi, 0, 0, 0], 10.0, dt=0.002, sample_dt=0.002, goal="stretched")
+                                 task="stretched")
+    traj = simulate_mujoco(robot, controller, [-np.pi, 0, 0, 0], 10.0, task="stretched", dt=0.002, sample_dt=0.002)
     assert len(traj.t) == 5001
     return {rec: score.scores(traj.t, traj.q, traj.qd, traj.tau[:, 0], 0.2, 0.3, record=rec)
             for rec in score.RECORDS}

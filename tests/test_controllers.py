@@ -5,10 +5,12 @@ import numpy as np
 import pytest
 
 from paa_mj.control import (CombinedController, ConventionalController, ControllerSpec, EnergyVCLController,
-                            LQRController, RegionCondition, TheoryWarning, TimeCondition, in_switch_region,
-                            make_controller, switch_margin)
+                            LQRController, RegionCondition, TheoryWarning, TimeCondition, make_controller)
 from paa_mj.errors import PaaError
 from paa_mj.model.states import Q_UDD, wrap_angle
+from paa_mj.task import Task
+
+FOLDED = Task.named("folded", 3)
 from paa_mj.model.vcl import psi, theta
 from paa_mj.sim.engine import evaluate
 
@@ -127,10 +129,10 @@ def test_wrap_and_switch_region():
     assert wrap_angle(-np.pi) == pytest.approx(np.pi)
     assert wrap_angle(3 * np.pi / 2) == pytest.approx(-np.pi / 2)
     q = Q_UDD + [2 * np.pi, 0.1, -0.1]
-    assert in_switch_region(q, np.zeros(3))
-    assert switch_margin(q, np.zeros(3)) < 0
-    assert not in_switch_region(q, np.array([0.0, 0.6, 0.0]))
-    assert not in_switch_region(Q_UDD + [0, np.pi / 6 + 1e-9, 0], np.zeros(3))
+    assert FOLDED.in_switch_region(q, np.zeros(3))
+    assert FOLDED.switch_margin(q, np.zeros(3)) < 0
+    assert not FOLDED.in_switch_region(q, np.array([0.0, 0.6, 0.0]))
+    assert not FOLDED.in_switch_region(Q_UDD + [0, np.pi / 6 + 1e-9, 0], np.zeros(3))
 
 
 def test_switch_is_one_way(gymnast):
@@ -145,7 +147,7 @@ def test_switch_is_one_way(gymnast):
 
 
 def test_time_condition_hands_over_at_its_time(gymnast):
-    ctrl = CombinedController(make_controller("passive", gymnast), LQRController.for_model(gymnast.analytic),
+    ctrl = CombinedController(make_controller("passive", gymnast), LQRController.for_model(gymnast.analytic, FOLDED),
                               TimeCondition(0.5))
     q = Q_UDD + [0.1, 0, 0]
     assert np.all(ctrl.torque(q, np.zeros(3), t=0.2) == 0) and ctrl.mode == 0
@@ -159,14 +161,14 @@ def test_combined_of_a_python_controller_has_no_compiled_form(gymnast):
         def torque(self, q, qd, t):
             return 0.5 * make_controller("lqr", gymnast).torque(q, qd, t)
 
-    ctrl = CombinedController(Half(), make_controller("lqr", gymnast), RegionCondition())
+    ctrl = CombinedController(Half(), make_controller("lqr", gymnast), RegionCondition(FOLDED))
     assert ctrl.compiled() is None
     assert ctrl.torque(np.tile(Q_UDD, (3, 1)), np.zeros((3, 3))).shape == (3, 2)
 
 
 def test_lqr_gain_shape_is_checked():
     with pytest.raises(PaaError, match="2 x 6"):
-        LQRController(np.ones((2, 5)))
+        LQRController(np.ones((2, 5)), FOLDED)
 
 
 @pytest.mark.parametrize("spec, fragment", [

@@ -10,8 +10,8 @@ from paa_mj.cli import main
 from paa_mj.control import ControllerSpec, make_controller
 from paa_mj.errors import PaaError
 from paa_mj.model.states import Q_UDD, X0_HANGING
-from paa_mj.sim import simulate_batch, simulate_mujoco
-from paa_mj.sim.engine import gaussian
+from paa_mj.sim import Disturbances, simulate_batch, simulate_mujoco
+from paa_mj.sim.noise import gaussian
 
 from .helpers import Uncompiled
 
@@ -83,7 +83,10 @@ def test_batch_plant_perturbation(gymnast):
     heavier = gymnast.params.scaled(mass_factor=1.1)
     batch = simulate_batch(gymnast, X0_HANGING[None], 2.0, plants=[heavier], record=True)
     plant = gymnast.with_params(heavier)
-    single = simulate_mujoco(plant, make_controller("vcl", gymnast), X0_HANGING, 2.0)
+    # the controller believes in the nominal robot on purpose; one built for the nominal robot is refused on another
+    with pytest.raises(PaaError, match="was built for robot gymnast"):
+        simulate_mujoco(plant, make_controller("vcl", gymnast), X0_HANGING, 2.0)
+    single = simulate_mujoco(plant, ControllerSpec("vcl", believed=gymnast.params), X0_HANGING, 2.0)
     np.testing.assert_array_equal(batch.trajectories["q"][0, :len(single)], single.q)
 
 
@@ -121,14 +124,15 @@ def test_batch_bad_input(gymnast):
 
 def test_noise_is_seeded_per_rollout_not_per_chunk(gymnast):
     x0 = np.tile(X0_HANGING, (3, 1))
-    a = simulate_batch(gymnast, x0, 1.0, noise_std=[0.01, 0.01], seed=3)
-    b = simulate_batch(gymnast, x0, 1.0, noise_std=[0.01, 0.01], seed=3, nthread=1)
-    c = simulate_batch(gymnast, x0, 1.0, noise_std=[0.01, 0.01], seed=4)
+    a = simulate_batch(gymnast, x0, 1.0, disturbances=Disturbances(noise_std=[0.01, 0.01], seed=3))
+    b = simulate_batch(gymnast, x0, 1.0, disturbances=Disturbances(noise_std=[0.01, 0.01], seed=3), nthread=1)
+    c = simulate_batch(gymnast, x0, 1.0, disturbances=Disturbances(noise_std=[0.01, 0.01], seed=4))
     np.testing.assert_array_equal(a.final_state, b.final_state)
     assert np.max(np.abs(a.final_state - c.final_state)) > 1e-6
     assert np.max(np.abs(a.final_state[0] - a.final_state[1])) > 1e-6  # each rollout draws its own noise
     # rollout 2 alone, with its global number, draws what it drew in the batch
-    alone = simulate_batch(gymnast, x0[2:], 1.0, noise_std=[0.01, 0.01], seed=3, rollout_ids=[2])
+    alone = simulate_batch(gymnast, x0[2:], 1.0,
+                           disturbances=Disturbances(noise_std=[0.01, 0.01], seed=3, rollout_ids=[2]))
     np.testing.assert_array_equal(alone.final_state[0], a.final_state[2])
 
 
@@ -140,7 +144,8 @@ def test_counter_based_noise_is_standard_normal():
 
 def test_delay_applies_the_torque_computed_d_steps_before(gymnast):
     d = 4
-    batch = simulate_batch(gymnast, X0_HANGING[None], 0.2, delay_steps=[d], record=True, sample_dt=0.001)
+    batch = simulate_batch(gymnast, X0_HANGING[None], 0.2, disturbances=Disturbances(delay_steps=[d]), record=True,
+                           sample_dt=0.001)
     n = int(batch.trajectories["count"][0])
     q, qd, tau = (batch.trajectories[k][0, :n] for k in ("q", "qd", "tau"))
     ctrl = make_controller("vcl", gymnast)
@@ -153,8 +158,8 @@ def test_torque_limit_and_torque_noise(gymnast):
     clipped = simulate_batch(gymnast, X0_HANGING[None], 1.0, torque_limit=[50.0, 20.0])
     assert clipped.max_abs_tau[0, 0] == pytest.approx(50.0) and clipped.max_abs_tau[0, 1] == pytest.approx(20.0)
     quiet = simulate_batch(gymnast, X0_HANGING[None], 1.0, controller="passive", record=True, sample_dt=0.001)
-    noisy = simulate_batch(gymnast, X0_HANGING[None], 1.0, controller="passive", torque_noise=2.0, record=True,
-                           sample_dt=0.001)
+    noisy = simulate_batch(gymnast, X0_HANGING[None], 1.0, controller="passive",
+                           disturbances=Disturbances(torque_noise=2.0), record=True, sample_dt=0.001)
     assert np.all(quiet.trajectories["tau"] == 0)
     assert np.std(noisy.trajectories["tau"][0, :1000]) == pytest.approx(2.0, rel=0.1)
     assert np.all(noisy.trajectories["tau"][0, :1000] != 0)
@@ -163,7 +168,8 @@ def test_torque_limit_and_torque_noise(gymnast):
 def test_a_push_swings_the_passive_robot(gymnast):
     pushes = np.array([[[0.5, 0.1, 50.0, 0.0, 0.0]]])
     still = simulate_batch(gymnast, X0_HANGING[None], 2.0, controller="passive")
-    pushed = simulate_batch(gymnast, X0_HANGING[None], 2.0, controller="passive", pushes=pushes)
+    pushed = simulate_batch(gymnast, X0_HANGING[None], 2.0, controller="passive",
+                            disturbances=Disturbances(pushes=pushes))
     assert np.max(np.abs(still.final_state[0] - X0_HANGING)) < 1e-9
     assert pushed.max_speed[0] > 0.1
 
@@ -225,7 +231,7 @@ def test_compile_leaves_no_kernel_to_compile_later():
 
     In a process of its own: the signatures a process holds include those of every call it made before.
     """
-    from paa_mj.sim.precompile import cached_kernels
+    from paa_mj.precompile import cached_kernels
 
     proc = subprocess.run([sys.executable, "-m", "paa_mj.cli", "compile", "--json"], capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
@@ -298,7 +304,7 @@ def test_users_controller_runs_from_the_command_line(tmp_path, capsys):
     assert main(["simulate", "--controller", f"{path}:Damped", "--t-final", "1", "--x0", "-3", "0.5", "-0.3", "0",
                  "0", "0", "--out", str(out), "--json"]) == 0
     summary = json.loads(capsys.readouterr().out)
-    assert summary["controller"] == "Damped"
+    assert summary["controller"] == "mine.py:Damped"  # as the user named it, as the studies say too
     data = np.load(out / "trajectory.npz")
     b1 = 289.53234
     expected = -0.05 * b1 * (data["q"][:, 1:] + 0.5 * data["qd"][:, 1:])

@@ -2,15 +2,19 @@
 
 - :mod:`~paa_mj.control.energy`: swing-up (40) and the conventional candidate (12);
 - :mod:`~paa_mj.control.lqr`: the LQR balance controller (67);
-- :mod:`~paa_mj.control.combined`: the one-way switch, with region (68) as the paper's condition;
-- :mod:`~paa_mj.control.region`: region (68) and the balance tolerance;
+- :mod:`~paa_mj.control.combined`: the one-way switch, with region (68) of the task as the paper's condition;
+- :mod:`~paa_mj.control.region`: the switch (68) compiled, and a candidate reading of the paper's;
 - :mod:`~paa_mj.control.gains`: the gains against the theory;
 - :mod:`~paa_mj.control.passive`: zero torque;
 - :mod:`~paa_mj.control.spong`: Spong's acrobot swing-up as Drake states it.
+
+Every controller is built for a robot and a :class:`~paa_mj.task.Task` and bound to both
+(:class:`~paa_mj.control.base.Binding`).
 """
 from ..lazy import lazy_exports
 
 _EXPORTS = {
+    "Binding": ".base",
     "CompiledForm": ".base",
     "Controller": ".base",
     "CombinedController": ".combined",
@@ -23,11 +27,6 @@ _EXPORTS = {
     "LQRController": ".lqr",
     "PassiveController": ".passive",
     "SpongController": ".spong",
-    "BALANCE_TOL": ".region",
-    "SWITCH_ANGLE": ".region",
-    "SWITCH_SPEED": ".region",
-    "in_switch_region": ".region",
-    "switch_margin": ".region",
     "BUILTIN": ".registry",
     "ControllerSpec": ".registry",
     "make_controller": ".registry",
@@ -35,7 +34,6 @@ _EXPORTS = {
 
 __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, globals())
 
-__all__ = ["BALANCE_TOL", "BUILTIN", "CombinedController", "CompiledForm", "Controller", "ControllerSpec",
+__all__ = ["BUILTIN", "Binding", "CombinedController", "CompiledForm", "Controller", "ControllerSpec",
            "ConventionalController", "EnergyVCLController", "LQRController", "PassiveController", "RegionCondition",
-           "SWITCH_ANGLE", "SpongController", "SWITCH_SPEED", "TheoryWarning", "TimeCondition", "check_gains", "in_switch_region",
-           "make_controller", "switch_margin"]
+           "SpongController", "TheoryWarning", "TimeCondition", "check_gains", "make_controller"]

@@ -243,10 +243,13 @@ def _gravity_jacobian_rows(b, q, out):
 
 
 def _rows(*arrays):
-    """The arrays broadcast together and flattened to (rows, n), and the batch shape."""
+    """The arrays broadcast together and flattened to (rows, n), and the batch shape.
+
+    Contiguous and writable (read-only inputs, such as a task's goal, copied): a kernel compiled for
+    one array type serves every call."""
     arrays = np.broadcast_arrays(*(np.asarray(a, float) for a in arrays))
     shape = arrays[0].shape
-    return [np.ascontiguousarray(a.reshape(-1, shape[-1])) for a in arrays], shape[:-1]
+    return [np.require(a.reshape(-1, shape[-1]), float, ("C", "W")) for a in arrays], shape[:-1]
 
 
 def batch_mass_matrix(A, armature, q):

@@ -24,7 +24,7 @@ def main(argv=None):
     args = parser.parse_args(argv)
 
     robot = load_robot(args.robot)
-    traj = simulate_mujoco(robot, args.controller, t_final=args.t_final, goal=args.goal)  # from hanging
+    traj = simulate_mujoco(robot, args.controller, t_final=args.t_final, task=args.goal)  # from the task's start
     traj.save(args.out)  # trajectory.npz, trajectory.csv, summary.json
     save_figure(angles_figure(traj, f"{robot.name}, {args.controller}: angles"), args.out, "angles")
     save_figure(torques_figure(traj, f"{robot.name}, {args.controller}: torques"), args.out, "torques")

@@ -27,11 +27,10 @@ def main(argv=None):
     backend = select_backend(args.gl)  # first: MuJoCo reads the backend once, when it loads
     from paa_mj.model import load_robot
     from paa_mj.outputs.video import render_trajectory
-    from paa_mj.model.states import start_state
     from paa_mj.sim import simulate_mujoco
 
     robot = load_robot(args.robot)
-    traj = simulate_mujoco(robot, "vcl", start_state(robot.params.n_links, args.goal), args.t_final, goal=args.goal)
+    traj = simulate_mujoco(robot, "vcl", t_final=args.t_final, task=args.goal)  # from the task's start
     path = render_trajectory(robot, traj, args.out, fps=args.fps, width=args.width, height=args.height)
     print(f"rendered {args.t_final:g} s of {robot.name}'s swing-up to the {args.goal} goal through {backend} into {path}")
     return path

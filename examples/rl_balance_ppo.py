@@ -12,10 +12,10 @@ A success is the package's (``info["is_success"]`` at the end of an episode): no
 state inside region (68) of UDD throughout the last second. The evaluation runs ``--eval-episodes``
 episodes from the seeds 10000, 10001, ... (starts the training never saw), the policy deterministic.
 The trained model is saved (``--out``) and runs in every command through
-:class:`paa_mj.control.policy.SB3Policy`::
+:class:`paa_mj.envs.policy.SB3Policy`::
 
     # mine.py
-    from paa_mj.control.policy import SB3Policy
+    from paa_mj.envs.policy import SB3Policy
 
     class Balance(SB3Policy):
         path = "out/ppo_balance.zip"
@@ -96,7 +96,7 @@ def evaluate(model, episodes, seed=EVAL_SEED, **env_options):
     """
     import gymnasium as gym
 
-    from paa_mj.gym_env import BALANCE_ID
+    from paa_mj.envs import BALANCE_ID
 
     envs = gym.make_vec(BALANCE_ID, num_envs=episodes, **env_options)
     obs, _ = envs.reset(seed=seed)
@@ -141,7 +141,7 @@ def main(argv=None):
     if args.seed < 0:
         parser.error("--seed must be >= 0")
 
-    from paa_mj.control.policy import require_sb3
+    from paa_mj.envs.policy import require_sb3
     from paa_mj.errors import PaaError
 
     try:
@@ -153,11 +153,11 @@ def main(argv=None):
     from stable_baselines3 import PPO
     from stable_baselines3.common.vec_env import VecNormalize
 
-    from paa_mj.gym_env import BALANCE_ID
+    from paa_mj.envs import BALANCE_ID
 
     torch.set_num_threads(args.threads)
     start_wall, start_cpu = time.perf_counter(), time.process_time()
-    env_options = {"robot": args.robot, "goal": args.goal}
+    env_options = {"robot": args.robot, "task": args.goal}
     if args.torque_limit is not None:
         env_options["torque_limit"] = args.torque_limit
     try:

@@ -281,12 +281,19 @@ class Task:
         """A continuous function that is negative exactly inside region (68) (an ODE event)."""
         return self._margin(q, qd, self.switch_region)
 
-    def in_switch_region(self, q, qd):
-        """Inside region (68): shape (...,) of bool."""
+    def _inside(self, q, qd, region: Region):
         x = self.error(q, qd)
-        n, region = self.n_links, self.switch_region
+        n = self.n_links
         return np.all(np.abs(x[..., :n]) < region.angle, axis=-1) & np.all(np.abs(x[..., n:]) < region.speed,
                                                                             axis=-1)
+
+    def in_switch_region(self, q, qd):
+        """Inside region (68): shape (...,) of bool."""
+        return self._inside(q, qd, self.switch_region)
+
+    def in_success_region(self, q, qd):
+        """Inside the success region: shape (...,) of bool."""
+        return self._inside(q, qd, self.success_region)
 
     def distance(self, q, qd):
         """:math:`\\max_i |x_i|`, the largest error from the goal [rad, rad/s]; shape (...,)."""

@@ -13,6 +13,7 @@ distributed = pytest.importorskip("distributed")
 
 from paa_mj.cli import main  # noqa: E402
 from paa_mj.model.states import X0_HANGING  # noqa: E402
+from paa_mj.task import Task  # noqa: E402
 from paa_mj.studies.basin import basin  # noqa: E402
 from paa_mj.studies.runner import RolloutSet, run_study  # noqa: E402
 from paa_mj.studies.store import ChunkStore  # noqa: E402
@@ -40,7 +41,7 @@ def test_basin_identical_on_dask_and_inline(gymnast, scheduler_address):
 def _noisy_set(n=12):
     x0 = np.tile(X0_HANGING, (n, 1))
     x0[:, 1] += np.linspace(-0.5, 0.5, n)
-    return RolloutSet(x0, "vcl", noise_std=np.full((n, 2), 0.01), delay_steps=np.arange(n) % 3)
+    return RolloutSet(x0, "vcl", Task.named("folded", 3), noise_std=np.full((n, 2), 0.01), delay_steps=np.arange(n) % 3)
 
 
 def test_chunked_noisy_rollouts_identical(gymnast, scheduler_address):

@@ -88,7 +88,7 @@ class _Zero:
 def test_the_ppo_examples_evaluation_is_seeded_episodes_of_the_env():
     """The evaluation's episodes, run side by side, are those of gym.make(BALANCE_ID) from the seeds 10000, ..."""
     gym = pytest.importorskip("gymnasium")
-    from paa_mj.gym_env import BALANCE_ID
+    from paa_mj.envs import BALANCE_ID
 
     success, length = _ppo_example().evaluate(_Zero(), 3)
     env = gym.make(BALANCE_ID)
@@ -104,7 +104,7 @@ def test_the_ppo_examples_evaluation_is_seeded_episodes_of_the_env():
 
 
 POLICY_FILE = '''
-from paa_mj.control.policy import SB3Policy
+from paa_mj.envs.policy import SB3Policy
 
 
 class Balance(SB3Policy):
@@ -132,7 +132,7 @@ def test_the_ppo_example_trains_and_its_policy_runs_as_a_controller(tmp_path):
 
     # the saved model through the package's engine, as every command runs it, and through the env: the same states
     from paa_mj.control.registry import make_controller
-    from paa_mj.gym_env import GymnastEnv
+    from paa_mj.envs import GymnastEnv
     from paa_mj.model import load_robot
     from paa_mj.sim.rollout import simulate_mujoco
 
@@ -168,7 +168,8 @@ def test_realaigyms_own_controller_on_our_model_scores_as_published():
     """RealAIGym's Energy PFL (ported with its own formulas) on models/realaigym_acrobot_v1.xml in MuJoCo, their
     settings (RK4 at 2 ms, 10 s from hanging at rest): their metrics against their published v1 leaderboard row
     (real_ai_gym_leaderboard, data/acrobot/simulation/pflcol_lqr/scores.csv: swing-up 4.118 s, torque cost
-    18.7946, velocity cost 280.813, RealAI score 0.727858; their energy 29.0121, ours 0.2 % above, unexplained)."""
+    18.7946, velocity cost 280.813, RealAI score 0.727858; their energy 29.0121 was scored on an older record of theirs,
+    one torque sample shifted: test_realaigym_score.py recomputes it exactly)."""
     from paa_mj.control.registry import make_controller
     from paa_mj.model import load_robot
     from paa_mj.sim.rollout import simulate_mujoco
@@ -176,8 +177,8 @@ def test_realaigyms_own_controller_on_our_model_scores_as_published():
     score = _example("realaigym/score.py")
     robot = load_robot("realaigym_acrobot_v1")
     controller = make_controller(f"{EXAMPLES / 'realaigym' / 'pfl_controller.py'}:PFLCollocatedLQR_C03", robot,
-                                 goal="stretched")
-    traj = simulate_mujoco(robot, controller, [-np.pi, 0, 0, 0], 10.0, dt=0.002, sample_dt=0.002, goal="stretched")
+                                 task="stretched")
+    traj = simulate_mujoco(robot, controller, [-np.pi, 0, 0, 0], 10.0, dt=0.002, sample_dt=0.002, task="stretched")
     result = score.scores(traj.t, traj.q, traj.qd, traj.tau[:, 0], 0.2, 0.3)
     assert result["success"] and result["swingup_time"] == pytest.approx(4.118, abs=0.0021)
     assert result["tau_cost"] == pytest.approx(18.7946, rel=1e-4)

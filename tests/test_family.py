@@ -6,6 +6,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from paa_mj.control import make_controller
 from paa_mj.errors import PaaError
 from paa_mj.model import chain
 from paa_mj.model.crosscheck import cross_check
@@ -13,6 +14,7 @@ from paa_mj.model.dynamics import AnalyticModel
 from paa_mj.model.mjcf import MODEL_DIR, compile_mjcf, mjcf_from_params, params_from_model
 from paa_mj.model.params import RobotParams
 from paa_mj.model.robot import NAMED_ROBOTS, load_robot, model_from_params
+from paa_mj.task import Task
 
 from .helpers import cli
 
@@ -105,7 +107,7 @@ def test_the_acrobot_is_drakes():
     assert p.damping.tolist() == [0.1, 0.1] and p.g == 9.81
     am = load_robot("acrobot").analytic
     # the folded goal of an acrobot is the up-down point of Lemma 1: E_r = b1 - b2
-    assert am.E_r == pytest.approx((0.5 * 1 + 1 * 1 - 1 * 1) * 9.81)
+    assert Task.named("folded", am).goal_energy(am) == pytest.approx((0.5 * 1 + 1 * 1 - 1 * 1) * 9.81)
 
 
 def test_make_model_takes_every_parameter_per_link(tmp_path, run):
@@ -161,9 +163,10 @@ def _energy_run(n, goal, damping, seed):
     params = RobotParams(m=m, l=l, lc=l * rng.uniform(0.3, 0.7, n), J=m * l**2 / 12,
                          damping=rng.uniform(0.05, 0.3, n) if damping else None)
     robot = robot_from_xml(mjcf_from_params(params, name=f"chain{n}"))
-    kD = 1.5 * chain_kd_min(robot.analytic, goal).value
-    controller = EnergyVCLController(robot.analytic, kD, kD, kD, goal=goal)
-    traj = simulate_analytic(robot, controller, t_final=1.5, sample_dt=0.002, rtol=1e-11, atol=1e-11, goal=goal)
+    task = Task.named(goal, robot)
+    kD = 1.5 * chain_kd_min(robot.analytic, task).value
+    controller = EnergyVCLController(robot.analytic, kD, kD, kD, task=task)
+    traj = simulate_analytic(robot, controller, t_final=1.5, sample_dt=0.002, rtol=1e-11, atol=1e-11, task=task)
     return robot, controller, traj
 
 
@@ -200,7 +203,7 @@ def test_the_chain_law_is_the_papers_law_for_the_gymnast(gymnast, rng):
 
     gains = gymnast.gains
     paper = EnergyVCLController(gymnast.analytic, **gains)
-    params = chain_parameters(gymnast.analytic, "folded", gains["kD"], gains["kP"], gains["kV"], True)
+    params = chain_parameters(gymnast.analytic, Task.named("folded", gymnast), gains["kD"], gains["kP"], gains["kV"], True)
     x = np.ascontiguousarray(np.concatenate([rng.uniform(-3, 3, (50, 3)), rng.uniform(-2, 2, (50, 3))], 1))
     out = np.empty((50, 2))
     _chain_torque_rows(params, x, out)
@@ -211,7 +214,7 @@ def test_the_singularity_bound_by_its_definition_is_41_for_the_gymnast(gymnast, 
     from paa_mj.theory.conditions import chain_kd_min, frozen_acrobot_controllable, kd_min, merged_acrobot_deltabar
 
     for robot in (gymnast, example2):
-        assert chain_kd_min(robot.analytic).value == pytest.approx(kd_min(robot.analytic).value, rel=1e-9)
+        assert chain_kd_min(robot.analytic, Task.named("folded", robot)).value == pytest.approx(kd_min(robot.analytic).value, rel=1e-9)
         ok, low, high = frozen_acrobot_controllable(robot.analytic)
         merged = merged_acrobot_deltabar(robot.analytic)
         assert merged[0] == ok and merged[1] == pytest.approx(low, rel=1e-6) and merged[2] == pytest.approx(high,
@@ -223,34 +226,37 @@ def test_gains_at_the_bound_are_refused_for_a_chain():
     from paa_mj.control.gains import chain_singularity_bound
 
     acrobot = load_robot("acrobot")
-    bound = chain_singularity_bound(acrobot.analytic, "stretched")
+    stretched = Task.named("stretched", acrobot)
+    bound = chain_singularity_bound(acrobot.analytic, stretched)
     with pytest.raises(PaaError, match=r"kD = .* is not above kD_min = .* of \(41\)"):
-        EnergyVCLController(acrobot.analytic, 0.99 * bound, 10.0, 10.0, goal="stretched")
+        EnergyVCLController(acrobot.analytic, 0.99 * bound, 10.0, 10.0, task=stretched)
 
 
 @pytest.mark.parametrize("robot, goal", [("acrobot", "folded"), ("acrobot", "stretched"), ("chain4", "folded")])
 def test_the_named_robots_swing_up_and_balance_with_their_stored_gains(robot, goal):
     from paa_mj.sim.rollout import simulate_mujoco
 
-    traj = simulate_mujoco(load_robot(robot), "vcl", t_final=30.0, goal=goal)
+    traj = simulate_mujoco(load_robot(robot), "vcl", t_final=30.0, task=goal)
     assert traj.meta["success"], traj.meta["status"]
-    assert traj.switch_time is not None and traj.meta.get("goal", "folded") == goal
+    assert traj.switch_time is not None and traj.summary()["goal"] == goal and traj.task.name == goal
 
 
 def test_the_lqr_balances_any_chain_at_either_goal():
-    from paa_mj.model.states import goal_angles
     from paa_mj.sim.batch import simulate_batch
+    from paa_mj.task import goal_angles
 
     for name in ("acrobot", "chain4"):
         robot = load_robot(name)
         n = robot.params.n_links
         for goal in ("folded", "stretched"):
             x0 = np.concatenate([goal_angles(goal, n) + 0.02, np.zeros(n)])
-            result = simulate_batch(robot, x0[None], 3.0, controller="lqr", goal=goal)
+            result = simulate_batch(robot, x0[None], 3.0, controller="lqr", task=goal)
             assert result.success[0], (name, goal)
-            moved = simulate_batch(robot, x0[None], 3.0, controller="lqr", goal="stretched" if goal == "folded"
-                                   else "folded")
-            assert not moved.success[0], (name, goal)  # judged against the other goal, the same start fails
+            other = "stretched" if goal == "folded" else "folded"
+            moved = simulate_batch(robot, x0[None], 3.0, controller="lqr", task=other)
+            assert not moved.success[0], (name, goal)  # the other goal's balance, judged against it, fails
+            with pytest.raises(PaaError, match=f"built for the {goal} task"):
+                simulate_batch(robot, x0[None], 3.0, controller=make_controller("lqr", robot, task=goal), task=other)
 
 
 def test_every_command_takes_a_robot_of_the_family_and_either_goal(tmp_path, run):
@@ -284,14 +290,14 @@ def test_a_planned_kip_tracked_by_tvlqr_balances_the_acrobot(goal):
     from paa_mj.sim.rollout import simulate_mujoco
 
     robot = load_robot("acrobot")
-    controller = make_controller("trajopt", robot, goal=goal)
+    controller = make_controller("trajopt", robot, task=goal)
     plan = controller.describe()["plan"]
     assert 0.2 < plan["duration"] < 20 and plan["torque_bounds"] == pytest.approx([0.9 * 20.0])
     kip = controller.first.kip
     assert kip.x.shape == (101, 4) and kip.u.shape == (101, 1)
     assert kip.defects(robot.analytic) < 1e-6  # the NumPy chain model agrees with the CasADi one it was solved on
     assert np.max(np.abs(kip.u)) <= 0.9 * 20.0 + 1e-6
-    traj = simulate_mujoco(robot, controller, t_final=plan["duration"] + 3.0, goal=goal)
+    traj = simulate_mujoco(robot, controller, t_final=plan["duration"] + 3.0, task=goal)
     assert traj.meta["success"], traj.meta["status"]
 
 
@@ -299,11 +305,11 @@ def test_the_gymnasium_environments_take_the_family():
     """3n observations and n - 1 actions; the package's controllers balance the acrobot at its folded goal through
     the environment; a vector environment of the chain equals its single environments bit for bit."""
     gym = pytest.importorskip("gymnasium")
-    import paa_mj.gym_env as ge
-    from paa_mj.gym_vector import GymnastVectorEnv
+    import paa_mj.envs as ge
+    from paa_mj.envs.vector import GymnastVectorEnv
 
     ge.register()
-    env = gym.make(ge.KIP_ID, robot="acrobot", goal="folded")
+    env = gym.make(ge.KIP_ID, robot="acrobot", task="folded")
     assert env.observation_space.shape == (6,) and env.action_space.shape == (1,)
     policy = ge.controller_policy("vcl", env)
     obs, info = env.reset(seed=0)
@@ -316,8 +322,8 @@ def test_the_gymnasium_environments_take_the_family():
     with pytest.raises(ValueError, match=r"an action is 3 real numbers, shape \(3,\)"):
         ge.GymnastEnv(robot="chain4").step(np.zeros(2))
 
-    vector = GymnastVectorEnv(num_envs=3, task="balance", robot="chain4", goal="stretched")
-    singles = [ge.GymnastEnv(task="balance", robot="chain4", goal="stretched") for _ in range(3)]
+    vector = GymnastVectorEnv(num_envs=3, episode="balance", robot="chain4", task="stretched")
+    singles = [ge.GymnastEnv(episode="balance", robot="chain4", task="stretched") for _ in range(3)]
     obs, _ = vector.reset(seed=5)
     assert obs.shape == (3, 12)
     assert np.array_equal(obs, np.array([s.reset(seed=5 + i)[0] for i, s in enumerate(singles)]))
@@ -351,8 +357,9 @@ def test_the_atlas_maps_the_family_beyond_theorem_1(run):
         p = row["params"]
         params = RobotParams(m=p["m"], l=p["l"], lc=p["lc"], J=p["J"], g=base.params.g, damping=base.params.damping)
         am = AnalyticModel.from_params(params)
-        assert row["E_r"] == pytest.approx(am.goal_energy("stretched"), rel=1e-12)
-        assert row["kD_min"] == pytest.approx(chain_kd_min(am, "stretched").value, rel=1e-12)
+        stretched = Task.named("stretched", am)
+        assert row["E_r"] == pytest.approx(stretched.goal_energy(am), rel=1e-12)
+        assert row["kD_min"] == pytest.approx(chain_kd_min(am, stretched).value, rel=1e-12)
         gains = row["gains"]
         assert gains["kD"] == pytest.approx(1.05 * row["kD_min"], rel=1e-12)
         assert gains["kP"] / gains["kD"] == pytest.approx(base.gains["kP"] / base.gains["kD"], rel=1e-12)
@@ -383,10 +390,11 @@ def test_theory_says_when_the_lqr_weights_are_unstable_at_the_time_step(run):
         assert out.returncode == 0, out.stderr
         report = json.loads(out.stdout)
         am = load_robot(name).analytic
-        A, B = goal_linearization(am, goal)
+        task = Task.named(goal, am)
+        A, B = goal_linearization(am, task)
         Ad, Bd, *_ = cont2discrete((A, B, np.eye(len(A)), 0 * B), 1e-3, method="zoh")
         assert np.allclose(Ad, expm(A * 1e-3))
-        radius = np.max(np.abs(np.linalg.eigvals(Ad - Bd @ lqr_gain(am, goal=goal))))
+        radius = np.max(np.abs(np.linalg.eigvals(Ad - Bd @ lqr_gain(am, task))))
         assert report["dt"] == 1e-3 and report["lqr_sampled_radius"] == pytest.approx(radius, rel=1e-9)
         assert (report["lqr_sampled_radius"] > 1) == unstable
     text = run("theory", "--robot", "realaigym_acrobot", "--goal", "stretched").stdout
@@ -408,10 +416,11 @@ def test_the_balance_lqr_takes_weights(run):
     assert paper.returncode == 0 and theirs.returncode == 0, theirs.stderr
     assert not json.loads(paper.stdout)["success"] and json.loads(theirs.stdout)["success"]
     am = load_robot("realaigym_acrobot").analytic
-    K = LQRController.for_model(am, "stretched", (1.0, 0.11)).K
-    np.testing.assert_allclose(K, lqr_gain(am, np.eye(4), 0.11 * np.eye(1), goal="stretched"), rtol=1e-12)
-    assert not np.allclose(K, LQRController.for_model(am, "stretched").K)
+    stretched = Task.named("stretched", am)
+    K = LQRController.for_model(am, stretched, (1.0, 0.11)).K
+    np.testing.assert_allclose(K, lqr_gain(am, stretched, np.eye(4), 0.11 * np.eye(1)), rtol=1e-12)
+    assert not np.allclose(K, LQRController.for_model(am, stretched).K)
     bad = run("simulate", "--robot", "acrobot", "--goal", "stretched", "--controller", "spong", "--lqr-weights", 1, 1)
     assert bad.returncode == 2 and "--lqr-weights applies to the controllers vcl, vc, lqr" in bad.stderr
-    with pytest.raises(PaaError, match="must be positive and finite"):
-        LQRController.for_model(am, "stretched", (1.0, float("nan")))
+    with pytest.raises(PaaError, match=r"must each lie in \[1e-09, 1e\+12\], got 1, nan"):
+        LQRController.for_model(am, stretched, (1.0, float("nan")))

@@ -377,7 +377,7 @@ CONTRADICTIONS_AND_RANGES = [
     (["robustness", "--factors=", "--trials", "2"], "no robustness factor given"),
     (["robustness", "--factors", "model_error", "--model-error", "99.9", "--trials", "2"], "must lie in [0, 90]"),
     (["robustness", "--factors", "torque_limit", "--controller", "passive", "--trials", "2", "--t-final", "1",
-      "--scheduler", "inline"], "passive uses no torque there"),
+      "--scheduler", "inline"], "is 0 N m, not a physical torque scale for robot gymnast"),
     (["simulate", "--controller", "trajopt-effort", "--kip-duration", "1e6", "--t-final", "1"],
      "a kip duration must be in (0, 120] s"),
 ]
@@ -492,13 +492,14 @@ def test_two_controllers_that_would_share_result_files_are_refused(tmp_path, run
 def test_a_diverging_kip_is_no_torque_scale(gymnast):
     from paa_mj.errors import PaaError
     from paa_mj.sim.batch import kip_peak_torques
+    from paa_mj.task import Task
 
     class Kick:
         def torque(self, q, qd, t=0.0):
             return np.full(np.shape(q)[:-1] + (2,), 1e12)
 
-    with pytest.raises(PaaError, match=r"the kip of Kick from \(65\) diverged at t = "):
-        kip_peak_torques(gymnast, Kick(), t_final=1.0)
+    with pytest.raises(PaaError, match=r"the run of Kick from the folded task's start diverged at t = "):
+        kip_peak_torques(gymnast, Kick(), Task.named("folded", gymnast), t_final=1.0)
 
 
 def test_a_chunk_that_saw_the_interrupt_is_kept_and_the_study_stops():
@@ -648,7 +649,7 @@ BAD_ENV_ARGS = [
 @pytest.mark.parametrize("kwargs, fragment", BAD_ENV_ARGS, ids=[str(a[0]) for a in BAD_ENV_ARGS])
 def test_the_gym_env_refuses_arguments_it_would_misread(kwargs, fragment):
     pytest.importorskip("gymnasium")
-    from paa_mj.gym_env import GymnastKipEnv
+    from paa_mj.envs import GymnastKipEnv
 
     with pytest.raises(ValueError) as caught:
         GymnastKipEnv(**kwargs)
@@ -657,7 +658,7 @@ def test_the_gym_env_refuses_arguments_it_would_misread(kwargs, fragment):
 
 def test_the_gym_env_clips_at_the_models_actuator_ranges(tmp_path):
     pytest.importorskip("gymnasium")
-    from paa_mj.gym_env import GymnastKipEnv
+    from paa_mj.envs import GymnastKipEnv
 
     path = tmp_path / "limited.xml"
     path.write_text(_variant('<motor name="shoulder" joint="shoulders" gear="1"/>',
@@ -1338,8 +1339,8 @@ MISBEHAVING_REFUSED = [
     ("NoRobotArgument", "controller mine.py:NoRobotArgument(robot) failed: TypeError"),
     ("NoTorque", "controller mine.py:NoTorque has no method torque(q, qd, t)"),
     ("TorqueNotCallable", "controller mine.py:TorqueNotCallable has no method torque(q, qd, t)"),
-    ("TorqueWithoutTime", "controller TorqueWithoutTime.torque failed: TypeError"),
-    ("RaisesMultiLine", "controller RaisesMultiLine.torque failed: KeyError: 'first line\\nsecond line'"),
+    ("TorqueWithoutTime", "controller mine.py:TorqueWithoutTime.torque failed: TypeError"),
+    ("RaisesMultiLine", "controller mine.py:RaisesMultiLine.torque failed: KeyError: 'first line\\nsecond line'"),
     ("ReturnsNone", "ReturnsNone.torque returned object torques"),
     ("ReturnsScalar", "ReturnsScalar.torque returned shape () for states of shape (1, 3)"),
     ("ReturnsFlat", "ReturnsFlat.torque returned shape (2,) for states of shape (1, 3); it must return (1, 2)"),
@@ -1353,7 +1354,7 @@ MISBEHAVING_REFUSED = [
     ("ModeMinusOne", "ModeMinusOne.mode must be 0 (swing-up) or 1 (balance), got -1"),
     ("ModeOfThree", "ModeOfThree.mode must be an integer or one integer per state (shape (1,)), got int64 of shape"),
     ("ModeText", "ModeText.mode must be an integer or one integer per state"),
-    ("ResetExits", "controller ResetExits.reset failed: SystemExit: 3"),
+    ("ResetExits", "controller mine.py:ResetExits.reset failed: SystemExit: 3"),
     ("NotAClass", "controller mine.py:NotAClass(robot) failed: TypeError"),
     ("not_callable", "has no class 'not_callable'"),
     ("Missing", "has no class 'Missing'"),
@@ -2026,7 +2027,7 @@ def test_the_python_api_refuses_bad_arguments_with_one_paa_error(name, gymnast):
 
 
 def _api_refusal_cases(gymnast):
-    from paa_mj.sim import simulate_batch, simulate_mujoco
+    from paa_mj.sim import Disturbances, simulate_batch, simulate_mujoco
     from paa_mj.studies.atlas import atlas
     from paa_mj.studies.basin import basin
     from paa_mj.studies.robustness import robustness
@@ -2034,11 +2035,11 @@ def _api_refusal_cases(gymnast):
     x = np.tile([-np.pi, 0, 0, 0, 0, 0], (3, 1))
     return {
         "simulate_batch rollout_ids shorter than the batch": lambda: simulate_batch(
-            gymnast, x, 0.05, noise_std=0.01, rollout_ids=[7]),
+            gymnast, x, 0.05, disturbances=Disturbances(noise_std=0.01, rollout_ids=[7])),
         "simulate_batch plants that are names": lambda: simulate_batch(gymnast, x[:2], 0.05, plants=["a", "b"]),
         "simulate_mujoco x0 as text": lambda: simulate_mujoco(gymnast, "passive", "abc", 0.05),
-        "simulate_mujoco seed 2**70": lambda: simulate_mujoco(gymnast, "passive", x[0], 0.05, noise_std=0.01,
-                                                              seed=2**70),
+        "simulate_mujoco seed 2**70": lambda: simulate_mujoco(
+            gymnast, "passive", x[0], 0.05, disturbances=Disturbances(noise_std=0.01, seed=2**70)),
         "basin over one axis twice": lambda: basin(gymnast, (0, 0), 2, 0.05),
         "basin chunk 0": lambda: basin(gymnast, (0, 1), 2, 0.05, chunk=0),
         "basin scheduler unknown": lambda: basin(gymnast, (0, 1), 2, 0.05, scheduler="bogus"),
@@ -2101,7 +2102,7 @@ BAD_GYM_CALLS = [
 @pytest.mark.parametrize("what, kwargs, call, fragment", BAD_GYM_CALLS, ids=[c[0] for c in BAD_GYM_CALLS])
 def test_the_gym_env_refuses_what_it_would_misread_second_pass(what, kwargs, call, fragment):
     pytest.importorskip("gymnasium")
-    from paa_mj.gym_env import GymnastKipEnv
+    from paa_mj.envs import GymnastKipEnv
 
     with pytest.raises(ValueError) as caught:
         env = GymnastKipEnv(**kwargs)
@@ -2118,7 +2119,7 @@ def test_the_gym_env_refuses_what_it_would_misread_second_pass(what, kwargs, cal
 
 def test_the_gym_env_still_takes_float32_and_integer_actions():
     pytest.importorskip("gymnasium")
-    from paa_mj.gym_env import GymnastKipEnv
+    from paa_mj.envs import GymnastKipEnv
 
     env = GymnastKipEnv(init_noise=0.0)
     env.reset(seed=0)
@@ -2131,7 +2132,7 @@ def test_the_gym_env_still_takes_float32_and_integer_actions():
 @pytest.mark.parametrize("how", ["torques beyond MuJoCo's range", "a start beyond MuJoCo's range"])
 def test_a_diverging_gym_step_leaves_no_mujoco_log_and_prints_nothing(how, tmp_path, monkeypatch, capfd):
     pytest.importorskip("gymnasium")
-    from paa_mj.gym_env import GymnastKipEnv
+    from paa_mj.envs import GymnastKipEnv
 
     monkeypatch.chdir(tmp_path)
     env = GymnastKipEnv(torque_limit=1e12)

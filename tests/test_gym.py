@@ -9,14 +9,15 @@ gym = pytest.importorskip("gymnasium")
 from gymnasium.utils.env_checker import check_env  # noqa: E402
 from gymnasium.vector import AutoresetMode, SyncVectorEnv  # noqa: E402
 
-from paa_mj import gym_env  # noqa: E402
+from paa_mj import envs  # noqa: E402
 from paa_mj.control import make_controller  # noqa: E402
-from paa_mj.gym_env import BALANCE_ID, ENV_ID, KIP_ID, GymnastEnv, GymnastKipEnv  # noqa: E402
-from paa_mj.gym_vector import GymnastVectorEnv  # noqa: E402
+from paa_mj.task import Task  # noqa: E402
+from paa_mj.envs import BALANCE_ID, ENV_ID, KIP_ID, GymnastEnv, GymnastKipEnv  # noqa: E402
+from paa_mj.envs.vector import GymnastVectorEnv  # noqa: E402
 
 
 def test_passes_gymnasiums_checker():
-    env = gym.make(f"paa_mj.gym_env:{ENV_ID}")
+    env = gym.make(f"paa_mj.envs:{ENV_ID}")
     check_env(env.unwrapped, skip_render_check=True)
     env.close()
 
@@ -34,7 +35,7 @@ def test_normalised_actions_pass_without_the_action_space_warning():
 
 
 def test_a_registered_controller_as_the_policy():
-    from paa_mj.gym_env import controller_policy
+    from paa_mj.envs import controller_policy
 
     env = GymnastKipEnv(normalize_actions=True, init_noise=0.0, max_episode_seconds=25.0)
     policy = controller_policy("vcl", env)
@@ -103,7 +104,7 @@ def test_v1_ids_have_learning_defaults_and_a_horizon_wrappers_read(env_id, task,
     env = gym.make(env_id)
     assert env.spec.max_episode_steps == horizon and isinstance(env, gym.wrappers.TimeLimit)
     inner = env.unwrapped
-    assert inner.task == task and inner.frame_skip == 10 and inner.dt == pytest.approx(0.01)
+    assert inner.episode == task and inner.task.name == "folded" and inner.frame_skip == 10 and inner.dt == pytest.approx(0.01)
     assert inner.max_steps == horizon  # the env's own truncation agrees with the registered horizon
     assert env.action_space.low.tolist() == [-1, -1] and env.action_space.high.tolist() == [1, 1]
     check_env(inner, skip_render_check=True)
@@ -112,7 +113,7 @@ def test_v1_ids_have_learning_defaults_and_a_horizon_wrappers_read(env_id, task,
 
 
 def test_balance_starts_from_a_uniform_perturbation_of_udd():
-    env = GymnastEnv(task="balance")
+    env = GymnastEnv(episode="balance")
     starts = np.array([np.concatenate([info["q"], info["qd"]]) for info in
                        (env.reset(seed=s)[1] for s in range(200))])
     error = starts - [0, -np.pi, 0, 0, 0, 0]
@@ -121,11 +122,9 @@ def test_balance_starts_from_a_uniform_perturbation_of_udd():
 
 
 def test_is_success_is_the_package_success_over_every_physics_step():
-    """frame_skip 1: every state the env steps through is seen, so succeeded() can be recomputed from them."""
-    from paa_mj.control.region import in_switch_region, succeeded
-
-    env = GymnastEnv(task="balance", frame_skip=1, max_episode_seconds=2.5, terminate_margin=np.inf, torque_limit=500.0)
-    policy = gym_env.controller_policy("lqr", env)
+    """frame_skip 1: every state the env steps through is seen, so the task's success can be recomputed from them."""
+    env = GymnastEnv(episode="balance", frame_skip=1, max_episode_seconds=2.5, terminate_margin=np.inf, torque_limit=500.0)
+    policy = envs.controller_policy("lqr", env)
     # a start just outside region (68) (d1 = 0.6 rad/s): the last second starts when the LQR brings it in
     obs, info = env.reset(seed=0, options={"x0": [0.05, -np.pi, 0, 0.6, 0, 0]})
     policy.reset()
@@ -136,27 +135,27 @@ def test_is_success_is_the_package_success_over_every_physics_step():
         flags.append(info["is_success"])
         done = terminated or truncated
     states = np.array(states)
-    inside = in_switch_region(states[:, :3], states[:, 3:])
+    task = env.task
+    inside = task.in_switch_region(states[:, :3], states[:, 3:])
     assert not inside[0] and inside[-1]
     steps = np.arange(len(states))
-    last_exit = np.maximum.accumulate(np.where(~inside, steps, -1))
-    expected = succeeded(np.ones(len(steps), bool), np.zeros(len(steps), bool), last_exit, steps, 0.001)
+    outside = ~task.in_success_region(states[:, :3], states[:, 3:])
+    books = np.column_stack([np.zeros_like(steps), np.maximum.accumulate(np.where(outside, steps, -1)),
+                             np.zeros_like(steps)])
+    expected = task.succeeded(books, steps, True, False, 0.001)
     np.testing.assert_array_equal(flags, expected)
     assert flags[-1] and not all(flags)
 
 
 def test_the_rewards_are_the_documented_formulas():
-    from paa_mj.control.region import in_switch_region
-    from paa_mj.model.states import udd_error
-
     for task in ("kip", "balance"):
-        env = GymnastEnv(task=task)
+        env = GymnastEnv(episode=task)
         env.reset(seed=1, options={"x0": [0.03, -np.pi + 0.02, -0.02, 0.01, 0.0, 0.0]})  # near UDD: the 1[(68)] too
         action = np.array([0.3, -0.2] if task == "balance" else [0.02, -0.01], np.float32)  # ~10 N m, both
         _, reward, _, _, info = env.step(action)
-        x = udd_error(info["q"], info["qd"])
+        x = env.task.error(info["q"], info["qd"])
         u = env.action_to_torque(action) / env.torque_limits
-        alive = float(in_switch_region(info["q"], info["qd"]))
+        alive = float(env.task.in_switch_region(info["q"], info["qd"]))
         if task == "kip":
             expected = alive - x[:3] @ x[:3] / (3 * np.pi**2) - 1e-3 * x[3:] @ x[3:] - 1e-2 * np.mean(u**2)
         else:
@@ -166,16 +165,14 @@ def test_the_rewards_are_the_documented_formulas():
 
 
 def test_balance_terminates_when_it_leaves_region_68_by_the_margin():
-    from paa_mj.control.region import switch_margin
-
-    env = GymnastEnv(task="balance")
+    env = GymnastEnv(episode="balance")
     env.reset(seed=0)
     terminated = truncated = False
     while not (terminated or truncated):  # no torque: it falls
         _, _, terminated, truncated, info = env.step(np.zeros(2, np.float32))
     assert terminated and not truncated and not info["is_success"] and not info["diverged"]
-    assert switch_margin(info["q"], info["qd"]) >= 0.5
-    kip = GymnastEnv(task="kip", max_episode_seconds=0.5)  # the kip leaves region (68) at once: never terminates
+    assert env.task.switch_margin(info["q"], info["qd"]) >= 0.5
+    kip = GymnastEnv(episode="kip", max_episode_seconds=0.5)  # the kip leaves region (68) at once: never terminates
     kip.reset(seed=0)
     results = [kip.step(np.zeros(2, np.float32)) for _ in range(50)]
     assert not any(r[2] for r in results) and results[-1][3]
@@ -183,7 +180,7 @@ def test_balance_terminates_when_it_leaves_region_68_by_the_margin():
 
 def test_the_lqr_balances_every_start_of_the_balance_task():
     env = gym.make(BALANCE_ID)
-    policy = gym_env.controller_policy("lqr", env)
+    policy = envs.controller_policy("lqr", env)
     for seed in range(3):
         obs, info = env.reset(seed=seed)
         policy.reset()
@@ -196,8 +193,9 @@ def test_the_lqr_balances_every_start_of_the_balance_task():
 
 
 @pytest.mark.parametrize("kwargs, fragment", [
-    (dict(task="walk"), "task must be 'kip' or 'balance', got 'walk'"),
-    (dict(task=None), "task must be 'kip' or 'balance'"),
+    (dict(episode="walk"), "episode must be 'kip' or 'balance', got 'walk'"),
+    (dict(episode=None), "episode must be 'kip' or 'balance'"),
+    (dict(task="kip"), "task='kip' names an episode type: use episode='kip'"),
     (dict(init_speed_noise=-0.1), "init_speed_noise must be a finite number >= 0 [rad/s]"),
     (dict(init_speed_noise=np.nan), "init_speed_noise must be a finite number >= 0"),
     (dict(terminate_margin=-1.0), "terminate_margin must be a number >= 0"),
@@ -223,7 +221,7 @@ def _as_given(actions, k):
 def test_the_vector_env_equals_single_envs_bit_for_bit(mode, num_threads):
     """Random actions (some beyond [-1, 1]: clipped), short episodes and a tight margin: terminations, truncations
     and resets in every mode, with the compiled step in one call or split over threads."""
-    n, options = 5, dict(task="balance", max_episode_seconds=0.25, terminate_margin=0.2)
+    n, options = 5, dict(episode="balance", max_episode_seconds=0.25, terminate_margin=0.2)
     vector = GymnastVectorEnv(n, autoreset_mode=mode, num_threads=num_threads, **options)
     singles = SyncVectorEnv([lambda: GymnastEnv(**options) for _ in range(n)], autoreset_mode=mode)
     a, info_a = vector.reset(seed=7)
@@ -258,7 +256,7 @@ def test_the_vector_env_equals_single_envs_bit_for_bit(mode, num_threads):
 def test_the_vector_env_of_torques_and_of_the_kip_equals_single_envs():
     """v0's torque actions (clipped at the limits, one physics step) and the kip: the same bits as single envs,
     and the arrays a step returns stay the caller's (the next steps do not change them)."""
-    for options in (dict(task="kip", normalize_actions=False, frame_skip=1, torque_limit=50.0), dict(task="kip")):
+    for options in (dict(episode="kip", normalize_actions=False, frame_skip=1, torque_limit=50.0), dict(episode="kip")):
         n, torques = 4, not options.get("normalize_actions", True)
         vector = GymnastVectorEnv(n, **options)
         singles = [GymnastEnv(**options) for _ in range(n)]
@@ -284,18 +282,19 @@ def test_the_vector_env_of_torques_and_of_the_kip_equals_single_envs():
 
 def test_bench_times_the_physics_of_the_same_steps_without_timing_assertions():
     """``physics_only`` (bench's floor) runs the vector environment's steps: from the same reset, the same states."""
-    from paa_mj.gym_vector import physics_only
+    from paa_mj.envs.vector import physics_only
     from paa_mj.studies.bench import vector_env_costs
 
-    vector = GymnastVectorEnv(3, task="kip")
+    vector = GymnastVectorEnv(3, episode="kip")
     actions = np.random.default_rng(0).uniform(-1, 1, (4, 3, 2)).astype(np.float32)
     vector.reset(seed=0)
     for a in actions:
         vector.step(a)
     stepped = np.hstack([vector._robots.q, vector._robots.qd])
     vector.reset(seed=0)
-    tau = np.ascontiguousarray(gym_env.action_to_torque(actions, vector.torque_limits))
-    physics_only(vector.model._address, vector._robots.addresses, tau, vector._robots.frame_skip)
+    tau = np.ascontiguousarray(envs.action_to_torque(actions, vector.torque_limits))
+    physics = vector._robots.physics
+    physics_only(physics.model, physics.addresses, tau, physics.frame_skip)
     np.testing.assert_array_equal(np.hstack([[d.qpos for d in vector._robots.datas],
                                              [d.qvel for d in vector._robots.datas]]), stepped)
     costs = vector_env_costs(n_envs=2, steps=2, repeats=1, frame_skip=1)
@@ -324,7 +323,7 @@ def test_make_vec_builds_the_compiled_vector_env():
     (dict(render_mode="rgb_array"), None, "render_mode must be None for the vector environment"),
     (dict(num_threads=0), None, "num_threads must be in [1, 1024]"),
     (dict(frame_skip=0), None, "frame_skip must be in [1, 1000000]"),
-    (dict(task="walk"), None, "task must be"),
+    (dict(episode="walk"), None, "episode must be"),
     (dict(max_episode_steps=0), None, "max_episode_steps must be in"),
     ({}, ("step", np.zeros(2)), "actions are two real numbers per sub-environment, shape (2, 2), got shape (2,)"),
     ({}, ("step", [[np.nan, 0], [0, 0]]), "actions must be finite; sub-environment(s) [0]"),
@@ -350,7 +349,7 @@ def test_the_vector_env_refuses_what_it_would_misread(kwargs, call, fragment):
 
 
 def test_the_vector_env_asks_for_reset_first_and_for_resets_when_autoreset_is_off():
-    envs = GymnastVectorEnv(2, task="balance", autoreset_mode="Disabled", max_episode_steps=1)
+    envs = GymnastVectorEnv(2, episode="balance", autoreset_mode="Disabled", max_episode_steps=1)
     with pytest.raises(ValueError, match="call reset"):
         envs.step(np.zeros((2, 2)))
     envs.reset(seed=0)
@@ -364,7 +363,8 @@ def test_the_vector_env_asks_for_reset_first_and_for_resets_when_autoreset_is_of
 STAND_IN = '''
 import numpy as np
 from paa_mj.control.lqr import LQRController
-from paa_mj.control.policy import SB3Policy
+from paa_mj.envs.policy import SB3Policy
+from paa_mj.task import Task
 
 
 class Linear:
@@ -381,7 +381,8 @@ class Linear:
 
 class Trained(SB3Policy):
     def load_model(self):
-        return Linear(LQRController.for_model(self.robot.analytic).K, self.torque_limits)
+        return Linear(LQRController.for_model(self.robot.analytic, Task.named("folded", self.robot)).K,
+                      self.torque_limits)
 
 
 class Saved(SB3Policy):
@@ -405,7 +406,7 @@ def test_a_policy_adapter_runs_as_the_env_runs_it(policy_file, gymnast):
 
     controller = make_controller(f"{policy_file}:Trained", gymnast)
     traj = simulate_mujoco(gymnast, controller, X0_NEAR_UDD, t_final=1.0, sample_dt=0.01)
-    env = GymnastEnv(task="balance", init_noise=0.0, init_speed_noise=0.0)
+    env = GymnastEnv(episode="balance", init_noise=0.0, init_speed_noise=0.0)
     obs, info = env.reset(options={"x0": X0_NEAR_UDD})
     states = [np.concatenate([info["q"], info["qd"]])]
     for _ in range(100):
@@ -442,21 +443,21 @@ def test_a_policy_file_without_stable_baselines3_is_one_line(policy_file, capsys
 
 
 def test_the_observation_and_action_maps_are_the_envs():
-    env = GymnastEnv(task="kip")
+    env = GymnastEnv(episode="kip")
     obs, info = env.reset(seed=3)
-    np.testing.assert_array_equal(gym_env.observation(info["q"], info["qd"]), obs)
-    assert gym_env.observation(np.zeros((4, 5, 3)), np.zeros(3)).shape == (4, 5, 9)
+    np.testing.assert_array_equal(envs.observation(info["q"], info["qd"]), obs)
+    assert envs.observation(np.zeros((4, 5, 3)), np.zeros(3)).shape == (4, 5, 9)
     actions = np.array([[0.5, -2.0], [1.0, 0.25]])
-    np.testing.assert_array_equal(gym_env.action_to_torque(actions, env.torque_limits),
+    np.testing.assert_array_equal(envs.action_to_torque(actions, env.torque_limits),
                                   [env.action_to_torque(a) for a in actions])
-    np.testing.assert_allclose(gym_env.torque_to_action(gym_env.action_to_torque(actions[1], env.torque_limits),
+    np.testing.assert_allclose(envs.torque_to_action(envs.action_to_torque(actions[1], env.torque_limits),
                                                         env.torque_limits), actions[1], rtol=1e-6)
 
 
 def test_a_policy_whose_spaces_are_not_the_envs_is_one_line(gymnast):
     from gymnasium import spaces
 
-    from paa_mj.control.policy import SB3Policy
+    from paa_mj.envs.policy import SB3Policy
     from paa_mj.errors import PaaError
 
     class Model:
@@ -480,13 +481,13 @@ def test_a_policy_adapter_runs_a_chain_as_its_env_runs_it():
     from gymnasium import spaces
 
     from paa_mj.control.lqr import LQRController
-    from paa_mj.control.policy import SB3Policy
+    from paa_mj.envs.policy import SB3Policy
     from paa_mj.errors import PaaError
     from paa_mj.model.robot import load_robot
     from paa_mj.sim.rollout import simulate_mujoco
 
     acrobot = load_robot("acrobot")
-    K = LQRController.for_model(acrobot.analytic, goal="stretched").K
+    K = LQRController.for_model(acrobot.analytic, Task.named("stretched", acrobot)).K
 
     class Linear:
         def __init__(self, obs, actions, limits):
@@ -507,8 +508,8 @@ def test_a_policy_adapter_runs_a_chain_as_its_env_runs_it():
 
     policy = Policy(acrobot)
     x0 = [0.05, -0.04, 0.0, 0.1]
-    traj = simulate_mujoco(acrobot, policy, x0, t_final=1.0, sample_dt=0.01)
-    env = GymnastEnv(task="balance", robot="acrobot", goal="stretched", torque_limit=20.0, init_noise=0.0,
+    traj = simulate_mujoco(acrobot, policy, x0, t_final=1.0, task="stretched", sample_dt=0.01)
+    env = GymnastEnv(episode="balance", robot="acrobot", task="stretched", torque_limit=20.0, init_noise=0.0,
                      init_speed_noise=0.0)
     obs, info = env.reset(options={"x0": x0})
     states = [np.concatenate([info["q"], info["qd"]])]
@@ -529,13 +530,13 @@ def test_the_analytic_physics_steps_as_mujoco_does_to_rounding(robot, goal):
     """physics="analytic" (RK4 of the robot's own equations) against MuJoCo's mj_step: the same episode under the
     same actions, state for state to 1e-9 over a second; and its vector environment equals its single
     environments bit for bit (the same compiled code)."""
-    from paa_mj.gym_vector import GymnastVectorEnv
+    from paa_mj.envs.vector import GymnastVectorEnv
 
     links = {"gymnast": 3, "acrobot": 2, "chain4": 4}[robot]
     actions = np.random.default_rng(1).uniform(-0.3, 0.3, (100, 3, links - 1)).astype(np.float32)
     states = {}
     for physics in ("mujoco", "analytic"):
-        envs = [GymnastEnv(task="kip", robot=robot, goal=goal, physics=physics) for _ in range(3)]
+        envs = [GymnastEnv(episode="kip", robot=robot, task=goal, physics=physics) for _ in range(3)]
         rows = []
         for i, env in enumerate(envs):
             env.reset(seed=i)
@@ -544,7 +545,7 @@ def test_the_analytic_physics_steps_as_mujoco_does_to_rounding(robot, goal):
     assert np.all(np.isfinite(states["analytic"]))
     np.testing.assert_allclose(states["analytic"], states["mujoco"], rtol=0, atol=1e-9)
     assert np.max(np.abs(states["analytic"][:, -1] - states["analytic"][:, 0])) > 0.1  # it moved
-    vector = GymnastVectorEnv(3, task="kip", robot=robot, goal=goal, physics="analytic")
+    vector = GymnastVectorEnv(3, episode="kip", robot=robot, task=goal, physics="analytic")
     vector.reset(seed=0)
     stepped = np.array([np.hstack([info["q"], info["qd"]]) for info in (vector.step(a)[4] for a in actions)])
     np.testing.assert_array_equal(stepped.transpose(1, 0, 2), states["analytic"])

@@ -113,7 +113,7 @@ def test_every_study_applies_the_torque_limit_and_reports_the_peak(gymnast, caps
                  "--scheduler", "inline", "--json"]) == 0
     atlas = json.loads(capsys.readouterr().out)
     assert atlas["torque_limit"] == [25.0, 25.0] and max(atlas["max_abs_tau"]) <= 25.0 + 1e-9
-    assert "region (68)" in atlas["success"] and "region (68)" in rob["success"]
+    assert "region (68)" in atlas["success_definition"] and "region (68)" in rob["success_definition"]
 
 
 def _basin_arrays(out):

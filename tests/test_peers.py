@@ -24,7 +24,7 @@ def acrobot():
 
 @pytest.fixture(scope="module")
 def spong(acrobot):
-    return make_controller("spong", acrobot, goal="stretched")
+    return make_controller("spong", acrobot, task="stretched")
 
 
 # --- an independent statement of Drake's law, in Drake's coordinates, from AcrobotParams' defaults ---------
@@ -127,7 +127,7 @@ def test_spong_compiled_form_gives_the_same_torques(spong):
 
 def test_spong_refuses_other_robots_and_goals(acrobot):
     with pytest.raises(PaaError, match="2 links"):
-        make_controller("spong", load_robot("gymnast"), goal="stretched")
+        make_controller("spong", load_robot("gymnast"), task="stretched")
     with pytest.raises(PaaError, match="--goal stretched"):
         make_controller("spong", acrobot)
 
@@ -138,7 +138,7 @@ def test_spong_balances_the_acrobot_in_mujoco(acrobot, spong):
 
     theta0 = np.array([1.1, -0.1, -0.1, -0.1])
     x0 = np.concatenate([[theta0[0] - np.pi], theta0[1:]])
-    traj = simulate_mujoco(acrobot, spong, x0, t_final=7.0, goal="stretched")
+    traj = simulate_mujoco(acrobot, spong, x0, t_final=7.0, task="stretched")
     assert traj.switch_time == pytest.approx(1.127, abs=2e-3)
     assert traj.balanced() and np.all(traj.mode[traj.t > 2.0] == 1)
 

@@ -8,7 +8,8 @@ import pytest
 from paa_mj.cli import main
 from paa_mj.control import TheoryWarning, make_controller
 from paa_mj.errors import PaaError, SimulationDiverged
-from paa_mj.sim import X0_HANGING, Trajectory, simulate_analytic, simulate_mujoco
+from paa_mj.model.states import X0_HANGING
+from paa_mj.sim import Trajectory, simulate_analytic, simulate_mujoco
 
 from .helpers import replay_torques_analytic, replay_torques_mujoco
 
@@ -134,10 +135,10 @@ def test_the_exact_closed_loop_of_a_compiled_law_is_that_of_its_torque(robot, go
     from .helpers import Uncompiled
 
     r = load_robot(robot)
-    compiled = simulate_analytic(r, make_controller("vcl", r, goal=goal), t_final=t_final, goal=goal)
-    plain = make_controller("vcl", r, goal=goal)
+    compiled = simulate_analytic(r, make_controller("vcl", r, task=goal), t_final=t_final, task=goal)
+    plain = make_controller("vcl", r, task=goal)
     plain = CombinedController(Uncompiled(plain.first), Uncompiled(plain.second), plain.condition)
-    python = simulate_analytic(r, plain, t_final=t_final, goal=goal)
+    python = simulate_analytic(r, plain, t_final=t_final, task=goal)
     assert np.all(np.isfinite(compiled.q)) and len(compiled.t) == len(python.t)
     np.testing.assert_allclose(compiled.q, python.q, rtol=0, atol=1e-6)
     np.testing.assert_allclose(compiled.qd, python.qd, rtol=0, atol=1e-5)

@@ -8,6 +8,7 @@ from paa_mj.model.states import Q_UDD
 from paa_mj.outputs.theory_report import theory_report
 from paa_mj.theory import constraint_54, eta1_function, eta2_function, kd_bound_function, thresholds
 from paa_mj.theory.linear import linear_controllability
+from paa_mj.task import Task
 
 from .conftest import GAINS1, GAINS2
 
@@ -81,7 +82,7 @@ def test_udd_linearly_controllable_and_lqr_stabilises(robot, request):
     am = request.getfixturevalue(robot).analytic
     assert theory.udd_controllability(am).controllable
     A, B = theory.udd_linearization(am)
-    K = theory.lqr_gain(am)
+    K = theory.lqr_gain(am, Task.named("folded", am))
     assert K.shape == (2, 6)
     assert np.max(np.linalg.eigvals(A - B @ K).real) < 0
     assert np.max(np.linalg.eigvals(A).real) > 0  # UDD is open-loop unstable

@@ -61,7 +61,7 @@ def cmd_robustness(args):
     factors = [f.strip() for f in args.factors.split(",") if f.strip()]
     summary = _study(args, "robustness", lambda robot, spec, common: robustness(
         robot, trials=args.trials, t_final=args.t_final, seed=args.seed, controller=spec, factors=factors,
-        start=args.start, model_error=args.model_error, **common), write_robustness)
+        start=args.start, model_error=args.model_error, torque_scale=args.torque_scale, **common), write_robustness)
     if not args.json and summary["completed_fraction"] > 0:
         print(f"robot {summary['robot']}, {summary['controller']}: success rate over up to {summary['trials']}"
               f" {summary['start']} starts per level [95 % interval over random draws; (1 run) where nothing is"
@@ -215,6 +215,9 @@ def _register_robustness(sub):
                    help="controller model errors to test [%%] (default: 0 2 5 10)")
     p.add_argument("--torque-limit", type=positive, metavar="T",
                    help="saturate each torque of every run at T [N m] (the torque_limit factor goes below it)")
+    p.add_argument("--torque-scale", type=positive, metavar="N_M",
+                   help="the scale of the torque_limit and torque_noise factors [N m] (default: the peak torque of"
+                        " the controller's own run from the task's start)")
     p.set_defaults(func=cmd_robustness)
 
 

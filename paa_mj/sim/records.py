@@ -21,8 +21,8 @@ from numba import typeof
 from ..task import BOOK
 
 #: A rollout's counters and sums: its step, status (:data:`~paa_mj.sim.step.STATUS_TEXT`), the step of its first
-#: switch to mode 1 (-1: never), samples recorded, the controller's last mode; the integrals of |tau|^2
-#: [N^2 m^2 s] and of |tau . qd_a| [J], the sum of squared torque changes per second [N^2 m^2 / s^2] and the
+#: switch to mode 1 (-1: never), samples recorded, the controller's last mode; the integrals of :math:`|\tau|^2`
+#: [N^2 m^2 s] and of :math:`|\tau \cdot \dot q_a|` [J], the sum of squared torque changes per second [N^2 m^2 / s^2] and the
 #: peak joint speed [rad/s].
 ROLLOUT = np.dtype([("step", np.int64), ("status", np.int64), ("switch", np.int64), ("samples", np.int64),
                     ("mode", np.int64), ("effort", np.float64), ("work", np.float64), ("smooth", np.float64),

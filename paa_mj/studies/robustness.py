@@ -120,7 +120,7 @@ def nominal_peak(robot: Robot, spec: ControllerSpec, torque_limit=None, t_final=
     peak = float(np.max(kip_peak_torques(robot, spec.build(robot), task, torque_limit, t_final)))
     return physical_torque_scale(peak, robot, f"the peak torque of {spec.short_name}'s run from the {task.name}"
                                               " task's start (the scale of the torque_limit and torque_noise factors)",
-                                 "give the scale with torque_scale (or drop those factors)")
+                                 "give the scale with torque_scale (--torque-scale) or drop those factors")
 
 
 def _chosen_levels(factors, levels, model_error) -> dict:

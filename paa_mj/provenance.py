@@ -35,27 +35,145 @@ def text_sha256(text: str) -> str:
     return hashlib.sha256(text.encode("utf-8")).hexdigest()
 
 
+def numba_jit_disabled() -> bool:
+    """True where ``NUMBA_DISABLE_JIT`` asks numba to run its functions uncompiled (as numba reads it)."""
+    value = os.environ.get("NUMBA_DISABLE_JIT", "0").strip()
+    try:
+        return int(value or "0") != 0
+    except ValueError:
+        return True
+
+
+def require_compiled_kernels():
+    """Refuse, in one line, ``NUMBA_DISABLE_JIT``: the physics calls MuJoCo from compiled code, through addresses
+    that uncompiled Python cannot follow, so uncompiled the robots would not move (every run its start)."""
+    from .errors import PaaError
+
+    if numba_jit_disabled():
+        raise PaaError(f"NUMBA_DISABLE_JIT={os.environ.get('NUMBA_DISABLE_JIT')!r} is set: paa_mj's physics runs"
+                       " as compiled code only (uncompiled, MuJoCo would not be stepped); unset it")
+
+
+def _writable_folder(path: Path) -> bool:
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError:
+        return False
+    return os.access(path, os.W_OK | os.X_OK)
+
+
+def numba_cache_folder() -> Path:
+    """Where the package's compiled kernels are kept: a folder named by :func:`package_digest`, inside
+    ``$NUMBA_CACHE_DIR`` where the user set it, else inside :func:`cache_root`, else (neither writable) inside
+    the temporary folder."""
+    import tempfile
+
+    name = package_digest()[:16]
+    user = os.environ.get("PAA_MJ_NUMBA_CACHE_BASE") or os.environ.get("NUMBA_CACHE_DIR")
+    bases = [Path(user)] if user else [cache_root() / "numba"]
+    bases.append(Path(tempfile.gettempdir()) / f"paa_mj-numba-{os.getuid() if hasattr(os, 'getuid') else 0}")
+    for base in bases:
+        if _writable_folder(base / name):
+            return base / name
+    from .errors import PaaError
+
+    raise PaaError(f"no writable folder for the compiled kernels ({', '.join(str(b) for b in bases)}): set"
+                   " PAA_MJ_CACHE to a writable folder")
+
+
 def key_numba_cache_by_code():
-    """Keep numba's compiled kernels in a folder of :func:`cache_root` named by :func:`package_digest`.
+    """Keep numba's compiled kernels in :func:`numba_cache_folder`, and drop unreadable entries.
 
     numba's own cache (``cache=True``) checks only the source file of each compiled function, not those of the
     functions it calls from other modules: after a change to a callee alone (a ``git pull``), the caller's
     cached machine code would still run the old callee. Keyed by the digest of all the package's code, a
-    changed package compiles afresh. Left alone where the user set ``NUMBA_CACHE_DIR`` or the folder cannot
-    be written (numba then caches beside the sources, as it does by default).
+    changed package compiles afresh, wherever the cache is (a ``NUMBA_CACHE_DIR`` of the user's gets a
+    subfolder per digest). A cache file that cannot be read (truncated, zero-filled) is removed and its
+    kernel compiled again (:func:`_drop_unreadable_cache_entries`).
     """
     import sys
 
-    if os.environ.get("NUMBA_CACHE_DIR"):
-        return
-    path = cache_root() / "numba" / package_digest()[:16]
     try:
-        path.mkdir(parents=True, exist_ok=True)
-    except OSError:
+        path = numba_cache_folder()
+    except Exception:  # noqa: BLE001 - reported by the CLI (check_numba_cache); importing must not fail
         return
-    if not os.access(path, os.W_OK):
-        return
+    if "PAA_MJ_NUMBA_CACHE_BASE" not in os.environ:  # the user's base, kept for processes started from this one
+        os.environ["PAA_MJ_NUMBA_CACHE_BASE"] = str(path.parent)
     os.environ["NUMBA_CACHE_DIR"] = str(path)
     numba = sys.modules.get("numba")
     if numba is not None:  # imported before the package: its configuration is read already
         numba.config.CACHE_DIR = str(path)
+    _when_imported("numba.core.caching", _drop_unreadable_cache_entries)
+
+
+class _AfterImport:
+    """A finder that runs ``then(module)`` once ``name`` has been imported (numba is not imported for this alone:
+    ``paa-mj --help`` answers before it loads)."""
+
+    def __init__(self, name, then):
+        self.name, self.then = name, then
+
+    def find_spec(self, fullname, path=None, target=None):
+        if fullname != self.name:
+            return None
+        import importlib.util
+        import sys
+
+        sys.meta_path.remove(self)
+        spec = importlib.util.find_spec(fullname)
+        if spec is None or spec.loader is None:
+            return spec
+        exec_module = spec.loader.exec_module
+
+        def run_then(module):
+            exec_module(module)
+            self.then(module)
+
+        spec.loader.exec_module = run_then
+        return spec
+
+
+def _when_imported(name, then):
+    import sys
+
+    if name in sys.modules:
+        then(sys.modules[name])
+    elif not any(isinstance(f, _AfterImport) and f.name == name for f in sys.meta_path):
+        sys.meta_path.insert(0, _AfterImport(name, then))
+
+
+def _drop_unreadable_cache_entries(caching):
+    """numba's cache files, when they cannot be unpickled, removed and treated as absent (compiled again)
+    instead of failing every command with an ``UnpicklingError``."""
+    cache_file = caching.IndexDataCacheFile
+    if getattr(cache_file, "_paa_mj_guarded", False):
+        return
+    load_index, load_data = cache_file._load_index, cache_file._load_data
+
+    def _load_index(self):
+        try:
+            return load_index(self)
+        except OSError:
+            raise
+        except Exception:  # noqa: BLE001 - an unreadable index is as good as none
+            _remove(self._index_path)
+            return {}
+
+    def _load_data(self, name):
+        try:
+            return load_data(self, name)
+        except OSError:
+            raise
+        except Exception as err:  # noqa: BLE001 - load() treats an OSError as a missing entry
+            _remove(self._data_path(name))
+            raise OSError(f"unreadable cache entry {name}") from err
+
+    cache_file._load_index, cache_file._load_data = _load_index, _load_data
+    cache_file._paa_mj_guarded = True
+
+
+def _remove(path):
+    try:
+        os.unlink(path)
+    except OSError:
+        pass

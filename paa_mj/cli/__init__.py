@@ -60,11 +60,15 @@ def _check_environment():
     """Refuse, in one line, the environment variables that would make importing MuJoCo or numba fail.
 
     Both libraries read them once, on import, and fail there with a traceback (``MUJOCO_GL=invalid``,
-    ``NUMBA_NUM_THREADS=0``) or print one inside a warning (``NUMBA_NUM_THREADS=abc``).
+    ``NUMBA_NUM_THREADS=0``) or print one inside a warning (``NUMBA_NUM_THREADS=abc``); uncompiled
+    (``NUMBA_DISABLE_JIT``) the physics would not move.
     """
+    from ..provenance import numba_cache_folder, require_compiled_kernels
     from ..view.gl import check_mujoco_gl
 
     check_mujoco_gl()
+    require_compiled_kernels()
+    numba_cache_folder()  # a writable folder for the compiled kernels, or one line saying what to set
     threads = os.environ.get("NUMBA_NUM_THREADS")
     if threads is not None:
         try:

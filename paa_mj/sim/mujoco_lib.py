@@ -13,6 +13,10 @@ import os
 import mujoco
 from numba import types
 
+from ..provenance import require_compiled_kernels
+
+require_compiled_kernels()  # uncompiled, the calls below would never step MuJoCo
+
 #: MuJoCo's warnings that mean the simulation has become unstable (bad qacc, qpos, qvel or ctrl).
 WARNINGS = (int(mujoco.mjtWarning.mjWARN_BADQACC), int(mujoco.mjtWarning.mjWARN_BADQPOS),
             int(mujoco.mjtWarning.mjWARN_BADQVEL), int(mujoco.mjtWarning.mjWARN_BADCTRL))

@@ -1,0 +1,74 @@
+"""numba's settings either work as they should or are refused in one line: uncompiled kernels (the physics would
+not move), a cache folder of the user's (kept per version of the package's code), an unusable cache root, and
+cache files that cannot be read (dropped and compiled again)."""
+import json
+import os
+import shutil
+import subprocess
+import sys
+
+import pytest
+
+from paa_mj.provenance import numba_cache_folder, package_digest
+
+
+def _python(code, **env):
+    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          env={**os.environ, **{k: str(v) for k, v in env.items()}})
+
+
+def _paa(*args, **env):
+    for name in ("NUMBA_CACHE_DIR", "PAA_MJ_NUMBA_CACHE_BASE"):
+        os.environ.get(name) and name not in env and env.setdefault(name, os.environ[name])
+    return subprocess.run([sys.executable, "-m", "paa_mj.cli", *map(str, args)], capture_output=True, text=True,
+                          env={**os.environ, **{k: str(v) for k, v in env.items()}})
+
+
+@pytest.mark.parametrize("value", ["1", "yes"])
+def test_uncompiled_kernels_are_refused_in_one_line(value):
+    proc = _paa("simulate", "--t-final", "0.1", "--json", NUMBA_DISABLE_JIT=value)
+    assert proc.returncode == 2 and proc.stdout == ""
+    assert proc.stderr.strip().splitlines() == [
+        f"paa-mj: error: NUMBA_DISABLE_JIT='{value}' is set: paa_mj's physics runs as compiled code only"
+        " (uncompiled, MuJoCo would not be stepped); unset it"]
+    api = _python("from paa_mj.sim import simulate_mujoco", NUMBA_DISABLE_JIT=value)
+    assert api.returncode != 0 and "PaaError: NUMBA_DISABLE_JIT" in api.stderr.strip().splitlines()[-1]
+    assert _paa("simulate", "--t-final", "0.01", "--json", NUMBA_DISABLE_JIT="0").returncode == 0
+
+
+def test_a_cache_folder_of_the_users_gets_one_subfolder_per_version_of_the_code(tmp_path):
+    code = "import os, paa_mj; print(os.environ['NUMBA_CACHE_DIR'])"
+    proc = _python(code, NUMBA_CACHE_DIR=tmp_path, PAA_MJ_NUMBA_CACHE_BASE="")
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip() == str(tmp_path / package_digest()[:16])
+    # a process started from that one keeps the same folder (not a folder inside the folder)
+    nested = _python(f"import subprocess, sys; subprocess.run([sys.executable, '-c', {code!r}])",
+                     NUMBA_CACHE_DIR=tmp_path, PAA_MJ_NUMBA_CACHE_BASE="")
+    assert nested.stdout.strip() == str(tmp_path / package_digest()[:16])
+
+
+def test_an_unusable_cache_root_falls_back_to_the_temporary_folder():
+    proc = _python("import os, paa_mj; print(os.environ['NUMBA_CACHE_DIR'])", PAA_MJ_CACHE="/proc/not-here",
+                   NUMBA_CACHE_DIR="", PAA_MJ_NUMBA_CACHE_BASE="")
+    assert proc.returncode == 0, proc.stderr
+    import tempfile
+
+    assert proc.stdout.strip().startswith(tempfile.gettempdir()) and proc.stdout.strip().endswith(
+        package_digest()[:16])
+
+
+def test_unreadable_cache_files_are_dropped_and_compiled_again(tmp_path):
+    """Truncated and zero-filled index and data files of the kernels a run loads: the run gives the same numbers
+    as with a sound cache, and the files are written anew."""
+    base = tmp_path / "cache"
+    shutil.copytree(numba_cache_folder(), base / package_digest()[:16])
+    sound = _paa("simulate", "--t-final", "0.2", "--json", NUMBA_CACHE_DIR=base, PAA_MJ_NUMBA_CACHE_BASE=base)
+    assert sound.returncode == 0, sound.stderr
+    broken = sorted((base / package_digest()[:16]).rglob("step.*"))
+    assert broken, "the engine's kernels are cached"
+    for k, path in enumerate(broken):
+        path.write_bytes(b"" if k % 2 else b"\0" * 64)
+    again = _paa("simulate", "--t-final", "0.2", "--json", NUMBA_CACHE_DIR=base, PAA_MJ_NUMBA_CACHE_BASE=base)
+    assert again.returncode == 0 and "Error" not in again.stderr, again.stderr
+    assert json.loads(again.stdout)["final_state"] == json.loads(sound.stdout)["final_state"]
+    assert any(path.exists() and path.stat().st_size > 64 for path in broken)

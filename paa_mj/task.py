@@ -38,6 +38,7 @@ from numba import njit
 from numba.extending import register_jitable
 
 from .errors import PaaError
+from .model.params import MAX_LINKS
 from .model.states import wrap
 
 #: The goals of the family: the paper's folded posture and the fully stretched one.
@@ -90,10 +91,16 @@ def _links_of(robot) -> int:
     for holder in (robot, getattr(robot, "params", None)):
         n = getattr(holder, "n_links", None)
         if isinstance(n, (int, np.integer)):
-            return int(n)
+            return _chain_links(int(n))
     if isinstance(robot, (int, np.integer)) and not isinstance(robot, bool):
-        return int(robot)
+        return _chain_links(int(robot))
     raise PaaError(f"a task is made for a robot (or its number of links), got {type(robot).__name__}")
+
+
+def _chain_links(n: int) -> int:
+    if not 2 <= n <= MAX_LINKS:
+        raise PaaError(f"a task is made for a chain of 2 to {MAX_LINKS} links, got {n} links")
+    return n
 
 
 @dataclass(frozen=True)

@@ -8,13 +8,13 @@ from paa_mj.control import (CombinedController, ConventionalController, Controll
                             LQRController, RegionCondition, TheoryWarning, TimeCondition, make_controller)
 from paa_mj.errors import PaaError
 from paa_mj.model.states import Q_UDD, wrap_angle
-from paa_mj.task import Task
-
-FOLDED = Task.named("folded", 3)
 from paa_mj.model.vcl import psi, theta
 from paa_mj.sim.engine import evaluate
+from paa_mj.task import Task
 
 from .conftest import GAINS1, GAINS2
+
+FOLDED = Task.named("folded", 3)
 
 
 def _random_states(rng, n):

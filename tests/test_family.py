@@ -11,7 +11,8 @@ from paa_mj.errors import PaaError
 from paa_mj.model import chain
 from paa_mj.model.crosscheck import cross_check
 from paa_mj.model.dynamics import AnalyticModel
-from paa_mj.model.mjcf import MODEL_DIR, compile_mjcf, mjcf_from_params, params_from_model
+from paa_mj.model.mjcf import MODEL_DIR, mjcf_from_params
+from paa_mj.model.mjcf_read import compile_mjcf, params_from_model
 from paa_mj.model.params import RobotParams
 from paa_mj.model.robot import NAMED_ROBOTS, load_robot, model_from_params
 from paa_mj.task import Task

@@ -1,4 +1,5 @@
-"""The README's Python snippets run as written, in order, in one fresh process."""
+"""The Python on the README and the docs pages runs as written, in order, in one fresh process per page, and prints
+what the page says it prints (each ``# -> TEXT`` comment, in order)."""
 import re
 import subprocess
 import sys
@@ -6,25 +7,51 @@ from pathlib import Path
 
 import pytest
 
-README = Path(__file__).resolve().parent.parent / "README.md"
+ROOT = Path(__file__).resolve().parent.parent
+README = ROOT / "README.md"
+PAGES = [README, ROOT / "docs" / "python.md", ROOT / "docs" / "gym.md"]
+SAYS = re.compile(r"#\s*->\s*(.+?)\s*$", re.M)
 
 
-def test_readme_snippets_run(tmp_path):
-    from paa_mj.view.gl import probe
+def blocks(page):
+    return re.findall(r"```python\n(.*?)```", page.read_text(), flags=re.S)
 
-    blocks = re.findall(r"```python\n(.*?)```", README.read_text(), flags=re.S)
-    assert len(blocks) >= 5
-    if probe("egl") and probe("osmesa"):
-        pytest.skip("no offscreen GL backend for the rendering snippet")
-    script = tmp_path / "snippets.py"
-    script.write_text("\n".join(blocks))
+
+@pytest.mark.parametrize("page", PAGES, ids=lambda page: page.name)
+def test_the_python_of_a_page_runs_and_prints_what_it_says(page, tmp_path):
+    code = "\n".join(blocks(page))
+    if "render_trajectory" in code:
+        from paa_mj.view.gl import probe
+
+        if probe("egl") and probe("osmesa"):
+            pytest.skip("no offscreen GL backend for the rendering snippet")
+    script = tmp_path / "page.py"
+    script.write_text(code)
     proc = subprocess.run([sys.executable, str(script)], cwd=tmp_path, capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr[-3000:]
-    assert "17.986 True" in proc.stdout  # the comment in the README is what the code prints
-    assert (tmp_path / "kip.mp4").stat().st_size > 10_000
+    printed = iter(line.strip() for line in proc.stdout.splitlines())
+    for said in SAYS.findall(code):
+        assert any(line == said for line in printed), f"{page.name} says it prints {said!r}; it printed:\n{proc.stdout}"
+    if "render_trajectory" in code:
+        assert (tmp_path / "kip.mp4").stat().st_size > 10_000
 
 
-def test_readme_gives_the_two_commands():
+def test_the_readme_shows_python_on_its_first_screen_and_stays_short():
+    text = README.read_text()
+    assert len(text.encode()) <= 12_000
+    assert text.index("```python") < 3_500 and SAYS.search(blocks(README)[0])
+
+
+def test_the_readme_gives_the_two_commands():
     text = README.read_text()
     assert "bash scripts/reproduce.sh" in text and "bash scripts/test.sh" in text
-    assert "bash scripts/test.sh" in (README.parent / ".ci" / "run").read_text()
+    assert "bash scripts/test.sh" in (ROOT / ".ci" / "run").read_text()
+
+
+def test_every_page_is_in_the_docs_and_every_link_of_the_readme_exists():
+    index = (ROOT / "docs" / "index.md").read_text()
+    for page in (ROOT / "docs").glob("*.md"):
+        if page.name != "index.md":
+            assert f"\n{page.stem}\n" in index, f"docs/{page.name} is not in the toctree of docs/index.md"
+    for link in re.findall(r"\]\(([^)#:]+)(?:#[^)]*)?\)", README.read_text()):
+        assert (ROOT / link).exists(), link

@@ -59,7 +59,8 @@ def _per_link(args, key, count, what):
 
 def cmd_make_model(args):
     from ..io import write_text
-    from ..model.mjcf import compile_mjcf, mjcf_from_params, params_from_model
+    from ..model.mjcf import mjcf_from_params
+    from ..model.mjcf_read import compile_mjcf, params_from_model
     from ..model.params import RobotParams
 
     n = args.links

@@ -156,7 +156,7 @@ def physics_only(model_ptr, addresses, tau, frame_skip):
 
 
 class GymnastVectorEnv(VectorEnv):
-    """``num_envs`` copies of :class:`~paa_mj.gym_env.GymnastEnv`, stepped by one compiled call (module docstring).
+    """``num_envs`` copies of :class:`~paa_mj.envs.single.GymnastEnv`, stepped by one compiled call (module docstring).
 
     Parameters
     ----------
@@ -170,7 +170,7 @@ class GymnastVectorEnv(VectorEnv):
         the GIL, so more threads cut the wall-clock time of a step on a machine with idle cores, not its CPU
         time; the numbers are the same with any number of threads (each sub-environment is stepped alone).
     **kwargs
-        The arguments of :class:`~paa_mj.gym_env.GymnastEnv` (``task``, ``robot``, ``frame_skip``, ...),
+        The arguments of :class:`~paa_mj.envs.single.GymnastEnv` (``task``, ``robot``, ``frame_skip``, ...),
         checked the same way; ``render_mode`` must be None.
 
     Raises

@@ -22,7 +22,7 @@ import mujoco
 import numpy as np
 
 from .dynamics import AnalyticModel
-from .mjcf import params_from_model, torque_limits_from_model
+from .mjcf_read import params_from_model, torque_limits_from_model
 
 
 @dataclass(frozen=True)

@@ -6,7 +6,7 @@ of inertia ``J_i`` [kg m^2] about the centre of mass, the viscous damping ``d_i`
 [N m s/rad] and the armature ``a_i`` [kg m^2] of joint i, plus gravity ``g``
 [m/s^2]. The paper's gymnast is n = 3 without damping or armature (Table 1). The
 named robots live in ``models/*.xml``; parameters are read back from the compiled
-MuJoCo model (:func:`paa_mj.model.mjcf.params_from_model`) so the analytic model
+MuJoCo model (:func:`paa_mj.model.mjcf_read.params_from_model`) so the analytic model
 is always the one MuJoCo runs.
 """
 from __future__ import annotations

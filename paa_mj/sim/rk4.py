@@ -1,5 +1,5 @@
 """MuJoCo's RK4 step on the package's own equations of motion: the physics ``"analytic"`` of the Gymnasium
-environments (:class:`paa_mj.gym_env.GymnastEnv`, :class:`paa_mj.gym_vector.GymnastVectorEnv`).
+environments (:class:`paa_mj.envs.single.GymnastEnv`, :class:`paa_mj.envs.vector.GymnastVectorEnv`).
 
 One step over dt [s] with the motors' torques tau held, x = [q, qd], f(x) = [qd, qdd(q, qd, tau)] of (1):
 k1 = f(x), k2 = f(x + dt/2 k1), k3 = f(x + dt/2 k2), k4 = f(x + dt k3), x += dt/6 (k1 + 2 k2 + 2 k3 + k4),

@@ -1,0 +1,497 @@
+"""The numbers that README.md and docs/*.md state, each made by the code that measures it.
+
+A stated number, sentence or table is written between two markers::
+
+    <!-- claim NAME -->the text<!-- /claim -->
+
+and ``NAME`` is a claim below: a function that runs what measures it (a command, or the functions a command
+runs) and returns the text. ``tests/test_claims.py`` recomputes each claim and compares it with what the pages
+state: the quick claims in the suite, the full ones under ``pytest -m claims``. Three kinds:
+
+- ``exact``: the text is what the code gives, character for character;
+- ``bound``: the text states upper bounds (numbers written as 1e-9); the code gives the measured values, each
+  of which must lie below its bound;
+- ``measured``: costs on this machine (times); every number must lie within a factor ``MEASURED_FACTOR`` of the
+  stated one, since shared machines move by 2-5x.
+
+``python -m tests.claims --write [--full] [NAME ...]`` writes the texts that the code gives into the pages (bound
+claims keep their text: a bound is chosen, not measured).
+"""
+from __future__ import annotations
+
+import functools
+import json
+import re
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+PAGES = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+MARKED = re.compile(r"<!-- claim (\S+) -->(.*?)<!-- /claim -->", re.S)
+BOUND = re.compile(r"\b\d(?:\.\d+)?e-\d+\b")
+NUMBER = re.compile(r"-?\d+(?:\.\d+)?(?:e-?\d+)?")
+MEASURED_FACTOR = 2.5
+
+
+@dataclass(frozen=True)
+class Claim:
+    name: str
+    make: callable
+    kind: str = "exact"
+    full: bool = False
+
+
+CLAIMS: dict[str, Claim] = {}
+
+
+def claim(name, kind="exact", full=False):
+    def register(make):
+        CLAIMS[name] = Claim(name, make, kind, full)
+        return make
+    return register
+
+
+def stated(pages=PAGES):
+    """Every claim the pages state: (page, name, text)."""
+    return [(page, m.group(1), m.group(2)) for page in pages for m in MARKED.finditer(page.read_text())]
+
+
+def disagreement(item: Claim, text: str, made) -> str | None:
+    """Why ``text`` does not stand behind what the code ``made``, or None."""
+    if item.kind == "exact":
+        return None if text.strip() == made.strip() else f"states {text.strip()!r}, the code gives {made.strip()!r}"
+    if item.kind == "bound":
+        bounds = [float(b) for b in BOUND.findall(text)]
+        if len(bounds) != len(made):
+            return f"states {len(bounds)} bounds ({text!r}), the code measures {len(made)} values"
+        over = [(v, b) for v, b in zip(made, bounds) if not v < b]
+        return None if not over else f"measured {over[0][0]:.3g}, not below the stated {over[0][1]:g}"
+    stated_numbers = [float(x) for x in NUMBER.findall(text)]
+    made_numbers = [float(x) for x in NUMBER.findall(made)]
+    if len(stated_numbers) != len(made_numbers):
+        return f"states {text.strip()!r}, the code gives {made.strip()!r}"
+    for s, m in zip(stated_numbers, made_numbers):
+        if s == m:
+            continue
+        if s <= 0 or m <= 0 or max(s / m, m / s) > MEASURED_FACTOR:
+            return f"states {s:g}, measured {m:g} (more than a factor {MEASURED_FACTOR} apart)"
+    return None
+
+
+# --- shared computations ----------------------------------------------------------------------------------
+
+
+@functools.lru_cache(maxsize=None)
+def robot(name):
+    from paa_mj.model import load_robot
+
+    return load_robot(name)
+
+
+@functools.lru_cache(maxsize=None)
+def task(robot_name, goal):
+    from paa_mj.task import Task
+
+    return Task.named(goal, robot(robot_name))
+
+
+@functools.lru_cache(maxsize=None)
+def run(robot_name, goal, t_final=None, dt=None):
+    from paa_mj.sim import simulate_mujoco
+
+    return simulate_mujoco(robot(robot_name), "vcl", t_final=t_final, dt=dt, task=task(robot_name, goal))
+
+
+@functools.lru_cache(maxsize=None)
+def command_json(*args):
+    """``paa-mj ARGS --json`` in a subprocess: its JSON summary."""
+    proc = subprocess.run([sys.executable, "-m", "paa_mj.cli", *args, "--json"], capture_output=True, text=True,
+                          cwd=ROOT, timeout=3600)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    return json.loads(proc.stdout)
+
+
+def leaderboard_section(markdown, title):
+    """The lines of one section of ``leaderboard.md`` under ``## title``, blank lines at the ends dropped."""
+    lines = markdown.splitlines()
+    start = next(i for i, line in enumerate(lines) if line.startswith(f"## {title}")) + 1
+    end = next((i for i in range(start, len(lines)) if lines[i].startswith("## ")), len(lines))
+    return "\n".join(lines[start:end]).strip()
+
+
+@functools.lru_cache(maxsize=None)
+def leaderboard(*args):
+    from paa_mj.outputs.results import leaderboard_markdown
+
+    return leaderboard_markdown(command_json("compare", "--scheduler", "inline", "--no-video", *args))
+
+
+def block(text):
+    """A block claim (a table, a list) stands apart from its markers by blank lines, so that Markdown sees it whole."""
+    return "\n\n" + text.strip() + "\n\n"
+
+
+def tables(markdown):
+    return block(leaderboard_section(markdown, "Performance") + "\n\n" + leaderboard_section(markdown, "Robustness"))
+
+
+# --- the paper ----------------------------------------------------------------------------------------------
+
+
+@claim("vcl_switch_time")
+def _vcl_switch_time():
+    return f"{run('gymnast', 'folded').switch_time:.2f} s"
+
+
+@claim("vcl_peak_torques")
+def _vcl_peak_torques():
+    from paa_mj.control.registry import ControllerSpec
+    from paa_mj.sim.batch import kip_peak_torques
+
+    peaks = kip_peak_torques(robot("gymnast"), ControllerSpec("vcl", task=task("gymnast", "folded")),
+                             task("gymnast", "folded"))
+    return " and ".join(f"{p:.1f}" for p in peaks) + " N m"
+
+
+@functools.lru_cache(maxsize=None)
+def exact_solution():
+    from paa_mj.studies import switching
+
+    return switching.exact_swing_up(robot("gymnast"), 40.0)
+
+
+@claim("exact_first_entry")
+def _exact_first_entry():
+    from paa_mj.studies import switching
+
+    entry = switching.switch_entries(robot("gymnast"), solution=exact_solution())[0]
+    return f"{entry['t_enter']:.2f} s, for {entry['duration']:.2f} s and {-100 * entry['min_margin']:.0f} % deep"
+
+
+@claim("switch_time_small_steps", full=True)
+def _switch_time_small_steps():
+    times = [run("gymnast", "folded", 20.0, dt).switch_time for dt in (1e-4, 5e-5)]
+    return f"{times[0]:.1f} s at 0.1 ms, {times[1]:.1f} s at 0.05 ms"
+
+
+@claim("candidate_reading_switch")
+def _candidate_reading_switch():
+    from paa_mj.studies import switching
+
+    reading = switching.candidate_reading(robot("gymnast"), solution=exact_solution(), cases=(), sizes=(), n=0)
+    return f"{reading['t_switch']:.2f} s"
+
+
+def _roots(eigenvalues, count):
+    """The ``count`` roots of largest real part, a complex pair written once as a ± bj."""
+    roots, seen = [], set()
+    for re_, im in sorted(eigenvalues, key=lambda e: -e[0]):
+        if (round(re_, 8), round(abs(im), 8)) in seen:
+            continue
+        seen.add((round(re_, 8), round(abs(im), 8)))
+        roots.append(f"{re_:.4f}" + (f" ± {abs(im):.4f}j" if abs(im) > 1e-9 else ""))
+    return ", ".join(roots[:count])
+
+
+@functools.lru_cache(maxsize=None)
+def duu():
+    from paa_mj.outputs.reproduce import duu_readings
+
+    return duu_readings({"gymnast": robot("gymnast")})
+
+
+@claim("duu_as_written")
+def _duu_as_written():
+    return _roots(duu()[0]["gymnast"]["eigenvalues"], 1)
+
+
+@claim("duu_paper_reading")
+def _duu_paper_reading():
+    return _roots(duu()[1]["gymnast"]["eigenvalues"], 2)
+
+
+@claim("leaderboard_gymnast", full=True)
+def _leaderboard_gymnast():
+    return tables(leaderboard())
+
+
+@claim("leaderboard_gymnast_versus", full=True)
+def _leaderboard_gymnast_versus():
+    return block(leaderboard_section(leaderboard(), "Against the paper's controller"))
+
+
+# --- the family ---------------------------------------------------------------------------------------------
+
+
+@claim("chain_crosscheck_bound", kind="bound")
+def _chain_crosscheck_bound():
+    from paa_mj.model.crosscheck import cross_check
+    from paa_mj.model.params import RobotParams
+    from paa_mj.model.robot import model_from_params
+
+    rng, worst = np.random.default_rng(7), 0.0
+    for n in range(2, 7):
+        m, l = rng.uniform(0.1, 80, n), rng.uniform(0.1, 3, n)
+        params = RobotParams(m=m, l=l, lc=rng.uniform(0, 1, n) * l, J=rng.uniform(0.05, 3, n) * m * l**2 / 12,
+                             g=rng.uniform(1.0, 20.0), damping=rng.uniform(0, 2, n), armature=rng.uniform(0, 0.5, n))
+        worst = max(worst, cross_check(model_from_params(params), samples=100, seed=n).worst())
+    return [worst]
+
+
+@claim("family_switch_times")
+def _family_switch_times():
+    from paa_mj.errors import SimulationDiverged
+
+    acrobot_folded, acrobot_up, chain_folded = run("acrobot", "folded"), run("acrobot", "stretched"), \
+        run("chain4", "folded")
+    for traj in (acrobot_folded, acrobot_up, chain_folded):
+        assert traj.summary()["success"], traj.summary()
+    try:
+        chain_up = run("chain4", "stretched", 40.0)
+        verdict = "balances" if chain_up.summary()["success"] else "does not balance in 40 s"
+    except SimulationDiverged as err:
+        chain_up = err.trajectory
+        verdict = (f"switches at {chain_up.switch_time:.2f} s and diverges at {chain_up.t[-1]:.2f} s"
+                   if chain_up.switch_time is not None else f"diverges at {chain_up.t[-1]:.2f} s")
+    return (f"the acrobot folded at {acrobot_folded.switch_time:.1f} s, the acrobot stretched at"
+            f" {acrobot_up.switch_time:.1f} s, chain4 folded at {chain_folded.switch_time:.2f} s; chain4 stretched"
+            f" {verdict}")
+
+
+@claim("leaderboard_acrobot", full=True)
+def _leaderboard_acrobot():
+    return tables(leaderboard("--robot", "acrobot", "--goal", "stretched", "--quick", "--controllers",
+                              "spong,vcl,lqr,trajopt,trajopt-effort"))
+
+
+@claim("atlas_gymnast", full=True)
+def _atlas_gymnast():
+    counts = command_json("atlas", "--robot", "gymnast", "--vary", "l1,m1", "--grid", "16", "--simulate",
+                          "--scheduler", "inline")["counts"]
+    confusion = counts["confusion"]
+    applies = counts["Theorem 1 applies"]
+    outside = counts["robots"] - applies
+    return block(f"- {applies} of the {counts['robots']} robots meet Theorem 1's conditions on the robot;"
+            f" (54) holds on {counts['(54) holds']} and E_r > 0 on {counts['E_r > 0']}.\n"
+            f"- The swing-up reaches region (68) from (65) on"
+            f" {confusion['theorem applies, swing-up reaches (68)']} of the {applies} and on"
+            f" {confusion['theorem does not apply, swing-up reaches (68)']} of the {outside} robots outside the"
+            " theorem.\n"
+            f"- {counts['switched, not balanced']} robots reach (68) and then lose the balance with the LQR (67).")
+
+
+# --- RealAIGym and Drake ------------------------------------------------------------------------------------
+
+
+#: THEIR published v1 row of the Energy PFL, as their table rounds it (where it comes from, and its values).
+THEIR_V1_ROW = ("commit db7e80b, `data/acrobot/simulation/pflcol_lqr/scores.csv`",
+                "4.118 | 29.012 | 7.1173 | 18.795 | 0.25150 | 280.81 | 0.72786")
+
+
+def _realaigym_score():
+    sys.path.insert(0, str(ROOT / "examples" / "realaigym"))
+    try:
+        import score
+    finally:
+        sys.path.pop(0)
+    return score
+
+
+@claim("realaigym_v1_ours")
+def _realaigym_v1_ours():
+    from paa_mj.control import make_controller
+    from paa_mj.sim import simulate_mujoco
+
+    acrobot = robot("realaigym_acrobot_v1")
+    up = task("realaigym_acrobot_v1", "stretched")
+    controller = make_controller(str(ROOT / "examples/realaigym/pfl_controller.py:PFLCollocatedLQR_C03"),
+                                 acrobot, task=up)
+    traj = simulate_mujoco(acrobot, controller, [-np.pi, 0, 0, 0], 10.0, task=up, dt=0.002, sample_dt=0.002)
+    score = _realaigym_score()
+    rows = ["| | swing-up [s] | energy [J] | int abs(tau) dt | torque cost | smoothness | velocity cost |"
+            " RealAI score (v1) |", "|---|---|---|---|---|---|---|---|",
+            f"| published (theirs: `real_ai_gym_leaderboard` {THEIR_V1_ROW[0]}) | {THEIR_V1_ROW[1]} |"]
+    l1, l2 = 0.2, 0.3  # their leaderboard's geometry for the tip's height (sim_controller.py)
+    for record, label in (("current", "their current code"), ("pre-4cddb6c", "their code before 4cddb6c")):
+        s = score.scores(traj.t, traj.q, traj.qd, traj.tau[:, 0], l1, l2, record=record)
+        rows.append(f"| paa_mj, MuJoCo, rows as {label} (`--record {record}`) | {s['swingup_time']:.3f} |"
+                    f" {s['energy']:.3f} | {s['integ_tau']:.4f} | {s['tau_cost']:.3f} | {s['tau_smoothness']:.5f} |"
+                    f" {s['velocity_cost']:.2f} | {s['score_v1']:.5f} |")
+    return block("\n".join(rows))
+
+
+@claim("realaigym_lqr_spectral_radius")
+def _realaigym_lqr_spectral_radius():
+    from paa_mj.theory.linear import lqr_gain, sampled_spectral_radius
+
+    am, up = robot("realaigym_acrobot").analytic, task("realaigym_acrobot", "stretched")
+    K = lqr_gain(am, up)
+    return " and ".join(f"{sampled_spectral_radius(am, K, dt, up):.1f}" for dt in (1e-3, 2e-3))
+
+
+@claim("peers_tables", full=True)
+def _peers_tables():
+    from paa_mj.outputs.peers import dynamics_table, held_table
+
+    with tempfile.TemporaryDirectory() as out:
+        proc = subprocess.run([sys.executable, "-m", "paa_mj.cli", "peers", "--out", out], capture_output=True,
+                              text=True, cwd=ROOT, timeout=3600)
+        assert proc.returncode == 0, proc.stderr[-2000:]
+        summary = json.loads((Path(out) / "peers.json").read_text())
+    return block(dynamics_table(summary["dynamics"]) + "\n\n" + held_table(summary["closed_loop"]))
+
+
+# --- environments, speed, guarantees ------------------------------------------------------------------------
+
+
+@claim("gym_analytic_agreement", kind="bound")
+def _gym_analytic_agreement():
+    from paa_mj.envs import controller_policy
+    from paa_mj.envs.single import GymnastEnv
+
+    episodes = {}
+    for physics in ("mujoco", "analytic"):
+        env = GymnastEnv(episode="balance", physics=physics)
+        policy = controller_policy("lqr", env)
+        obs, info = env.reset(seed=0)
+        policy.reset()
+        states, done = [], False
+        while not done:
+            obs, _, terminated, truncated, info = env.step(policy(obs, info))
+            states.append(np.r_[info["q"], info["qd"]])
+            done = terminated or truncated
+        episodes[physics] = np.array(states)
+    balance = float(np.max(np.abs(episodes["analytic"] - episodes["mujoco"])))
+    worst = 0.0
+    for name, goal in (("gymnast", "folded"), ("acrobot", "stretched"), ("chain4", "folded")):
+        actions = np.random.default_rng(2).uniform(-1, 1, (100, robot(name).params.n_links - 1)).astype(np.float32)
+        finals = {}
+        for physics in ("mujoco", "analytic"):
+            env = GymnastEnv(episode="kip", robot=name, task=goal, physics=physics)
+            env.reset(seed=0)
+            finals[physics] = np.array([np.r_[info["q"], info["qd"]] for info in (env.step(a)[4] for a in actions)])
+        worst = max(worst, float(np.max(np.abs(finals["analytic"] - finals["mujoco"]))))
+    return [balance, worst]
+
+
+@claim("passive_energy_drift", kind="bound")
+def _passive_energy_drift():
+    import mujoco
+
+    gymnast = robot("gymnast")
+    drifts = []
+    for q0, qd0, scale in (([-np.pi + 1.0, 0, 0], [0, 0, 0], None), ([-2.0, 0.7, -0.4], [1.0, -0.5, 0.3], "b")):
+        data = mujoco.MjData(gymnast.model)
+        data.qpos[:], data.qvel[:] = q0, qd0
+        mujoco.mj_forward(gymnast.model, data)
+        e0, drift = data.energy.sum(), 0.0
+        for step in range(200_000):
+            mujoco.mj_step(gymnast.model, data)
+            if step % 50 == 0:
+                drift = max(drift, abs(data.energy.sum() - e0))
+        drifts.append(drift / (abs(e0) if scale is None else float(np.sum(gymnast.analytic.beta))))
+    return drifts
+
+
+BENCH_ROWS = (("single_step_ratio", "a closed-loop step (compiled vcl) / a bare mj_step", ".2f"),
+              ("python_step_ratio", "the controller called from Python / a bare mj_step", ".0f"),
+              ("python_step_vs_hand_loop", "a Python PD law through the engine / in a hand-written loop", ".2f"),
+              ("batch_step_ratio", "a batch of 1024, per state-step / a bare mj_step", ".2f"),
+              ("basin_effective_ratio", "the 16 x 16 basin / 256 x 30000 bare steps", ".2f"),
+              ("analytic_to_mujoco_ratio", "30 s of the exact closed loop / of MuJoCo", ".1f"),
+              ("vector_env_speedup", "64 single environments / the vector environment, 10 ms", ".2f"),
+              ("vector_env_analytic_speedup", "the same, physics=\"analytic\"", ".1f"))
+
+
+@claim("bench_gymnast", kind="measured", full=True)
+def _bench_gymnast():
+    bench = command_json("bench")
+    rows = ["| quantity | ratio |", "|---|---|"]
+    rows += [f"| `{key}`: {what} | {bench[key]:{fmt}} |" for key, what, fmt in BENCH_ROWS]
+    return block("\n".join(rows))
+
+
+def _cold_cache_env(cache):
+    import os
+
+    env = dict(os.environ, PAA_MJ_CACHE=str(cache))
+    env.pop("NUMBA_CACHE_DIR", None)
+    env.pop("PAA_MJ_NUMBA_CACHE_BASE", None)
+    return env
+
+
+@claim("compile_cpu_seconds", kind="measured", full=True)
+def _compile_cpu_seconds():
+    import resource
+
+    with tempfile.TemporaryDirectory() as cache:
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
+        subprocess.run([sys.executable, "-m", "paa_mj.cli", "compile"], check=True, capture_output=True,
+                       env=_cold_cache_env(cache), cwd=ROOT, timeout=1800)
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime
+    return f"about {10 * round(cpu / 10):.0f} CPU-s"
+
+
+@functools.lru_cache(maxsize=None)
+def setup_minutes():
+    """Wall minutes of the README's two commands on a fresh clone, each with an empty kernel cache."""
+    minutes = {}
+    with tempfile.TemporaryDirectory() as work:
+        clone = Path(work) / "clone"
+        subprocess.run(["git", "clone", "-q", str(ROOT), str(clone)], check=True, timeout=600)
+        for script in ("reproduce", "test"):
+            with tempfile.TemporaryDirectory() as cache:
+                start = time.monotonic()
+                subprocess.run(["bash", f"scripts/{script}.sh"], cwd=clone, check=True, capture_output=True,
+                               env=_cold_cache_env(cache), timeout=3600)
+                minutes[script] = (time.monotonic() - start) / 60
+    return minutes
+
+
+def _about_minutes(value):
+    return f"about {max(0.5, round(2 * value) / 2):g} minutes"
+
+
+@claim("setup_reproduce_minutes", kind="measured", full=True)
+def _setup_reproduce_minutes():
+    return _about_minutes(setup_minutes()["reproduce"])
+
+
+@claim("setup_test_minutes", kind="measured", full=True)
+def _setup_test_minutes():
+    return _about_minutes(setup_minutes()["test"])
+
+
+# --- writing the pages --------------------------------------------------------------------------------------
+
+
+def write(names=(), full=False):
+    """Write into the pages the text the code gives for each exact or measured claim (all, or ``names``)."""
+    for page in PAGES:
+        text = page.read_text()
+
+        def replace(match):
+            item = CLAIMS[match.group(1)]
+            if item.kind == "bound" or (names and item.name not in names) or (item.full and not full):
+                return match.group(0)
+            return f"<!-- claim {item.name} -->{item.make()}<!-- /claim -->"
+
+        new = MARKED.sub(replace, text)
+        if new != text:
+            page.write_text(new)
+            print(f"wrote {page.relative_to(ROOT)}")
+
+
+if __name__ == "__main__":
+    args = sys.argv[1:]
+    if not args or args[0] != "--write":
+        sys.exit("usage: python -m tests.claims --write [--full] [NAME ...]")
+    full = "--full" in args
+    write([a for a in args[1:] if a != "--full"], full=full)

@@ -1,5 +1,6 @@
 """The task (paa_mj/task.py): one definition of the goal, the regions and success, and the binding of a controller
 to the robot and task it was built for; properties over chains of 2 to 6 links."""
+import dataclasses
 import math
 
 import numpy as np
@@ -24,7 +25,7 @@ def test_goal_angles_are_the_folded_and_the_stretched_postures(n):
 
 def test_a_task_is_frozen_checked_and_compared_by_every_field():
     task = Task.named("folded", 3)
-    with pytest.raises(Exception):
+    with pytest.raises(dataclasses.FrozenInstanceError):
         task.horizon = 10.0
     with pytest.raises(ValueError):
         task.goal[0] = 1.0  # read-only: no layer can move another's goal

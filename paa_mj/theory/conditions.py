@@ -81,6 +81,7 @@ def chain_kd_min(am: AnalyticModel, task) -> Maximum:
     E_r = task.goal_energy(am)
     dim = am.n_links - 1
     coarse = {1: 721, 2: 121, 3: 41, 4: 17}.get(dim, 9)
+    _refuse_searches_beyond_reach(am.n_links, coarse**dim)
 
     def bound(*angles):
         q_a = np.stack(np.broadcast_arrays(*angles), axis=-1)
@@ -88,6 +89,34 @@ def chain_kd_min(am: AnalyticModel, task) -> Maximum:
 
     return grid_maximum(bound, [(0, TWO_PI)] * dim, n=(coarse,) * dim, periodic=(True,) * dim,
                         zoom=21 if dim <= 2 else 7)
+
+
+#: The largest chain whose bound (41) is searched: a grid of 9^6 points over the 6 actuated angles of 7 links
+#: costs about 45 CPU-s and 0.9 GB; each further link multiplies both by 9.
+KD_MIN_MAX_LINKS = 7
+_KD_MIN_COST_AT_MAX = (45.0, 0.9)  # [CPU-s], [GB], measured for 7 links (paa-mj theory)
+
+
+def _refuse_searches_beyond_reach(n_links, points):
+    """One line, before any work, for a chain whose search for (41) would take hours and more memory than there
+    is: what it would need, and what to do instead."""
+    if n_links <= KD_MIN_MAX_LINKS:
+        return
+    from ..errors import PaaError
+
+    growth = 9.0 ** (n_links - KD_MIN_MAX_LINKS)
+    cpu, memory = (value * growth for value in _KD_MIN_COST_AT_MAX)
+    raise PaaError(f"kD_min of (41) for a chain of {n_links} links is a maximum over its {n_links - 1} actuated angles:"
+                   f" the search (a grid of {points:.3g} points) would need about {_duration(cpu)} of CPU and"
+                   f" {memory:.3g} GB of memory; paa_mj computes it for chains of up to {KD_MIN_MAX_LINKS} links."
+                   " Controllers that need no gains (lqr, passive, yours) run on any chain")
+
+
+def _duration(seconds):
+    for unit, size in (("years", 3.15e7), ("days", 86400.0), ("hours", 3600.0), ("minutes", 60.0)):
+        if seconds >= size:
+            return f"{seconds / size:.3g} {unit}"
+    return f"{seconds:.3g} s"
 
 
 # --- (59), (60) ---------------------------------------------------------------------

@@ -1,0 +1,41 @@
+"""Every robot that make-model writes (2 to 64 links) runs, or is refused up front with what it would need."""
+import numpy as np
+import pytest
+
+from paa_mj.errors import PaaError
+from paa_mj.model.params import MAX_LINKS, RobotParams
+from paa_mj.model.robot import model_from_params
+from paa_mj.task import Task
+
+from .helpers import cli
+
+
+def _chain(n):
+    ones = np.ones(n)
+    return RobotParams(m=ones, l=ones, lc=ones / 2, J=ones / 12)
+
+
+@pytest.mark.parametrize("n", [8, 12, 33, MAX_LINKS])
+def test_the_bound_41_of_a_chain_beyond_reach_is_refused_with_what_it_would_need(n):
+    from paa_mj.model.dynamics import AnalyticModel
+    from paa_mj.theory.conditions import chain_kd_min
+
+    with pytest.raises(PaaError, match=rf"kD_min of \(41\) for a chain of {n} links .* would need about .* of CPU"
+                                       r" and .* GB of memory; paa_mj computes it for chains of up to 7 links"):
+        chain_kd_min(AnalyticModel.from_params(_chain(n)), Task.named("folded", n))
+
+
+def test_the_longest_chain_runs_without_gains_and_is_refused_one_line_where_it_needs_them(tmp_path):
+    from paa_mj.model.robot import load_robot
+    from paa_mj.model.mjcf import mjcf_from_params
+    from paa_mj.sim import simulate_mujoco
+
+    path = tmp_path / "long.xml"
+    path.write_text(mjcf_from_params(_chain(MAX_LINKS), name="long"))
+    robot = load_robot(str(path))
+    traj = simulate_mujoco(robot, "passive", t_final=0.2, task=Task.named("folded", robot))
+    assert traj.q.shape[1] == MAX_LINKS and np.all(np.isfinite(traj.q))
+    assert model_from_params(_chain(MAX_LINKS)).nq == MAX_LINKS
+    proc = cli("theory", "--robot", path, "--kD", "1e6", "--kP", "1e6", "--kV", "1e6", cwd=tmp_path)
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr and len(proc.stderr.strip().splitlines()) == 1
+    assert "would need about" in proc.stderr, proc.stderr

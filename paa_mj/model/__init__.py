@@ -1,6 +1,6 @@
 """The robot: its MJCF file, its parameters and the paper's analytic model (1)-(7).
 
-- :mod:`~paa_mj.model.mjcf`: the MJCF template, reading, validation and read-back;
+- :mod:`~paa_mj.model.mjcf`: the MJCF template; :mod:`~paa_mj.model.mjcf_read`: reading, validation, read-back;
 - :mod:`~paa_mj.model.params`: :class:`RobotParams` (masses, lengths, inertias);
 - :mod:`~paa_mj.model.equations`: M, H, G, P, E of (1)-(7), one definition for NumPy and numba;
 - :mod:`~paa_mj.model.vcl`: the virtual composite link (13)-(21);
@@ -13,7 +13,7 @@ from ..lazy import lazy_exports
 _EXPORTS = {
     "AnalyticModel": ".dynamics",
     "mjcf_from_params": ".mjcf",
-    "params_from_model": ".mjcf",
+    "params_from_model": ".mjcf_read",
     "RobotParams": ".params",
     "NAMED_ROBOTS": ".robot",
     "Robot": ".robot",

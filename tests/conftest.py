@@ -99,3 +99,27 @@ def run(capsys, monkeypatch):
 @pytest.fixture
 def rng():
     return np.random.default_rng(1234)
+
+
+# Shared by the test_faults_* files: once a session (per xdist worker), not once per file.
+@pytest.fixture(scope="session")
+def saved_trajectory(tmp_path_factory):
+    from paa_mj.cli import main
+
+    d = tmp_path_factory.mktemp("traj")
+    assert main(["simulate", "--t-final", "0.3", "--out", str(d)]) == 0  # in this process: no start-up to pay
+    return d / "trajectory.npz"
+
+
+@pytest.fixture(scope="session")
+def made_xml(tmp_path_factory):
+    """The MJCF text that 'paa-mj make-model' writes for a small robot: the base of the model variants in tests/test_faults_*."""
+    import contextlib
+    import io
+
+    from paa_mj.cli import main
+
+    path = tmp_path_factory.mktemp("made") / "robot.xml"
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+        assert main(["make-model", "--m", "2", "1", "1", "--l", "1", "0.6", "0.6", "--out", str(path)]) == 0
+    return path.read_text()

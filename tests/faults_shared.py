@@ -1,7 +1,6 @@
-"""What the test_faults_* files share: the gymnast's MJCF and its variants, users' controllers, fixtures."""
+"""What the test_faults_* files share: the gymnast's MJCF and its variants, users' controllers (their fixtures
+``saved_trajectory`` and ``made_xml`` are in conftest.py, computed once a session)."""
 import json
-
-import pytest
 
 from paa_mj.model.mjcf import MODEL_DIR
 
@@ -18,15 +17,6 @@ def _one_line_error(proc, fragment, code=2):
 def _variant(old, new):
     assert old in GYMNAST, old
     return GYMNAST.replace(old, new, 1)
-
-
-@pytest.fixture(scope="module")
-def saved_trajectory(tmp_path_factory):
-    from paa_mj.cli import main
-
-    d = tmp_path_factory.mktemp("traj")
-    assert main(["simulate", "--t-final", "0.3", "--out", str(d)]) == 0  # in this process: no start-up to pay
-    return d / "trajectory.npz"
 
 
 USER_CONTROLLERS = '''
@@ -102,20 +92,6 @@ def _made(text, old, new):
         return re.sub(r'<numeric name="paa_gains" data="[^"]*"/>', new, text)
     assert old in text, old
     return text.replace(old, new, 1)
-
-
-@pytest.fixture(scope="module")
-def made_xml(tmp_path_factory):
-    """The MJCF text that 'paa-mj make-model' writes for a small robot: the base of the model variants below."""
-    import contextlib
-    import io
-
-    from paa_mj.cli import main
-
-    path = tmp_path_factory.mktemp("made") / "robot.xml"
-    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
-        assert main(["make-model", "--m", "2", "1", "1", "--l", "1", "0.6", "0.6", "--out", str(path)]) == 0
-    return path.read_text()
 
 
 M_GEAR = 'joint="hips" gear="1"'

@@ -3,7 +3,7 @@ import os
 
 import pytest
 
-from .faults_shared import (M_GEAR, _made, _one_line_error, _strict, made_xml)  # noqa: F401
+from .faults_shared import M_GEAR, _made, _one_line_error, _strict
 from .helpers import cli
 
 

@@ -7,8 +7,7 @@ import signal
 import numpy as np
 import pytest
 
-from .faults_shared import (  # noqa: F401
-    M_GEAR, PRINTING_AND_FAILING, USER_CONTROLLERS, _made, _one_line_error, _strict, made_xml)
+from .faults_shared import M_GEAR, PRINTING_AND_FAILING, USER_CONTROLLERS, _made, _one_line_error, _strict
 
 
 

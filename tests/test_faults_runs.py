@@ -8,8 +8,7 @@ import sys
 import numpy as np
 import pytest
 
-from .faults_shared import (  # noqa: F401
-    PRINTING_AND_FAILING, USER_CONTROLLERS, _one_line_error, _strict, _variant, saved_trajectory)
+from .faults_shared import PRINTING_AND_FAILING, USER_CONTROLLERS, _one_line_error, _strict, _variant
 from .helpers import cli
 
 

@@ -1,5 +1,5 @@
-"""A user's code and files: misbehaving controllers named in one line, corrupted trajectory files, symbolic links, odd
-model files, caches.
+"""A user's code and files: misbehaving controllers named in one line, corrupted trajectory files, odd model files,
+caches.
 """
 import os
 
@@ -8,8 +8,7 @@ import pytest
 
 from paa_mj.model.mjcf import MODEL_DIR
 
-from .faults_shared import (  # noqa: F401
-    GYMNAST, M_GEAR, USER_CONTROLLERS, _made, _one_line_error, _strict, made_xml, saved_trajectory)
+from .faults_shared import GYMNAST, M_GEAR, USER_CONTROLLERS, _made, _one_line_error, _strict
 from .helpers import cli
 
 
@@ -402,61 +401,6 @@ def test_a_trajectory_of_example2_is_not_drawn_as_the_gymnast(tmp_path, run):
     assert run("simulate", "--robot", "example2", "--t-final", "0.1", "--out", tmp_path / "ex2").returncode == 0
     _one_line_error(run("render", "--from", tmp_path / "ex2" / "trajectory.npz", "--robot", "gymnast", "--out",
                         tmp_path / "v.gif"), "is a trajectory of robot 'example2', not of --robot gymnast")
-
-
-def test_outputs_below_a_regular_file_are_one_line(tmp_path, run):
-    blocker = tmp_path / "afile"
-    blocker.write_text("x")
-    cases = [
-        (["simulate", "--t-final", "0.05", "--out", blocker / "sub"], "cannot create output folder"),
-        (["simulate", "--t-final", "0.05", "--out", blocker], "cannot create output folder"),
-        (["basin", "--grid", "2", "--t-final", "0.05", "--scheduler", "inline", "--out", blocker],
-         "cannot create output folder"),
-        (["make-model", "--m", "1", "1", "1", "--l", "1", "1", "1", "--out", blocker / "x.xml"],
-         "cannot create output folder"),
-        (["render", "--t-final", "0.05", "--out", blocker / "x.gif"], "cannot create output folder"),
-    ]
-    for args, fragment in cases:
-        _one_line_error(run(*args), fragment)
-    assert blocker.read_text() == "x" and sorted(p.name for p in tmp_path.iterdir()) == ["afile"]
-
-
-@pytest.mark.parametrize("kind", ["summary.json", "trajectory.csv", "dangling"])
-def test_a_symbolic_link_among_the_result_files_is_refused_and_its_target_untouched(kind, tmp_path, run):
-    out = tmp_path / "run"
-    assert run("simulate", "--t-final", "0.05", "--out", out).returncode == 0
-    victim = tmp_path / "victim.txt"
-    if kind != "dangling":
-        victim.write_text("victim")
-    (out / ("summary.json" if kind == "dangling" else kind)).unlink()
-    (out / ("summary.json" if kind == "dangling" else kind)).symlink_to(victim)
-    _one_line_error(run("simulate", "--t-final", "0.05", "--out", out), "is a symbolic link")
-    assert (victim.read_text() == "victim") if kind != "dangling" else not victim.exists()
-
-
-def test_a_folder_reached_through_a_symbolic_link_is_written_and_keeps_other_files(tmp_path, run):
-    real = tmp_path / "real"
-    real.mkdir()
-    (real / "notes.txt").write_text("mine")
-    (tmp_path / "link").symlink_to(real)
-    assert run("simulate", "--t-final", "0.05", "--out", tmp_path / "link").returncode == 0
-    assert sorted(p.name for p in real.iterdir()) == ["notes.txt", "summary.json", "trajectory.csv",
-                                                      "trajectory.npz"]
-    assert (real / "notes.txt").read_text() == "mine"
-
-
-@pytest.mark.parametrize("command", [
-    ["basin", "--grid", "2", "--t-final", "0.05", "--scheduler", "inline"],
-    ["robustness", "--trials", "1", "--t-final", "0.05", "--factors", "noise", "--scheduler", "inline"],
-    ["atlas", "--grid", "2", "--scheduler", "inline"],
-    ["simulate", "--t-final", "0.05"],
-], ids=["basin", "robustness", "atlas", "simulate"])
-def test_a_study_does_not_overwrite_a_summary_it_did_not_write(command, tmp_path, run):
-    out = tmp_path / "mine"
-    out.mkdir()
-    (out / "summary.json").write_text('{"my": "notes"}')
-    run(*command, "--out", out)
-    assert (out / "summary.json").read_text() == '{"my": "notes"}'
 
 
 @pytest.mark.parametrize("name", ["ró bot é.xml", "UPPER.XML", "no_suffix", "link.xml"])

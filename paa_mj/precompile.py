@@ -81,10 +81,26 @@ def _environments():
     observation(np.zeros(3), np.zeros((2, 3)))  # the observation map of any states, broadcast
 
 
+def _protocols():
+    from .control.registry import make_controller
+    from .model import load_robot
+    from .sim import protocol
+    from .studies.realaigym import Runs, plant, their_times
+
+    acrobot = load_robot("realaigym_acrobot")
+    times = their_times(_T)
+    reset = protocol.reset_record([0.0], np.zeros((2, 2)), 0.2)
+    for controller in (make_controller("spong", acrobot, task="stretched"), _Damped(acrobot)):
+        runs = Runs(acrobot, controller)
+        runs.run(plant(acrobot), np.zeros(4), times, perturbation=np.zeros((2, 5)))
+        runs.run(plant(acrobot, global_test=True), np.zeros(4), times, reset=reset)
+
+
 #: The stages of :func:`compile_kernels`: what each compiles, and the code that compiles it.
 STAGES = (("the rollouts: compiled and Python controllers, single and batched", _rollouts),
           ("the family: the chain's dynamics and controllers", _family),
-          ("the Gymnasium environments, single and vector", _environments))
+          ("the Gymnasium environments, single and vector", _environments),
+          ("RealAIGym's simulator (paa-mj realaigym)", _protocols))
 
 
 def compile_kernels(progress=None) -> list[dict]:

@@ -31,11 +31,8 @@ import sys
 
 import numpy as np
 
-V1_WEIGHTS = dict(swingup_time=0.2, max_tau=0.1, energy=0.1, integ_tau=0.1, tau_cost=0.1, tau_smoothness=0.2,
-                  velocity_cost=0.2)
-V1_NORMS = dict(swingup_time=10.0, max_tau=6.0, energy=100.0, integ_tau=60.0, tau_cost=360.0, tau_smoothness=12.0,
-                velocity_cost=1000.0)
-V2_NORMS = dict(swingup_time=20.0, energy=60.0, tau_cost=20.0, tau_smoothness=0.1, velocity_cost=400.0)
+from paa_mj.studies.realaigym_scores import performance
+
 RECORDS = ("current", "pre-4cddb6c", "as-recorded")
 
 
@@ -50,52 +47,10 @@ def their_rows(t, x, u, record="current"):
     raise ValueError(f"record must be one of {RECORDS}, not {record!r}")
 
 
-def swingup_time(T, X, l1, l2, t_final=10.0, height=0.9):
-    """Their get_swingup_time (method "height", has_to_stay): the first time after which the tip stays up."""
-    if T[-1] < 0.99 * t_final:
-        return np.inf
-    tip = -l1 * np.cos(X[:, 0]) - l2 * np.cos(X[:, 0] + X[:, 1])
-    up = tip > height * (l1 + l2)
-    idx = len(T) - 1
-    for i in range(len(up) - 2, 0, -1):
-        if not up[i]:
-            break
-        idx = i
-    return float(T[idx])
-
-
-def energy(X, U):
-    """Their get_energy: sum over joints of sum_k abs((x_{k+1} - x_k) u_k), u_k the torque on row k."""
-    return float(sum(np.sum(np.abs(np.diff(X[:, j]) * U[:-1, j])) for j in range(U.shape[1])))
-
-
-def integrated_torque(T, U):
-    return float(np.sum(np.abs(U[:-1]) * np.diff(T)[:, None]))
-
-
-def torque_cost(T, U):
-    return float(np.einsum("ij,i,ij", U[:-1], np.diff(T), U[:-1]))
-
-
-def tau_smoothness(U):
-    return float(sum(np.std(np.diff(U[:, j])) for j in range(U.shape[1])))
-
-
-def velocity_cost(T, X):
-    return float(np.einsum("ij,i,ij", X[:-1, 2:], np.diff(T), X[:-1, 2:]))
-
-
 def metrics(T, X, U, l1, l2, t_final=10.0):
-    """Their metrics and both scores of the rows of their CSV: T (K,), X (K, 4) in their angles, U (K, 2)."""
-    T, X, U = (np.asarray(a, float) for a in (T, X, U))
-    swingup = swingup_time(T, X, l1, l2, t_final)
-    success = bool(swingup < T[-1])
-    c = dict(swingup_time=swingup, max_tau=float(np.max(np.abs(U))), energy=energy(X, U),
-             integ_tau=integrated_torque(T, U), tau_cost=torque_cost(T, U), tau_smoothness=tau_smoothness(U),
-             velocity_cost=velocity_cost(T, X))
-    v1 = success * (1 - sum(V1_WEIGHTS[k] * c[k] / V1_NORMS[k] for k in V1_WEIGHTS))
-    v2 = success * (1 - sum(np.tanh(np.pi * c[k] / n) for k, n in V2_NORMS.items()) / len(V2_NORMS))
-    return {"success": success, **c, "score_v1": float(v1), "score_v2": float(v2)}
+    """Their metrics and both scores of the rows of their CSV: T (K,), X (K, 4) in their angles, U (K, 2)
+    (paa_mj.studies.realaigym_scores.performance, the tip's goal height l1 + l2)."""
+    return performance(T, X, U, (l1, l2), l1 + l2, t_final)
 
 
 def scores(t, q, qd, tau2, l1, l2, t_final=10.0, record="current"):

@@ -316,7 +316,7 @@ def interrupt_name() -> str:
 #: The file that marks a folder as holding a command's results (``--out``).
 RESULT_FILES = {"simulate": "trajectory.npz", "basin": "basin.npz", "robustness": "robustness.npz",
                 "compare": "leaderboard.json", "atlas": "atlas.npz", "reproduce": "report.md",
-                "peers": "peers.json"}
+                "peers": "peers.json", "realaigym": "realaigym.json"}
 #: The other files each command writes: found without the command's result file beside them, they are
 #: somebody else's, and the command refuses to replace them.
 ALSO_WRITTEN = {"simulate": ("trajectory.csv", "summary.json"),
@@ -325,7 +325,9 @@ ALSO_WRITTEN = {"simulate": ("trajectory.csv", "summary.json"),
                             "kips_overlaid.svg", "kips_side_by_side.mp4"),
                 "atlas": ("atlas.json", "atlas_theory.png", "atlas_theory.svg", "atlas_outcome.png",
                           "atlas_outcome.svg"),
-                "reproduce": ("results.json",), "peers": ("peers.md", "peers_closed_loop.png", "peers_closed_loop.svg")}
+                "reproduce": ("results.json",), "peers": ("peers.md", "peers_closed_loop.png", "peers_closed_loop.svg"),
+                "realaigym": ("sim_swingup.csv", "robustness_v2.png", "robustness_v2.svg", "global_v3.png",
+                              "global_v3.svg")}
 
 
 def output_lock(out, command):

@@ -1,0 +1,355 @@
+"""RealAIGym's benchmark protocols, run as their code runs them, on any robot of the family and any controller.
+
+Three protocols of ``double_pendulum``'s acrobot leaderboards (dfki-ric-underactuated-lab, commit 1e8544e6):
+
+- ``performance-v2`` (``leaderboard/acrobot/simulation_v2``): one run of 10 s from their start, RK4 at 2 ms,
+  scored by :func:`~paa_mj.studies.realaigym_scores.performance` (the RealAI score v2);
+- ``robustness-v2`` (``robustness_v2/benchmark_controller.py`` with ``analysis/benchmark.py``): six criteria of
+  21 levels: model parameters (rotor inertia I_r in [0, 1e-4] kg m^2; per link the first moment m r, the mass
+  (links 2..n), the pivot inertia I = J + m r^2 at 0.75..1.25 times nominal, one at a time, the controller
+  keeping the nominal model; per joint viscous damping in [-0.1, 0.1] N m s and Coulomb friction in
+  [-0.2, 0.2] N m), velocity noise (sigma 0..0.5 rad/s, 10 runs a level, without a filter: their code's only
+  filter is "None"), torque noise (sigma 0..1.1 N m on the motors, 10 runs a level), torque response
+  (responsiveness 0.1..2), delay (0..0.04 s of the whole state) and 50 runs with random Gaussian torque
+  pulses (3 per joint, widths 0.05..0.1 s, peaks 0.5..5 N m of either sign, at least 1 s apart); a run
+  succeeds when its final state is within (0.35 rad, 1 rad/s) of the goal;
+- ``global-v3`` (``simulation_v3``, the ICRA 2025 global policy test): 60 s with 15 resets: at a time near
+  each of 15 evenly spaced times (+-1 s), a PID with gravity compensation on every joint (all joints driven,
+  6 N m each) drives the chain towards a random configuration (angles uniform over a turn) for 0.2 s, the
+  controller off; the score is the time up over 60 s.
+
+The physics and disturbances are their simulator's (:mod:`paa_mj.sim.protocol`). Their runs draw from
+NumPy's global generator unseeded; here each run draws from its own legacy generator
+``RandomState([seed, criterion, level, run])`` in their order (the pulses, then 5n normals a step), and
+``global-v3`` draws its reset states and times from ``RandomState(seed)`` as their wrapper does after
+``np.random.seed(seed)`` (a seed of 777 stands, commented out, in their pendubot script; it is the default).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..control.base import reset_controller, torque_of
+from ..errors import PaaError
+from ..model.robot import Robot
+from ..sim import protocol
+from ..sim.engine import pack
+from ..task import Task, as_task
+from . import realaigym_scores as scores
+from .store import ChunkStore, study_key
+
+PROTOCOLS = ("performance-v2", "robustness-v2", "global-v3")
+#: Their simulation settings (``sim_parameters.py`` of the three leaderboards).
+DT, T_FINAL, T_FINAL_GLOBAL = 0.002, 10.0, 60.0
+#: Their hardware's gear ratio (``design_C.1`` model parameters), which the rotor inertia's terms need.
+GEAR_RATIO = 6.0
+LEVELS = 21
+REPETITIONS, PERTURBATION_RUNS = 10, 50
+EPSILON = (0.35, 1.0)
+RESETS, RESET_LENGTH = 15, 0.2
+CHUNK = 32
+
+
+def their_times(t_final, dt=DT, t0=0.0):
+    """Their clock: t accumulated by ``t += dt`` while ``t < t_final`` (the run's length in steps follows from it)."""
+    times, t = [t0], t0
+    while t < t_final:
+        t += dt
+        times.append(t)
+    return np.array(times)
+
+
+def their_angles(X):
+    """paa_mj's states (K, 2n) in their angles: q1 from hanging down (q1 + pi)."""
+    X = np.array(X, float)
+    X[:, 0] += np.pi
+    return X
+
+
+def hanging(n):
+    """Their start [0, 0, 0, 0]: hanging at rest, in paa_mj's angles."""
+    x0 = np.zeros(2 * n)
+    x0[0] = -np.pi
+    return x0
+
+
+def plant(robot: Robot, change=None, *, global_test=False):
+    """Their plant's constants for ``robot`` (no damping, friction or rotor inertia, as their protocols set), with
+    one ``change`` (name, value) of the model criterion; ``global_test``: every joint driven, joint 1 at the
+    largest motor limit (their ``mpar_nolim``)."""
+    p = robot.params
+    m, l, lc, J = (np.array(a, float) for a in (p.m, p.l, p.lc, p.J))
+    n = len(m)
+    pivot = J + m * lc**2
+    damping, coulomb, rotor = np.zeros(n), np.zeros(n), 0.0
+    limit = np.concatenate([[0.0], np.asarray(robot.torque_limits, float)])
+    if global_test:
+        limit[0] = float(np.max(limit[1:]))
+    if change is not None:
+        name, value = change
+        i = int(name.lstrip("mrIbcf")[0]) - 1 if name != "Ir" else None
+        if name == "Ir":
+            rotor = value
+        elif name.startswith("m") and "r" in name:
+            lc[i] = value / m[i]
+        elif name.startswith("m"):
+            m[i] = value
+        elif name.startswith("I"):
+            pivot[i] = value
+        elif name.startswith("b"):
+            damping[i] = value
+        elif name.startswith("cf"):
+            coulomb[i] = value
+    return protocol.plant_constants(m, l, lc, pivot - m * lc**2, p.g, damping, coulomb, limit, rotor, GEAR_RATIO)
+
+
+def model_levels(robot: Robot) -> dict:
+    """Their model criterion's levels, per parameter (their ``get_par_list`` and ``linspace``; module docstring)."""
+    p = robot.params
+    levels = {"Ir": np.linspace(0.0, 1e-4, LEVELS)}
+    scale = np.linspace(0.75, 1.25, LEVELS)
+    for i in range(p.n_links):
+        k = i + 1
+        levels[f"m{k}r{k}"] = scale * (p.m[i] * p.lc[i])
+        if i > 0:
+            levels[f"m{k}"] = scale * p.m[i]
+        levels[f"I{k}"] = scale * (p.J[i] + p.m[i] * p.lc[i] ** 2)
+        levels[f"b{k}"] = np.linspace(-0.1, 0.1, LEVELS)
+        levels[f"cf{k}"] = np.linspace(-0.2, 0.2, LEVELS)
+    return levels
+
+
+def perturbations(rng, n, t_final=T_FINAL, dt=DT, per_joint=3, min_gap=1.0, sigma=(0.05, 0.1), amplitude=(0.5, 5.0)):
+    """Their ``get_random_gauss_perturbation_array``, n joints: (n, K) torques [N m] on t = arange(0, t_final, dt).
+    Pulses that would not fit at ``min_gap`` apart (more than 2 joints) are brought closer: the gap is at most
+    t_final / (pulses + 1)."""
+    count = n * per_joint
+    gap = min(min_gap, t_final / (count + 1))
+    wiggle = (t_final - (count + 1) * gap) / count
+    mu = []
+    for i in range(count):
+        mu.append((gap if i == 0 else mu[-1] + gap) + rng.rand() * wiggle)
+    rng.shuffle(mu)
+    mu = np.reshape(mu, (n, per_joint))
+    widths = sigma[0] + rng.rand(n, per_joint) * (sigma[1] - sigma[0])
+    span = amplitude[1] - amplitude[0]
+    peaks = rng.uniform(-span, span, size=(n, per_joint))
+    peaks += amplitude[0] * np.sign(peaks)
+    t = np.arange(0, t_final, dt)
+    return np.array([np.sum([peaks[j, i] * np.exp(-np.power(t - mu[j, i], 2.0) / (2 * widths[j, i] ** 2.0))
+                             for i in range(per_joint)], axis=0) for j in range(n)])
+
+
+class Runs:
+    """One controller, run again and again under their simulator: compiled when it has a compiled form."""
+
+    def __init__(self, robot: Robot, controller):
+        self.robot, self.controller, self.n = robot, controller, robot.params.n_links
+        form = controller.compiled() if hasattr(controller, "compiled") else None
+        self.packed = None if form is None else pack(form)
+
+    def run(self, P, x0, T, *, delay=0.0, sigma_meas=None, responsiveness=1.0, sigma_u=None, normals=None,
+            perturbation=None, reset=None):
+        """States X (K, 2n) and applied torques U (K - 1, n) of one run on the plant ``P`` over the times T (K,)."""
+        n, steps = self.n, len(T) - 1
+        X, U = np.full((steps + 1, 2 * n), np.nan), np.full((steps, n), np.nan)
+        X[0] = x0
+        args = (P, X, U, np.ascontiguousarray(T, float), DT, int(delay / DT) + 1,
+                np.zeros(2 * n) if sigma_meas is None else np.asarray(sigma_meas, float), float(responsiveness),
+                np.zeros(n) if sigma_u is None else np.asarray(sigma_u, float),
+                np.zeros((steps, 5 * n)) if normals is None else normals,
+                np.zeros((n, 0)) if perturbation is None else np.ascontiguousarray(perturbation),
+                np.zeros(0) if reset is None else reset)
+        if self.packed is not None:
+            k = self.packed
+            done = protocol.rollout_compiled(k.first, k.second, k.condition, k.params, k.memory.copy(), *args)
+        else:
+            done = self._run_python(*args)
+        return X[:done + 1], U[:done]
+
+    def _run_python(self, P, X, U, T, dt, delay_steps, sigma_meas, responsiveness, sigma_u, normals, perturbation,
+                    reset):
+        n = self.n
+        reset_controller(self.controller)
+        work, x_meas, u = np.empty(protocol.work_size(n)), np.empty(2 * n), np.zeros(n)
+        for k in range(U.shape[0]):
+            protocol.measure(X, k, delay_steps, sigma_meas, normals[k], x_meas)
+            if reset.size == 0 or not protocol.reset_command(reset, P, x_meas, T[k], u):
+                u[0] = 0.0
+                u[1:] = torque_of(self.controller, x_meas[:n], x_meas[n:], float(T[k]))
+            if not protocol.advance(P, X, U, k, T, dt, u, responsiveness, sigma_u, normals[k], perturbation, work):
+                return k + 1
+        return U.shape[0]
+
+
+def _goal_height(robot, task):
+    goal = np.concatenate([task.goal, np.zeros(robot.params.n_links)])[None, :]
+    return float(scores.tip_height(their_angles(goal), robot.params.l)[0])
+
+
+def _saved_rows(T, X, U):
+    """Their saved CSV's rows: (t_k, x_k, u_k), k < K - 1 (``save_trajectory`` cuts to the shortest column)."""
+    return T[:len(U)], X[:len(U)], U
+
+
+def performance_v2(robot: Robot, controller, task: Task, x0=None) -> dict:
+    """Their simulation_v2 run and scores (module docstring)."""
+    runs = Runs(robot, controller)
+    T = their_times(T_FINAL)
+    X, U = runs.run(plant(robot), hanging(runs.n) if x0 is None else x0, T)
+    rows = _saved_rows(T[:len(X)], their_angles(X), U)
+    result = scores.performance(*rows, robot.params.l, _goal_height(robot, task), T_FINAL)
+    summary = {"criteria": result, "score": result["score_v2"], "steps": len(U)}
+    if len(X) < len(T):
+        summary["diverged_at"] = float(T[len(X) - 1])
+    return summary, dict(zip("TXU", rows))
+
+
+def global_v3(robot: Robot, controller, task: Task, x0=None, seed=777) -> dict:
+    """Their simulation_v3 run (the global policy test) and its score (module docstring)."""
+    runs = Runs(robot, controller)
+    n = runs.n
+    rng = np.random.RandomState(seed)
+    targets = rng.uniform(0.0, 2 * np.pi, (10 * RESETS + 1, 2 * n)) - np.pi
+    average = T_FINAL_GLOBAL / (RESETS + 1.0)
+    times = np.linspace(average, T_FINAL_GLOBAL - average, RESETS) + 2.0 * (rng.rand(RESETS) - 0.5)
+    angles = targets[:RESETS + 1, :n].copy()
+    angles[:, 0] -= np.pi  # their targets are in their angles
+    T = their_times(T_FINAL_GLOBAL)
+    record = protocol.reset_record(times, angles, RESET_LENGTH)
+    X, U = runs.run(plant(robot, global_test=True), hanging(n) if x0 is None else x0, T, reset=record)
+    Tr, Xr, _ = _saved_rows(T[:len(X)], their_angles(X), U)
+    up = scores.up_rows(Xr, robot.params.l, _goal_height(robot, task))
+    time_up = scores.uptime(Tr, up)
+    summary = {"time_up": time_up, "score": time_up / T_FINAL_GLOBAL, "reset_times": times.tolist(),
+               "steps": len(U), "diverged": len(X) < len(T)}
+    goal_height = _goal_height(robot, task)
+    return summary, {"T": Tr, "X": Xr, "U": U, "height": scores.tip_height(Xr, robot.params.l),
+                     "threshold": 0.9 * goal_height}
+
+
+def robustness_cases(robot: Robot):
+    """Every run of robustness v2, in their order: (criterion, parameter, level index, repetition, value)."""
+    cases = []
+    for name, values in model_levels(robot).items():
+        cases += [("model", name, i, 0, float(v)) for i, v in enumerate(values)]
+    for criterion, values, reps in (("measurement_noise", np.linspace(0.0, 0.5, LEVELS), REPETITIONS),
+                                    ("u_noise", np.linspace(0.0, 1.1, LEVELS), REPETITIONS),
+                                    ("u_responsiveness", np.linspace(0.1, 2.0, LEVELS), 1),
+                                    ("delay", np.linspace(0.0, 0.04, LEVELS), 1)):
+        cases += [(criterion, criterion, i, r, float(v)) for i, v in enumerate(values) for r in range(reps)]
+    cases += [("perturbation", "perturbation", 0, r, 0.0) for r in range(PERTURBATION_RUNS)]
+    return cases
+
+
+def _case_run(runs, robot, case, x0, T, seed):
+    criterion, name, level, rep, value = case
+    n = runs.n
+    code = scores.ROBUSTNESS_CRITERIA.index(criterion)
+    rng = np.random.RandomState([seed, code, level, rep])
+    nominal = plant(robot)
+    motors = (nominal[n * n + 3 * n:n * n + 4 * n] != 0.0).astype(float)
+    if criterion == "model":
+        return runs.run(plant(robot, (name, value)), x0, T)
+    if criterion == "perturbation":
+        return runs.run(nominal, x0, T, perturbation=perturbations(rng, n))
+    if criterion == "u_responsiveness":
+        return runs.run(nominal, x0, T, responsiveness=value)
+    if criterion == "delay":
+        return runs.run(nominal, x0, T, delay=value)
+    normals = rng.standard_normal((len(T) - 1, 5 * n))
+    if criterion == "measurement_noise":
+        return runs.run(nominal, x0, T, sigma_meas=np.r_[np.zeros(n), np.full(n, value)], normals=normals)
+    return runs.run(nominal, x0, T, sigma_u=value * motors, normals=normals)
+
+
+def robustness_v2(robot: Robot, controller, task: Task, x0=None, seed=777, *, out_dir=None, fresh=False,
+                  progress=True, key_definition=None) -> dict:
+    """Their robustness_v2 benchmark (module docstring): each run's final state and success, each level's success,
+    the six scores and the overall one. Finished chunks are kept in ``out_dir`` (resumable)."""
+    from ..progress import progress as bar
+
+    runs = Runs(robot, controller)
+    n = runs.n
+    x0 = hanging(n) if x0 is None else np.asarray(x0, float)
+    T = their_times(T_FINAL)
+    cases = robustness_cases(robot)
+    key = study_key({"study": "realaigym-robustness-v2", "x0": x0, "seed": seed, **(key_definition or {})})
+    store = ChunkStore(out_dir, key, fresh, "realaigym")
+    final, steps = np.full((len(cases), 2 * n), np.nan), np.zeros(len(cases), int)
+    chunks = range(0, len(cases), CHUNK)
+    interrupted = False
+    with bar(total=len(cases), desc="robustness-v2 runs", unit="run", enabled=progress) as shown:
+        try:
+            for index, start in enumerate(chunks):
+                part = slice(start, start + CHUNK)
+                kept = store.load(index)
+                if kept is None:
+                    X_last, done = [], []
+                    for case in cases[part]:
+                        X, _ = _case_run(runs, robot, case, x0, T, seed)
+                        X_last.append(X[-1])
+                        done.append(len(X) - 1)
+                    kept = {"final": np.array(X_last), "steps": np.array(done)}
+                    store.save(index, kept)
+                final[part], steps[part] = kept["final"], kept["steps"]
+                shown.update(len(kept["steps"]))
+        except KeyboardInterrupt:
+            interrupted = True
+    return _robustness_summary(robot, task, cases, final, steps, len(T) - 1, interrupted), {}
+
+
+def _robustness_summary(robot, task, cases, final, steps, n_steps, interrupted):
+    """Per criterion and parameter: the levels' values, every run's success and the level's success as their score
+    counts it; the six scores and the overall one once every run has finished."""
+    goal = np.concatenate([task.goal, np.zeros(robot.params.n_links)])
+    finished = steps > 0
+    success = np.array([bool(f) and s == n_steps and scores.final_state_success(x, goal, EPSILON)
+                        for x, s, f in zip(final, steps, finished)])
+    criteria = {c: {} for c in scores.ROBUSTNESS_CRITERIA}
+    for i, (criterion, name, level, rep, value) in enumerate(cases):
+        entry = criteria[criterion].setdefault(name, {"values": [], "runs": []})
+        if criterion == "perturbation":
+            level = rep  # their 50 runs are 50 levels of one run each
+        if level == len(entry["runs"]):
+            entry["values"].append(value if criterion != "perturbation" else rep)
+            entry["runs"].append([])
+        entry["runs"][level].append(bool(success[i]))
+    for criterion, entries in criteria.items():
+        for entry in entries.values():
+            repeated = criterion in ("measurement_noise", "u_noise")
+            entry["success"] = [bool(s) for s in scores.level_successes(
+                entry["runs"] if repeated else [r[0] for r in entry["runs"]], repeated)]
+    result = {"criteria": criteria, "runs": len(cases), "completed_fraction": float(np.mean(finished)),
+              "interrupted": interrupted}
+    if finished.all():
+        per_criterion = {c: [e["success"] for e in criteria[c].values()] for c in scores.ROBUSTNESS_CRITERIA}
+        result["scores"] = scores.robustness_score(per_criterion)
+        result["score"] = result["scores"]["overall"]
+    return result
+
+
+def run_protocol(protocol_name: str, robot: Robot, spec, task, x0=None, seed=777, *, out_dir=None, fresh=False,
+                 progress=True):
+    """One protocol (``PROTOCOLS``) for the controller that ``spec`` (a
+    :class:`~paa_mj.control.registry.ControllerSpec`) builds: the summary and the arrays its files need."""
+    if protocol_name not in PROTOCOLS:
+        raise PaaError(f"--protocol must be one of {', '.join(PROTOCOLS)}, not {protocol_name!r}")
+    task = as_task(task, robot)
+    controller = spec.for_task(task).build(robot)
+    n = robot.params.n_links
+    x0 = hanging(n) if x0 is None else np.asarray(x0, float)
+    if protocol_name == "performance-v2":
+        result, arrays = performance_v2(robot, controller, task, x0)
+    elif protocol_name == "global-v3":
+        result, arrays = global_v3(robot, controller, task, x0, seed)
+    else:
+        definition = {"robot": robot.xml, "controller": spec.short_name, "source": spec.source_digest(),
+                      "recipe": repr(spec), "goal": task.name}
+        result, arrays = robustness_v2(robot, controller, task, x0, seed, out_dir=out_dir, fresh=fresh,
+                                       progress=progress, key_definition=definition)
+    summary = {"protocol": protocol_name, "robot": robot.name, "controller": spec.short_name, "goal": task.name,
+               "x0": x0.tolist(), "seed": seed if protocol_name != "performance-v2" else None,
+               "their_code": "dfki-ric-underactuated-lab/double_pendulum 1e8544e6", "result": result,
+               "interrupted": bool(result.get("interrupted", False)),
+               "completed_fraction": float(result.get("completed_fraction", 1.0))}
+    return summary, arrays

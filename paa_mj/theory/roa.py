@@ -312,3 +312,17 @@ def region_of_attraction(am: AnalyticModel, task: Task, K, S, Q, R, *, u_max=Non
         spectral_radius=sampled_spectral_radius(am, K, dt, task),
         vdot_check=vdot_check(am, task, K, S, rho, limits, vdot_samples, seed),
         fraction_of_switch_region_inside=fraction_inside(task, S, rho, box_samples, seed), simulation=simulation)
+
+
+def switch_level(am: AnalyticModel, task: Task, Q, R, *, u_max=None, dt, method=None):
+    """(S, rho) of the set x^T S x <= rho for a switch to (67) (:class:`~paa_mj.control.combined.LevelCondition`):
+    the ``rho`` of :func:`region_of_attraction` without its checks."""
+    from .linear import lqr_solution
+
+    K, S = lqr_solution(am, task, Q, R)
+    method = choose_method(method, am.n_links)
+    limits = None if u_max is None else np.broadcast_to(np.asarray(u_max, float), (K.shape[0],))
+    rho_torque = torque_level(S, K, limits if limits is not None and np.any(np.isfinite(limits)) else None)
+    if method == "sos":
+        return S, _sos_part(am, task, K, S, Q, R, rho_torque)[0]
+    return S, simulated_level(am, task, K, S, limits, dt, angle_level(S, am.n_links))["rho"]

@@ -150,7 +150,7 @@ class _Program:
         probe = MathematicalProgram()
         self.x = probe.NewIndeterminates(self.width, "z")
         field = _monomial_field(terms, self.x)
-        self.norm = Polynomial(self.x @ self.x)
+        self.norm = sum((Polynomial(v) * Polynomial(v) for v in self.x), Polynomial())
         self.Vdot = sum((2.0 * Polynomial(self.x[i]) * field[i] for i in range(self.width)), Polynomial())
 
     def feasible(self, level) -> bool:

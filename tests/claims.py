@@ -472,6 +472,77 @@ def _setup_test_minutes():
 # --- writing the pages --------------------------------------------------------------------------------------
 
 
+#: THEIR published region of attraction of the acrobot's LQR (RealAIGym, commit 1e8544e,
+#: ``data/controller_parameters/design_C.0/model_3.0/acrobot/lqr/roa/``): the weights they designed it with
+#: (``controller_par.csv``: Q = diag(q1..q4), R = r), their torque limit (``parameters.yml``, tl2) and the rho they
+#: published (``rho``), and their S (``Smatrix``, row by row). Stated here to compare with, never used to compute.
+THEIR_ROA = {"q": (0.97, 0.93, 0.39, 0.26), "r": 0.11, "u_max": 5.0, "rho": 0.1223754883788024939,
+             "S": ((1298.481415064720977, 558.3523631356217720, 272.9031642443362671, 131.2544935430180431),
+                   (558.3523631356217720, 240.7372849221409581, 117.4121801533794667, 56.47520895327936330),
+                   (272.9031642443362671, 117.4121801533794667, 57.39821677275718059, 27.60542921752761814),
+                   (131.2544935430180431, 56.47520895327936330, 27.60542921752761814, 13.27888287492742414))}
+
+
+@functools.lru_cache(maxsize=None)
+def roa(robot_name, goal, method, u_max="model", weights=None):
+    """:func:`paa_mj.theory.roa.region_of_attraction` of (67) (the paper's weights, or THEIR_ROA's)."""
+    from paa_mj.theory.linear import lqr_solution
+    from paa_mj.theory.roa import region_of_attraction
+
+    r, t = robot(robot_name), task(robot_name, goal)
+    n = r.params.n_links
+    if weights == "theirs":
+        Q, R = np.diag(THEIR_ROA["q"]), np.array([[THEIR_ROA["r"]]])
+    else:
+        Q, R = 1e4 * np.eye(2 * n), np.eye(n - 1)
+    K, S = lqr_solution(r.analytic, t, Q, R)
+    limits = r.torque_limits if u_max == "model" else u_max
+    return region_of_attraction(r.analytic, t, K, S, Q, R, u_max=limits, dt=float(r.model.opt.timestep),
+                                method=method)
+
+
+@claim("roa_gymnast")
+def _roa_gymnast():
+    out = roa("gymnast", "folded", "sos")
+    inside, check = out.fraction_of_switch_region_inside, out.vdot_check
+    return (f"rho = {out.rho:.0f} (the bracket's top, where the Taylor model's dV/dt first turns positive on a sampled"
+            f" ray: {out.rho_upper:.0f}); {100 * inside['fraction']:.1f} % of region (68) inside ({inside['samples']}"
+            f" states); dV/dt of (1) negative at all {check['samples']} states sampled in the set:"
+            f" {check['rising'] == 0}; spectral radius at 1 ms {out.spectral_radius:.4f}")
+
+
+@claim("roa_example2_spectral_radius")
+def _roa_example2_spectral_radius():
+    from paa_mj.theory.linear import lqr_gain, sampled_spectral_radius
+
+    am, folded = robot("example2").analytic, task("example2", "folded")
+    return f"{sampled_spectral_radius(am, lqr_gain(am, folded), 1e-3, folded):.1f}"
+
+
+@claim("roa_realaigym_S", kind="bound")
+def _roa_realaigym_s():
+    from paa_mj.theory.linear import lqr_solution
+
+    r, up = robot("realaigym_acrobot"), task("realaigym_acrobot", "stretched")
+    S = lqr_solution(r.analytic, up, np.diag(THEIR_ROA["q"]), np.array([[THEIR_ROA["r"]]]))[1]
+    theirs = np.array(THEIR_ROA["S"])
+    return [float(np.max(np.abs(S - theirs)) / np.max(np.abs(theirs)))]
+
+
+@claim("roa_realaigym_rho")
+def _roa_realaigym_rho():
+    free = roa("realaigym_acrobot", "stretched", "sos", None, "theirs")
+    limited = roa("realaigym_acrobot", "stretched", "sos", THEIR_ROA["u_max"], "theirs")
+    return (f"ours {free.rho:.4f} against their {THEIR_ROA['rho']:.4f} ({100 * (free.rho / THEIR_ROA['rho'] - 1):+.0f}"
+            f" %); with their torque limit {THEIR_ROA['u_max']:g} N m kept unsaturated, {limited.rho:.4f}")
+
+
+@claim("roa_realaigym_sampling", full=True)
+def _roa_realaigym_sampling():
+    out = roa("realaigym_acrobot", "stretched", "sampling", THEIR_ROA["u_max"], "theirs")
+    return f"{out.rho:.3f} ({out.simulation['samples']} states per level)"
+
+
 def write(names=(), full=False):
     """Write into the pages the text the code gives for each exact or measured claim (all, or ``names``)."""
     for page in PAGES:

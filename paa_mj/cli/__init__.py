@@ -29,12 +29,12 @@ Run 'paa-mj COMMAND --help' for the options of a command."""
 def build_parser():
     """The command line's parser, built once per process (argparse keeps nothing of a parse in it)."""
     from .. import __version__
-    from . import peers, realaigym, reproduce, simulate, studies, theory
+    from . import peers, realaigym, reproduce, roa, simulate, studies, theory
 
     parser = Parser(prog="paa-mj", description=DESCRIPTION)
     parser.add_argument("--version", action="version", version=f"paa-mj {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser, metavar="COMMAND")
-    for module in (theory, simulate, studies, reproduce, peers, realaigym):
+    for module in (theory, roa, simulate, studies, reproduce, peers, realaigym):
         module.register(sub, Parser)
     return parser
 

@@ -203,6 +203,10 @@ def controller_parent():
     p.add_argument("--lqr-weights", type=positive, nargs=2, metavar=("Q", "R"),
                    help="weights of the balance LQR (67): Q = Q I on the state error, R = R I on the torques"
                         " (default the paper's 1e4 and 1; for vcl, vc, lqr, trajopt, trajopt-effort)")
+    p.add_argument("--switch", choices=("region", "roa"),
+                   help="where vcl and vc hand over to the LQR (67): region (68) (the default), or roa, the LQR's"
+                        " cost-to-go below the level of its region of attraction with the robot's torque limits"
+                        " (paa-mj roa)")
     return p
 
 
@@ -270,6 +274,13 @@ def spec_from_args(args, robot, task, name=None):
         if name not in LQR_CONTROLLERS:
             raise PaaError(f"--lqr-weights applies to the controllers {', '.join(LQR_CONTROLLERS)}, not to {name}")
         options.append(("lqr_weights", tuple(weights)))
+    switch = getattr(args, "switch", None)
+    if switch not in (None, "region"):
+        from ..control.catalog import SWITCHED
+
+        if name not in SWITCHED:
+            raise PaaError(f"--switch applies to the controllers {', '.join(SWITCHED)}, not to {name}")
+        options.append(("switch", switch))
     given = {k: getattr(args, k, None) for k in ("kD", "kP", "kV")}
     if all(v is None for v in given.values()):
         return ControllerSpec(name, options=tuple(options), task=task)

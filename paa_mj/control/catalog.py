@@ -24,7 +24,10 @@ PLANNERS = ("trajopt", "trajopt-effort")
 #: Controllers that balance by the LQR (67), with the option lqr_weights = (q, r): Q = q I, R = r I (the paper's
 #: q = 1e4, r = 1 by default).
 LQR_CONTROLLERS = ("vcl", "vc", "lqr", "trajopt", "trajopt-effort")
+#: Controllers that switch from a swing-up to (67), with the option switch = "region" ((68), the default) or "roa"
+#: (the LQR's cost-to-go below the level of its region of attraction, :mod:`paa_mj.theory.roa`).
+SWITCHED = ("vcl", "vc")
 #: Controllers that take options, and which.
 OPTIONS = {name: (("limit", "duration", "intervals") if name in PLANNERS else ())
-           + (("lqr_weights",) if name in LQR_CONTROLLERS else ())
+           + (("lqr_weights",) if name in LQR_CONTROLLERS else ()) + (("switch",) if name in SWITCHED else ())
            for name in DESCRIPTIONS if name in PLANNERS or name in LQR_CONTROLLERS}

@@ -7,6 +7,8 @@ a batch switches on its own. Conditions are small objects with a NumPy test
 (the analytic engine finds the switch as an ODE event) and a compiled form:
 
 - :class:`RegionCondition`: the state is inside region (68);
+- :class:`LevelCondition`: the LQR's cost-to-go x^T S x is below a level rho, the inner estimate of its region of
+  attraction (:mod:`paa_mj.theory.roa`), as Spong's controller in Drake switches;
 - :class:`TimeCondition`: t >= a given time (the end of a stored trajectory).
 
 When both controllers and the condition are compiled, so is the combination
@@ -19,7 +21,7 @@ import numpy as np
 
 from ..task import Task
 from .base import CompiledForm, Controller, SwitchedForm, kernel, reset_controller, torque_of
-from .region import reading_condition, reading_margin, region_condition
+from .region import level_condition, reading_condition, reading_margin, region_condition
 
 SWING_UP, BALANCE = 0, 1
 
@@ -65,6 +67,34 @@ class ReadingCondition:
 
     def compiled(self):
         return reading_condition, np.zeros(0)
+
+
+class LevelCondition:
+    """Switch where the LQR (67)'s cost-to-go :math:`x^T S x < \\rho` (x the error from the task's goal): the
+    set of :func:`paa_mj.theory.roa.region_of_attraction`, instead of region (68).
+
+    Parameters
+    ----------
+    task : Task
+    S : ndarray (2n, 2n)
+    rho : float
+    """
+
+    name = "cost-to-go level (region of attraction)"
+
+    def __init__(self, task: Task, S, rho):
+        self.task, self.S, self.rho = task, np.asarray(S, float), float(rho)
+        self.params = np.concatenate([task.goal, self.S.reshape(-1), [self.rho]])
+
+    def margin(self, q, qd, t):
+        x = self.task.error(q, qd)
+        return np.einsum("...i,ij,...j->...", x, self.S, x) - self.rho
+
+    def holds(self, q, qd, t):
+        return self.margin(q, qd, t) < 0
+
+    def compiled(self):
+        return level_condition, self.params
 
 
 @kernel

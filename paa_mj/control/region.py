@@ -10,6 +10,7 @@ import math
 import numpy as np
 from numba.extending import register_jitable
 
+from ..model.states import wrap
 from ..task import SWITCH_ANGLE, SWITCH_SPEED, state_terms
 from .base import kernel
 
@@ -51,3 +52,28 @@ def reading_margin(q1, q2, q3, d1, d2, d3):
 def reading_condition(x, t, params, memory, tau):
     """Compiled: 1 inside the candidate reading's region (the gymnast's state x = [q, qd], 6 numbers)."""
     return 1 if reading_margin(x[0], x[1], x[2], x[3], x[4], x[5]) < 0.0 else 0
+
+
+# --- the certified set as the switch: the LQR's cost-to-go below a level ----------------------------------
+
+@register_jitable
+def level_value(params, x):
+    """V(x) = e^T S e - rho, e = [wrap(q - q*), qd]: negative exactly inside the set x^T S x < rho of
+    :mod:`paa_mj.theory.roa`; ``params`` = [q* (n), S (2n x 2n, row by row), rho]."""
+    n = x.size // 2
+    width = 2 * n
+    total = 0.0
+    for i in range(width):
+        ei = wrap(x[i] - params[i]) if i < n else x[i]
+        row = 0.0
+        for j in range(width):
+            ej = wrap(x[j] - params[j]) if j < n else x[j]
+            row += params[n + width * i + j] * ej
+        total += ei * row
+    return total - params[n + width * width]
+
+
+@kernel
+def level_condition(x, t, params, memory, tau):
+    """Compiled condition: 1 where the LQR's cost-to-go x^T S x is below rho (:func:`level_value`)."""
+    return 1 if level_value(params, x) < 0.0 else 0

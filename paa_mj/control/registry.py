@@ -41,7 +41,7 @@ from ..model.params import RobotParams
 from ..task import Task, as_task
 from .base import Binding, Controller
 from .catalog import DESCRIPTIONS, GAIN_CONTROLLERS, OPTIONS
-from .combined import CombinedController, RegionCondition
+from .combined import CombinedController, LevelCondition, RegionCondition
 from .energy import ConventionalController, EnergyVCLController
 from .lqr import LQRController
 from .passive import PassiveController
@@ -95,15 +95,39 @@ def build_trajopt_effort(robot, task, gains=None, check=True, limit=None, durati
     return kip_controller(robot.analytic, kip, task, name="trajopt-effort", lqr_weights=lqr_weights)
 
 
-def _switched(robot, task, swing, name, lqr_weights=None):
-    """``swing`` until region (68) of the task, then the LQR (67) at its goal (weights ``lqr_weights``)."""
+#: Where a switched controller hands over to (67) (option ``switch``): region (68), or the inner estimate
+#: x^T S x <= rho of the LQR's region of attraction with the robot's torque limits (:mod:`paa_mj.theory.roa`).
+SWITCHES = ("region", "roa")
+
+
+def _condition(robot, task, lqr_weights, switch):
+    if switch in (None, "region"):
+        return RegionCondition(task)
+    if switch != "roa":
+        raise PaaError(f"the option switch is one of {', '.join(SWITCHES)}, got {switch!r}")
+    from ..theory.linear import LQR_WEIGHT
+    from ..theory.roa import switch_level
+    from .lqr import lqr_weights as weights_of
+
+    n = robot.params.n_links
+    Q, R = weights_of(n, lqr_weights)
+    Q = LQR_WEIGHT * np.eye(2 * n) if Q is None else Q
+    R = np.eye(n - 1) if R is None else R
+    S, rho = switch_level(robot.analytic, task, Q, R, u_max=robot.torque_limits,
+                          dt=float(robot.model.opt.timestep))
+    return LevelCondition(task, S, rho)
+
+
+def _switched(robot, task, swing, name, lqr_weights=None, switch=None):
+    """``swing`` until region (68) of the task (or the LQR's region of attraction, ``switch="roa"``), then the
+    LQR (67) at its goal (weights ``lqr_weights``)."""
     return CombinedController(swing, LQRController.for_model(robot.analytic, task, lqr_weights),
-                              RegionCondition(task), name=name)
+                              _condition(robot, task, lqr_weights, switch), name=name)
 
 
-def build_vcl(robot, task, gains=None, check=True, lqr_weights=None):
-    """The paper's controller: (40) + (67) switched by (68)."""
-    return _switched(robot, task, build_vcl_only(robot, task, gains, check), "vcl", lqr_weights)
+def build_vcl(robot, task, gains=None, check=True, lqr_weights=None, switch=None):
+    """The paper's controller: (40) + (67) switched by (68) (or by the LQR's region of attraction)."""
+    return _switched(robot, task, build_vcl_only(robot, task, gains, check), "vcl", lqr_weights, switch)
 
 
 def build_vcl_only(robot, task, gains=None, check=True):
@@ -111,9 +135,9 @@ def build_vcl_only(robot, task, gains=None, check=True):
     return EnergyVCLController(robot.analytic, **_gains(robot, gains), check=check, task=task)
 
 
-def build_vc(robot, task, gains=None, check=True, lqr_weights=None):
-    """The conventional candidate (12) + (67) switched by (68)."""
-    return _switched(robot, task, build_vc_only(robot, task, gains, check), "vc", lqr_weights)
+def build_vc(robot, task, gains=None, check=True, lqr_weights=None, switch=None):
+    """The conventional candidate (12) + (67) switched by (68) (or by the LQR's region of attraction)."""
+    return _switched(robot, task, build_vc_only(robot, task, gains, check), "vc", lqr_weights, switch)
 
 
 def build_vc_only(robot, task, gains=None, check=True):

@@ -81,6 +81,13 @@ def lqr_gain(am: AnalyticModel, task: Task, Q=None, R=None):
         The Riccati equation has no stabilising solution that SciPy can compute with these weights (weights
         too far apart, or a goal that is not stabilisable), or the gain is not finite.
     """
+    return lqr_solution(am, task, Q, R)[0]
+
+
+def lqr_solution(am: AnalyticModel, task: Task, Q=None, R=None):
+    """(K, S) of (67): S the stabilising solution of A^T S + S A - S B R^-1 B^T S + Q = 0 on the linearisation at
+    the task's goal, K = R^-1 B^T S, so that x^T S x is the LQR's cost-to-go of the linear loop (:func:`lqr_gain`
+    for the weights and the errors)."""
     from scipy.linalg import solve_continuous_are
 
     n = am.n_links
@@ -93,9 +100,9 @@ def lqr_gain(am: AnalyticModel, task: Task, Q=None, R=None):
     except (np.linalg.LinAlgError, ValueError) as err:
         raise PaaError(f"the LQR (67) at the {task.name} goal has no finite gain with these weights"
                        f" ({type(err).__name__}: {' '.join(str(err).split())})") from None
-    if not np.all(np.isfinite(K)):
+    if not (np.all(np.isfinite(K)) and np.all(np.isfinite(S))):
         raise PaaError(f"the LQR (67) at the {task.name} goal has no finite gain with these weights")
-    return K
+    return K, S
 
 
 def sampled_closed_loop(am: AnalyticModel, K, dt, task: Task):

@@ -1,0 +1,122 @@
+"""The region of attraction of the balance LQR (67): paa_mj.theory.roa, paa_mj.theory.sos and ``paa-mj roa``."""
+import json
+import math
+
+import numpy as np
+import pytest
+
+from paa_mj.errors import PaaError
+from paa_mj.task import Task
+from paa_mj.theory import roa, sos
+from paa_mj.theory.linear import sampled_spectral_radius
+
+CUBIC = [None, np.array([[-1.0]]), np.zeros((1, 1, 1)), np.ones((1, 1, 1, 1))]  # xdot = -x + x^3
+
+
+def test_the_cubic_bound_along_rays_is_its_known_region():
+    # V = x^2, dV/dt = -2 x^2 + 2 x^4 turns at |x| = 1: the region of attraction is exactly |x| < 1
+    assert sos.sampled_bound(CUBIC, np.eye(1), samples=10) == pytest.approx(1.0)
+    assert sos.polynomial_value(CUBIC, np.array([[0.5]]))[0, 0] == pytest.approx(-0.5 + 0.125)
+
+
+def test_the_sos_certificate_tends_to_the_known_region_from_below():
+    pytest.importorskip("pydrake")
+    rho, at_top = sos.sos_level(np.eye(1), CUBIC, 1e-6, 1.0, bisections=10)
+    assert not at_top and 0.98 < rho < 1.0
+    rho, at_top = sos.sos_level(np.eye(1), CUBIC, 1e-6, 0.5)
+    assert at_top and rho == 0.5
+
+
+class _DoubleIntegrator:
+    def linearize(self, goal):
+        return np.array([[0.0, 1.0], [0.0, 0.0]]), np.array([[0.0], [1.0]])
+
+
+def test_the_sampled_spectral_radius_by_hand():
+    # zero-order hold of the double integrator: Ad = [[1, h], [0, 1]], Bd = [h^2 / 2, h]
+    k1, k2, h = 40.0, 3.0, 0.1
+    phi = np.array([[1 - k1 * h * h / 2, h - k2 * h * h / 2], [-k1 * h, 1 - k2 * h]])
+    trace, det = np.trace(phi), np.linalg.det(phi)
+    roots = np.roots([1.0, -trace, det])
+    assert sampled_spectral_radius(_DoubleIntegrator(), [[k1, k2]], h, Task.named("folded", 2)) == \
+        pytest.approx(max(abs(roots)), rel=1e-12)
+
+
+def test_the_fraction_of_the_box_inside_a_ball():
+    task = Task.named("folded", 2)
+    a, s = task.switch_region.angle, task.switch_region.speed
+    S = np.diag([1 / a**2, 1 / a**2, 1 / s**2, 1 / s**2])
+    out = roa.fraction_inside(task, S, 1.0, samples=100000, seed=3)
+    ball = math.pi**2 / 2 / 16  # the unit 4-ball in the cube [-1, 1]^4
+    assert out["samples"] == 100000 and out["seed"] == 3
+    assert abs(out["fraction"] - ball) < 4 * math.sqrt(ball * (1 - ball) / 100000)
+    assert roa.fraction_inside(task, S, 4.0 + 1e-9, 1000)["fraction"] == 1.0
+    assert roa.fraction_inside(task, S, 1e-12, 1000)["fraction"] == 0.0
+
+
+def test_the_torque_level_just_reaches_the_limit():
+    rng = np.random.default_rng(0)
+    L = rng.standard_normal((4, 4))
+    S, K = L @ L.T + 4 * np.eye(4), rng.standard_normal((1, 4))
+    level = roa.torque_level(S, K, 2.0)
+    x = roa.on_ellipsoid(S, level, 20000, rng)
+    assert np.max(np.abs(x @ K.T)) <= 2.0 + 1e-9 and np.max(np.abs(x @ K.T)) > 1.99
+    assert roa.torque_level(S, K, None) is None and roa.torque_level(S, K, np.inf) is None
+
+
+def test_methods_refused_in_one_line():
+    with pytest.raises(PaaError, match="use one of sos, sampling"):
+        roa.choose_method("najafi", 2)
+    if sos.drake_available():
+        with pytest.raises(PaaError, match="limited to chains of 4 links"):
+            roa.choose_method("sos", 5)
+
+
+def test_the_compiled_level_condition_is_the_numpy_one():
+    from paa_mj.control.combined import LevelCondition
+    from paa_mj.control.region import level_value
+
+    task = Task.named("folded", 3)
+    rng = np.random.default_rng(1)
+    L = rng.standard_normal((6, 6))
+    condition = LevelCondition(task, L @ L.T, 2.0)
+    q, qd = task.goal + rng.normal(0, 0.5, (20, 3)), rng.normal(0, 0.5, (20, 3))
+    numpy_margin = condition.margin(q, qd, 0.0)
+    compiled = [level_value(condition.params, np.concatenate([q[k], qd[k]])) for k in range(20)]
+    assert np.allclose(numpy_margin, compiled, rtol=1e-12, atol=1e-12)
+
+
+def _roa_json(capsys, *extra):
+    from paa_mj.cli import main
+
+    code = main(["roa", "--robot", "acrobot", "--goal", "stretched", "--check", "4", "--json", *extra])
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+def test_the_command_states_its_set_and_gives_the_same_bytes_twice(capsys):
+    pytest.importorskip("pydrake")
+    code, first, _ = _roa_json(capsys, "--method", "sos")
+    assert code == 0
+    summary = json.loads(first)
+    for key in ("S", "rho", "method", "certified", "spectral_radius", "dt", "fraction_of_switch_region_inside",
+                "u_max", "mujoco_check", "rho_torque", "vdot_check", "goal", "task"):
+        assert key in summary, key
+    assert summary["method"] == "sos" and summary["certified"] is True and summary["u_max"] == [20.0]
+    assert summary["rho"] == pytest.approx(min(summary["rho_sos"], summary["rho_torque"]))
+    assert summary["fraction_of_switch_region_inside"]["samples"] > 0
+    assert summary["mujoco_check"]["states"] == 4 and summary["mujoco_check"]["reached"] == 4
+    assert summary["vdot_check"]["rising"] == 0
+    assert _roa_json(capsys, "--method", "sos")[1] == first
+
+
+@pytest.mark.parametrize("args, words", [(["--method", "najafi"], "invalid choice"),
+                                          (["--samples", "0"], "must be >= 1"),
+                                          (["--controller", "vcl"], "invalid choice"),
+                                          (["--robot", "nowhere.xml"], "nowhere.xml")])
+def test_bad_input_is_one_line_and_exit_2(capsys, args, words):
+    from paa_mj.cli import main
+
+    code = main(["roa", "--json", *args])
+    err = capsys.readouterr().err
+    assert code == 2 and words in err and len(err.strip().splitlines()) == 1

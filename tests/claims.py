@@ -289,6 +289,62 @@ def _atlas_gymnast():
 # --- RealAIGym and Drake ------------------------------------------------------------------------------------
 
 
+#: THEIR published rows of the current acrobot boards (real_ai_gym_leaderboard 81ea5bc, leaderboards/
+#: acrobot_simulation_performance_leaderboard_v2.csv, acrobot_simulation_robustness_leaderboard_v2.csv and
+#: icra2025/ICRA_2025_acrobot_simulation_results.csv): RealAI score v2, overall robustness v2, global v3 up time [s].
+THEIR_BOARDS = (("History SAC", "0.655", "0.751", "-"), ("AR-EAPO", "0.633", "0.727", "39.484"),
+                ("evolsac", "0.524", "0.687", "-"), ("TVLQR (iLQR trajectory)", "0.504", "0.607", "-"),
+                ("iLQR Riccati Gains", "0.396", "0.138", "-"), ("iLQR MPC stabilization", "0.345", "0.343", "-"),
+                ("mcpilco", "0.316", "0.241", "18.408"), ("VIMPPI", "-", "-", "38.882"),
+                ("AcadosMpc", "-", "-", "37.798"), ("prx_analytical", "-", "-", "7.002"))
+PFL = "examples/realaigym/pfl_controller.py"
+BOARD_CONTROLLERS = {"acrobot": ("vcl", "vc", "lqr", f"{PFL}:LQRTheirs_C11", "trajopt", "trajopt-effort", "spong",
+                                 f"{PFL}:PFLCollocatedLQR_C11"),
+                     "family": ("vcl", "vc", "lqr")}
+
+
+def realaigym_board(robot_name, goal, names):
+    from paa_mj.control.registry import ControllerSpec
+    from paa_mj.studies.realaigym import board
+
+    r = robot(robot_name)
+    t = task(robot_name, goal)
+    specs = {name.split(":")[-1]: ControllerSpec(str(ROOT / name) if ":" in name else name, task=t) for name in names}
+    rows = board(r, specs, t)
+    lines = ["| controller | success | swing-up [s] | RealAI score v2 | model | velocity noise | torque noise"
+             " | torque response | delay | perturbations | robustness v2 | v3 up [s] of 60 |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for row in rows:
+        perf, rob, glob = row["performance-v2"], row["robustness-v2"]["scores"], row["global-v3"]
+        c = perf["criteria"]
+        lines.append(f"| {row['controller']} | {int(c['success'])} | {c['swingup_time']:.2f} | {perf['score']:.3f} | "
+                     + " | ".join(f"{100 * rob[k]:.1f}" for k in ("model", "measurement_noise", "u_noise",
+                                                                  "u_responsiveness", "delay", "perturbation"))
+                     + f" | {rob['overall']:.3f} | {glob['time_up']:.2f} |")
+    return block("\n".join(lines))
+
+
+@claim("realaigym_board_acrobot", full=True)
+def _realaigym_board_acrobot():
+    return realaigym_board("realaigym_acrobot", "stretched", BOARD_CONTROLLERS["acrobot"])
+
+
+@claim("realaigym_board_gymnast", full=True)
+def _realaigym_board_gymnast():
+    return realaigym_board("gymnast", "folded", BOARD_CONTROLLERS["family"])
+
+
+@claim("realaigym_board_chain4", full=True)
+def _realaigym_board_chain4():
+    return realaigym_board("chain4", "stretched", BOARD_CONTROLLERS["family"])
+
+
+@claim("realaigym_their_boards")
+def _realaigym_their_boards():
+    lines = ["| theirs (published) | RealAI score v2 | robustness v2 | v3 up [s] of 60 |", "|---|---|---|---|"]
+    return block("\n".join(lines + ["| " + " | ".join(row) + " |" for row in THEIR_BOARDS]))
+
+
 #: THEIR published v1 row of the Energy PFL, as their table rounds it (where it comes from, and its values).
 THEIR_V1_ROW = ("commit db7e80b, `data/acrobot/simulation/pflcol_lqr/scores.csv`",
                 "4.118 | 29.012 | 7.1173 | 18.795 | 0.25150 | 280.81 | 0.72786")

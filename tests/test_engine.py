@@ -217,7 +217,7 @@ def test_bench_reports_ratios_without_timing_assertions():
     from paa_mj.studies.bench import format_bench, run_bench
 
     r = run_bench(batch_size=8, batch_seconds=0.05, repeats=1, basin_grid=2, basin_seconds=0.1, vector_envs=4,
-                  vector_steps=5, rollout_seconds=2.0, python_seconds=0.2, bare_steps=2000)
+                  vector_steps=5, rollout_seconds=2.0, python_seconds=0.2, bare_steps=2000, realaigym=False)
     for key in ("bare_mj_step_us", "single_step_ratio", "batch_step_ratio", "basin_effective_ratio",
                 "analytic_to_mujoco_ratio", "python_step_vs_hand_loop"):
         assert np.isfinite(r[key]) and r[key] > 0

@@ -50,7 +50,7 @@ def _print(summary, out):
 
 
 def register(sub, parser_class):
-    from ..studies.realaigym import PROTOCOLS
+    from ..studies.settings import REALAIGYM_PROTOCOLS as PROTOCOLS
 
     p = sub.add_parser("realaigym", parents=[robot_parent("realaigym_acrobot"), controller_parent()],
                        help="RealAIGym's benchmark protocols, as their code computes them",
@@ -58,7 +58,9 @@ def register(sub, parser_class):
                                    " (double_pendulum 1e8544e6): performance v2 (RealAI score), robustness v2 (six"
                                    " criteria, 21 levels each) or the global policy test v3 (60 s, 15 random resets),"
                                    " on their acrobot or any robot of the family.")
-    p.add_argument("--protocol", choices=PROTOCOLS, required=True)
+    p.add_argument("--protocol", choices=PROTOCOLS, required=True,
+                   help="performance-v2 (10 s, the RealAI score), robustness-v2 (722 runs, six criteria) or global-v3"
+                        " (60 s, 15 random resets, the time up)")
     p.add_argument("--goal", choices=("folded", "stretched"), default="stretched",
                    help="the goal (default stretched: every link up, their acrobot's goal)")
     p.add_argument("--x0", type=finite, nargs="+", metavar="X",

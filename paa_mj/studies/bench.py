@@ -202,12 +202,13 @@ def _bare_step_cost(robot, steps, repeats):
 
 def run_bench(batch_size=1024, batch_seconds=2.0, repeats=3, basin_grid=16, basin_seconds=30.0, progress=False,
               vector_envs=64, vector_steps=50, robot="gymnast", task=None, rollout_seconds=30.0,
-              python_seconds=2.0, bare_steps=20000):
+              python_seconds=2.0, bare_steps=20000, realaigym=True):
     """Measure every cost of the module docstring; each is the best of ``repeats`` runs (the basin: of 2).
 
     ``rollout_seconds`` [s] is the length of the single MuJoCo and analytic rollouts (``mujoco_30s_seconds``,
     ``analytic_30s_seconds``: 30 s unless asked otherwise, ``rollout_t_final`` in the result), ``python_seconds``
-    [s] that of the Python controllers' runs, ``bare_steps`` the number of bare ``mj_step`` calls timed.
+    [s] that of the Python controllers' runs, ``bare_steps`` the number of bare ``mj_step`` calls timed;
+    ``realaigym``: also time one whole robustness v2 of RealAIGym's (``realaigym_robustness_v2_cpu_s``).
 
     ``robot`` (a name or MJCF path) and ``task`` (a Task or a goal's name, default the folded one) choose the
     robot and task measured; the vector environment is the gymnast's, measured for it alone.
@@ -250,6 +251,7 @@ def run_bench(batch_size=1024, batch_seconds=2.0, repeats=3, basin_grid=16, basi
                                                   task=task), 1)
     vector = _vector_rows(vector_envs, vector_steps, repeats) if name == "gymnast" and task.name == "folded" \
         else {}
+    protocols = _realaigym_rows(bare_step, progress) if realaigym else {}
     return {
         "robot": robot.name, "goal": task.name,
         "machine_cores": os.cpu_count(),
@@ -274,7 +276,25 @@ def run_bench(batch_size=1024, batch_seconds=2.0, repeats=3, basin_grid=16, basi
         "mujoco_30s_seconds": single,
         "analytic_to_mujoco_ratio": analytic / single,
         **vector,
+        **protocols,
     }
+
+
+def _realaigym_rows(bare_step, progress) -> dict:
+    """CPU time of one controller's whole robustness v2 of RealAIGym (Spong's swing-up on their acrobot, compiled),
+    and its cost per simulated step against a bare mj_step."""
+    from ..control.registry import ControllerSpec
+    from .realaigym import run_protocol
+
+    acrobot = load_robot("realaigym_acrobot")
+    spec = ControllerSpec("spong", task=as_task("stretched", acrobot))
+    run_protocol("performance-v2", acrobot, spec, "stretched")  # compile (or load) the kernels first
+    start = time.process_time()
+    summary, _ = run_protocol("robustness-v2", acrobot, spec, "stretched", progress=progress)
+    cpu = time.process_time() - start
+    steps = summary["result"]["runs"] * 5000
+    return {"realaigym_robustness_v2_cpu_s": cpu, "realaigym_robustness_v2_runs": summary["result"]["runs"],
+            "realaigym_step_ratio": cpu / steps / bare_step}
 
 
 def _vector_rows(vector_envs, vector_steps, repeats) -> dict:
@@ -313,6 +333,9 @@ def format_bench(r) -> str:
         f"  {r['rollout_t_final']:g} s Table 1 run: solve_ivp {r['analytic_30s_seconds']:.2f} s, MuJoCo {r['mujoco_30s_seconds']:.2f} s"
         f" (ratio {r['analytic_to_mujoco_ratio']:.1f})",
     ] + ([
+        f"  RealAIGym robustness v2 (spong, {r['realaigym_robustness_v2_runs']} runs of 10 s at 2 ms)"
+        f" {r['realaigym_robustness_v2_cpu_s']:.1f} CPU-s   realaigym_step_ratio = {r['realaigym_step_ratio']:.2f}"
+    ] if "realaigym_step_ratio" in r else []) + ([
         f"  Gymnasium, {r['vector_env_num_envs']} robots, {period} step: single {r[f'single_env_step_us{s}']:.2f},"
         f" SyncVectorEnv {r[f'sync_vector_env_step_us{s}']:.2f}, vector {r[f'vector_env_step_us{s}']:.2f},"
         f" its mj_step alone {r[f'vector_env_physics_us{s}']:.2f} us CPU/env-step\n"

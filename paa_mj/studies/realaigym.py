@@ -35,9 +35,9 @@ from ..sim import protocol
 from ..sim.engine import pack
 from ..task import Task, as_task
 from . import realaigym_scores as scores
+from .settings import REALAIGYM_PROTOCOLS as PROTOCOLS
 from .store import ChunkStore, study_key
 
-PROTOCOLS = ("performance-v2", "robustness-v2", "global-v3")
 #: Their simulation settings (``sim_parameters.py`` of the three leaderboards).
 DT, T_FINAL, T_FINAL_GLOBAL = 0.002, 10.0, 60.0
 #: Their hardware's gear ratio (``design_C.1`` model parameters), which the rotor inertia's terms need.
@@ -353,3 +353,16 @@ def run_protocol(protocol_name: str, robot: Robot, spec, task, x0=None, seed=777
                "interrupted": bool(result.get("interrupted", False)),
                "completed_fraction": float(result.get("completed_fraction", 1.0))}
     return summary, arrays
+
+
+def board(robot: Robot, specs: dict, task, seed=777, progress=False) -> list[dict]:
+    """Every protocol for each controller of ``specs`` (label -> ControllerSpec) from hanging: per controller, the
+    performance criteria and score v2, the six robustness scores and the overall one, the global test's time up."""
+    rows = []
+    for label, spec in specs.items():
+        row = {"controller": label}
+        for name in PROTOCOLS:
+            summary, _ = run_protocol(name, robot, spec, task, seed=seed, progress=progress)
+            row[name] = summary["result"]
+        rows.append(row)
+    return rows

@@ -63,3 +63,6 @@ def atlas_parameters(n_links=3):
 ATLAS_RANGE = (0.25, 4.0)
 #: The most factors per parameter.
 ATLAS_MAX_GRID = 256
+
+#: RealAIGym's protocols that ``paa-mj realaigym`` runs (:mod:`paa_mj.studies.realaigym`).
+REALAIGYM_PROTOCOLS = ("performance-v2", "robustness-v2", "global-v3")

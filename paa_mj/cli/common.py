@@ -222,6 +222,12 @@ def physics_parent():
     return p
 
 
+def check_fresh(args):
+    """--fresh forgets what a study keeps in --out: without --out it is a contradiction, said in one line."""
+    if args.fresh and not args.out:
+        raise PaaError("--fresh forgets the chunks kept in --out; without --out nothing is kept")
+
+
 def output_parent(what):
     p = argparse.ArgumentParser(add_help=False)
     p.add_argument("--out", type=folder, metavar="DIR", help=f"folder for {what}")

@@ -1,8 +1,7 @@
 """``paa-mj realaigym``: RealAIGym's benchmark protocols (performance v2, robustness v2, global policy v3)."""
 from __future__ import annotations
 
-from ..errors import PaaError
-from .common import (controller_parent, finish, folder, finite, initial_state, output_lock, print_json, robot_parent,
+from .common import (check_fresh, controller_parent, finish, folder, finite, initial_state, output_lock, print_json, robot_parent,
                      seed, spec_from_args)
 
 
@@ -12,8 +11,7 @@ def cmd_realaigym(args):
     from ..studies.realaigym import run_protocol
     from ..task import Task
 
-    if args.fresh and not args.out:
-        raise PaaError("--fresh forgets the runs kept in --out; without --out nothing is kept")
+    check_fresh(args)
     robot = load_robot(args.robot)
     task = Task.named(args.goal, robot)
     spec = spec_from_args(args, robot, task)

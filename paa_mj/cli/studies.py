@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 from ..errors import PaaError
-from .common import (controller_parent, finish, goal_parent, non_negative, note, output_lock, output_parent,
+from .common import (check_fresh, controller_parent, finish, goal_parent, non_negative, note, output_lock, output_parent,
                      positive, positive_int, print_json, robot_parent, seed, spec_from_args, study_parent, task_from_args,
                      whole_number)
 
@@ -11,17 +11,12 @@ def _finish_study(summary, args, what):
     return finish(summary["interrupted"], f"{100 * summary['completed_fraction']:.0f} % of the {what} done", args.out)
 
 
-def _check_fresh(args):
-    if args.fresh and not args.out:
-        raise PaaError("--fresh forgets the chunks kept in --out; without --out nothing is kept")
-
-
 def _study(args, command, run, write):
     """Load, check, run under the output lock, write, report: the common course of a study command."""
     from ..model.robot import load_robot
     from ..studies.runner import check_scheduler
 
-    _check_fresh(args)
+    check_fresh(args)
     robot = load_robot(args.robot)
     task = task_from_args(args, robot)
     spec = spec_from_args(args, robot, task)
@@ -86,7 +81,7 @@ def cmd_compare(args):
     if args.gl is not None and (args.no_video or args.out is None):
         raise PaaError("--gl chooses the backend of the video, which " + ("--no-video skips" if args.no_video else
                                                                           "is only made with --out"))
-    _check_fresh(args)
+    check_fresh(args)
     robot = load_robot(args.robot)
     scheduler = check_scheduler(args.scheduler)
     video = args.out is not None and not args.no_video
@@ -131,7 +126,7 @@ def cmd_atlas(args):
         raise PaaError(f"{', '.join(given)} appl{'ies' if len(given) == 1 else 'y'} with --simulate only")
     if args.starts is not None and args.starts < 0:
         raise PaaError(f"--starts must be >= 0, got {args.starts}")
-    _check_fresh(args)
+    check_fresh(args)
     with output_lock(args.out, "atlas"):
         summary, arrays = atlas(robot, vary, factor_range, args.grid, simulate=args.simulate, **simulation,
                                 scheduler=scheduler, out_dir=args.out, fresh=args.fresh,

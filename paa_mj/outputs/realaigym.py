@@ -1,8 +1,6 @@
 """What ``paa-mj realaigym`` writes: the summary, their CSV of a run, and the charts their leaderboards draw."""
 from __future__ import annotations
 
-import io
-
 import numpy as np
 
 from ..io import json_writer, write_set
@@ -15,10 +13,7 @@ def _csv_writer(T, X, U):
                       + [f"tau_con{j + 1}" for j in range(n)])
 
     def write(path):
-        buffer = io.StringIO()
-        np.savetxt(buffer, np.column_stack([T, X, U]), delimiter=",", header=header, comments="", fmt="%.17g")
-        with open(path, "w") as f:
-            f.write(buffer.getvalue())
+        np.savetxt(path, np.column_stack([T, X, U]), delimiter=",", header=header, comments="", fmt="%.17g")
     return write
 
 

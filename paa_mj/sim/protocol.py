@@ -39,8 +39,8 @@ from .step import evaluate_once
 
 _C1, _C2 = types.float64[::1], types.float64[:, ::1]
 
-#: Layout of a plant's constants: A (n n), b (n), damping (n), Coulomb (n), limit (n), then I_r, g_r, n.
-_ROTOR, _GEAR, _LINKS = -3, -2, -1
+#: Layout of a plant's constants: A (n n), b (n), damping (n), Coulomb (n), limit (n), then I_r and g_r.
+_ROTOR, _GEAR = -2, -1
 
 
 def plant_constants(m, l, lc, J, g, damping, coulomb, limit, rotor_inertia=0.0, gear_ratio=1.0) -> np.ndarray:
@@ -50,7 +50,13 @@ def plant_constants(m, l, lc, J, g, damping, coulomb, limit, rotor_inertia=0.0, 
     A, b = chain.chain_constants(SimpleNamespace(m=np.asarray(m, float), l=np.asarray(l, float),
                                                  lc=np.asarray(lc, float), J=np.asarray(J, float), g=float(g)))
     return np.concatenate([A.ravel(), b, np.broadcast_to(damping, (n,)), np.broadcast_to(coulomb, (n,)),
-                           np.broadcast_to(limit, (n,)), [float(rotor_inertia), float(gear_ratio), float(n)]])
+                           np.broadcast_to(limit, (n,)), [float(rotor_inertia), float(gear_ratio)]])
+
+
+@register_jitable
+def limits(P, n):
+    """The torque limit of each of the n joints of the plant ``P`` [N m] (0: no motor there)."""
+    return P[n * n + 3 * n:n * n + 4 * n]
 
 
 @register_jitable
@@ -65,7 +71,7 @@ def _acceleration(P, q, qd, tau, out, work):
     n = q.size
     A = P[:n * n].reshape((n, n))
     b = P[n * n:n * n + n]
-    damping, coulomb, limit = P[n * n + n:n * n + 2 * n], P[n * n + 2 * n:n * n + 3 * n], P[n * n + 3 * n:n * n + 4 * n]
+    damping, coulomb, limit = P[n * n + n:n * n + 2 * n], P[n * n + 2 * n:n * n + 3 * n], limits(P, n)
     ir, gr = P[_ROTOR], P[_GEAR]
     mass = work[:n * n].reshape((n, n))
     zeros, phi, rate = work[n * n:n * n + n], work[n * n + n:n * n + 2 * n], work[n * n + 2 * n:n * n + 3 * n]
@@ -134,7 +140,7 @@ def measure(X, k, delay_steps, sigma_meas, normals_k, out):
 def actuate(P, u, last, responsiveness, sigma_u, normals_k, perturbation, index, out):
     """Step 3 of the module's docstring into ``out`` (n) from the command ``u`` (n) and the last applied ``last``."""
     n = u.size
-    limit = P[n * n + 3 * n:n * n + 4 * n]
+    limit = limits(P, n)
     for j in range(n):
         value = last[j] + responsiveness * (u[j] - last[j])
         value = value + sigma_u[j] * normals_k[2 * n + j]
@@ -194,7 +200,7 @@ def reset_command(W, P, x, t, u):
         return False
     row = targets + (int(W[_COUNT]) - 1) * n
     W[_NERR] += 1.0
-    limit = P[n * n + 3 * n:n * n + 4 * n]
+    limit = limits(P, n)
     grav = np.empty(n)
     gravity_torque(P, x[:n], grav)
     for j in range(n):

@@ -284,7 +284,7 @@ def _realaigym_rows(bare_step, progress) -> dict:
     """CPU time of one controller's whole robustness v2 of RealAIGym (Spong's swing-up on their acrobot, compiled),
     and its cost per simulated step against a bare mj_step."""
     from ..control.registry import ControllerSpec
-    from .realaigym import run_protocol
+    from .realaigym import T_FINAL, run_protocol, their_times
 
     acrobot = load_robot("realaigym_acrobot")
     spec = ControllerSpec("spong", task=as_task("stretched", acrobot))
@@ -292,7 +292,7 @@ def _realaigym_rows(bare_step, progress) -> dict:
     start = time.process_time()
     summary, _ = run_protocol("robustness-v2", acrobot, spec, "stretched", progress=progress)
     cpu = time.process_time() - start
-    steps = summary["result"]["runs"] * 5000
+    steps = summary["result"]["runs"] * (len(their_times(T_FINAL)) - 1)
     return {"realaigym_robustness_v2_cpu_s": cpu, "realaigym_robustness_v2_runs": summary["result"]["runs"],
             "realaigym_step_ratio": cpu / steps / bare_step}
 

@@ -218,11 +218,10 @@ def global_v3(robot: Robot, controller, task: Task, x0=None, seed=777) -> dict:
     record = protocol.reset_record(times, angles, RESET_LENGTH)
     X, U = runs.run(plant(robot, global_test=True), hanging(n) if x0 is None else x0, T, reset=record)
     Tr, Xr, _ = _saved_rows(T[:len(X)], their_angles(X), U)
-    up = scores.up_rows(Xr, robot.params.l, _goal_height(robot, task))
-    time_up = scores.uptime(Tr, up)
+    goal_height = _goal_height(robot, task)
+    time_up = scores.uptime(Tr, scores.up_rows(Xr, robot.params.l, goal_height))
     summary = {"time_up": time_up, "score": time_up / T_FINAL_GLOBAL, "reset_times": times.tolist(),
                "steps": len(U), "diverged": len(X) < len(T)}
-    goal_height = _goal_height(robot, task)
     return summary, {"T": Tr, "X": Xr, "U": U, "height": scores.tip_height(Xr, robot.params.l),
                      "threshold": 0.9 * goal_height}
 
@@ -241,13 +240,13 @@ def robustness_cases(robot: Robot):
     return cases
 
 
-def _case_run(runs, robot, case, x0, T, seed):
+def _case_run(runs, robot, nominal, case, x0, T, seed):
+    """One run of robustness v2 (``case`` of :func:`robustness_cases`); ``nominal``: the robot's plant."""
     criterion, name, level, rep, value = case
     n = runs.n
     code = scores.ROBUSTNESS_CRITERIA.index(criterion)
     rng = np.random.RandomState([seed, code, level, rep])
-    nominal = plant(robot)
-    motors = (nominal[n * n + 3 * n:n * n + 4 * n] != 0.0).astype(float)
+    motors = (protocol.limits(nominal, n) != 0.0).astype(float)
     if criterion == "model":
         return runs.run(plant(robot, (name, value)), x0, T)
     if criterion == "perturbation":
@@ -273,6 +272,7 @@ def robustness_v2(robot: Robot, controller, task: Task, x0=None, seed=777, *, ou
     x0 = hanging(n) if x0 is None else np.asarray(x0, float)
     T = their_times(T_FINAL)
     cases = robustness_cases(robot)
+    nominal = plant(robot)
     key = study_key({"study": "realaigym-robustness-v2", "x0": x0, "seed": seed, **(key_definition or {})})
     store = ChunkStore(out_dir, key, fresh, "realaigym")
     final, steps = np.full((len(cases), 2 * n), np.nan), np.zeros(len(cases), int)
@@ -286,7 +286,7 @@ def robustness_v2(robot: Robot, controller, task: Task, x0=None, seed=777, *, ou
                 if kept is None:
                     X_last, done = [], []
                     for case in cases[part]:
-                        X, _ = _case_run(runs, robot, case, x0, T, seed)
+                        X, _ = _case_run(runs, robot, nominal, case, x0, T, seed)
                         X_last.append(X[-1])
                         done.append(len(X) - 1)
                     kept = {"final": np.array(X_last), "steps": np.array(done)}

@@ -300,7 +300,7 @@ THEIR_BOARDS = (("History SAC", "0.655", "0.751", "-"), ("AR-EAPO", "0.633", "0.
 PFL = "examples/realaigym/pfl_controller.py"
 BOARD_CONTROLLERS = {"acrobot": ("vcl", "vc", "lqr", f"{PFL}:LQRTheirs_C11", "trajopt", "trajopt-effort", "spong",
                                  f"{PFL}:PFLCollocatedLQR_C11"),
-                     "family": ("vcl", "vc", "lqr")}
+                     "family": ("vcl", "vcl-roa", "vc", "lqr")}
 
 
 def realaigym_board(robot_name, goal, names):
@@ -343,6 +343,26 @@ def _realaigym_board_chain4():
 def _realaigym_their_boards():
     lines = ["| theirs (published) | RealAI score v2 | robustness v2 | v3 up [s] of 60 |", "|---|---|---|---|"]
     return block("\n".join(lines + ["| " + " | ".join(row) + " |" for row in THEIR_BOARDS]))
+
+
+#: THEIR published performance v2 row of their TVLQR entry (`real_ai_gym_leaderboard` 81ea5bc,
+#: `data/acrobot/simulation_v2/ilqr_tvlqr/scores.csv`), as that file writes it.
+THEIR_TVLQR_V2 = {"swingup_time": 4.045999999999776, "energy": 10.433058105019839, "tau_cost": 1.8688740810272428,
+                  "tau_smoothness": 0.015537700445571286, "velocity_cost": 105.83028573430587,
+                  "score_v2": 0.5042327646623914}
+TVLQR = "examples/realaigym/tvlqr_controller.py"
+
+
+def _tvlqr_deviation(class_name):
+    """The largest relative difference of our performance v2 criteria from their published TVLQR row."""
+    result = command_json("realaigym", "--protocol", "performance-v2", "--controller",
+                          f"{ROOT / TVLQR}:{class_name}")["result"]["criteria"]
+    return max(abs(result[k] / v - 1.0) for k, v in THEIR_TVLQR_V2.items())
+
+
+@claim("realaigym_tvlqr_row", kind="bound")
+def _realaigym_tvlqr_row():
+    return [_tvlqr_deviation("ILQRTVLQR_C11_Exact"), _tvlqr_deviation("ILQRTVLQR_C11")]
 
 
 #: THEIR published v1 row of the Energy PFL, as their table rounds it (where it comes from, and its values).
@@ -389,6 +409,21 @@ def _realaigym_lqr_spectral_radius():
     am, up = robot("realaigym_acrobot").analytic, task("realaigym_acrobot", "stretched")
     K = lqr_gain(am, up)
     return " and ".join(f"{sampled_spectral_radius(am, K, dt, up):.1f}" for dt in (1e-3, 2e-3))
+
+
+@claim("leaderboard_roa_switch", full=True)
+def _leaderboard_roa_switch():
+    return tables(leaderboard("--quick", "--controllers", "vcl,vcl-roa"))
+
+
+@claim("gain_search_table", full=True)
+def _gain_search_table():
+    from paa_mj.control.gains import FAMILY_RULE
+    from paa_mj.studies.gain_search import gain_search, search_table
+
+    found = gain_search()
+    return block(search_table(found) + f"\n\nThe search's best rule: {found['best'].describe()}; the family rule:"
+                 f" {FAMILY_RULE.describe()}.")
 
 
 @claim("peers_tables", full=True)

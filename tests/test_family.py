@@ -422,6 +422,6 @@ def test_the_balance_lqr_takes_weights(run):
     np.testing.assert_allclose(K, lqr_gain(am, stretched, np.eye(4), 0.11 * np.eye(1)), rtol=1e-12)
     assert not np.allclose(K, LQRController.for_model(am, stretched).K)
     bad = run("simulate", "--robot", "acrobot", "--goal", "stretched", "--controller", "spong", "--lqr-weights", 1, 1)
-    assert bad.returncode == 2 and "--lqr-weights applies to the controllers vcl, vc, lqr" in bad.stderr
+    assert bad.returncode == 2 and "--lqr-weights applies to the controllers vcl, vcl-roa, vc, vc-roa, lqr" in bad.stderr
     with pytest.raises(PaaError, match=r"must each lie in \[1e-09, 1e\+12\], got 1, nan"):
         LQRController.for_model(am, stretched, (1.0, float("nan")))

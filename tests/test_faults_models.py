@@ -213,7 +213,7 @@ BAD_OPTIONS = [
     (["simulate", "--engine", "exact"], "invalid choice: 'exact'"),
     (["simulate", "--engine", "analytic", "--dt", "0.001"], "--dt do not apply to --engine analytic"),
     (["simulate", "--controller", "passive", "--no-switch"], "it contradicts --controller passive"),
-    (["simulate", "--controller", "lqr", "--kD", "5000"], "apply to the controllers vcl, vcl-only, vc, vc-only"),
+    (["simulate", "--controller", "lqr", "--kD", "5000"], "apply to the controllers vcl, vcl-only, vcl-roa, vc, vc-only, vc-roa"),
     (["simulate", "--out", " "], "--out: an empty path names no folder"),
     # check, theory, make-model
     (["check", "--samples", "0"], "argument --samples: must be >= 1, got 0"),
@@ -277,7 +277,7 @@ BAD_OPTIONS = [
     (["basin", "--scheduler", "udp://host:1"], "only tcp:// scheduler addresses are supported"),
     (["basin", "--torque-limit", "nan"], "argument --torque-limit: must be a positive finite number, got nan"),
     (["basin", "--controller", "passive", "--kD", "5000", "--scheduler", "inline"],
-     "apply to the controllers vcl, vcl-only, vc, vc-only, not to passive"),
+     "apply to the controllers vcl, vcl-only, vcl-roa, vc, vc-only, vc-roa, not to passive"),
     (["basin", "--torque-limit", "-1e3"], "argument --torque-limit: must be a positive finite number"),
     # robustness
     (["robustness", "--factors", "bogus"], "unknown robustness factor(s) ['bogus']"),

@@ -122,7 +122,7 @@ def test_scores_by_hand():
     T = np.array([0.0, 0.5, 1.5])
     X = np.array([[0.0, 0.0, 1.0, 2.0], [3.0, 0.2, 3.0, 0.0], [2.0, 1.0, -1.0, 1.0]])
     U = np.array([[1.0, 2.0], [-3.0, -1.0], [5.0, 4.0]])
-    m = sc.performance(T, X, U, (1.0, 1.0), 2.0, t_final=1.5)
+    m = sc.performance(T, X, U, sc.up_rows(X, (1.0, 1.0), 2.0), t_final=1.5)
     assert m["swingup_time"] == 0.5 and m["success"]
     assert m["energy"] == pytest.approx(7.2, abs=1e-12)
     assert m["tau_cost"] == pytest.approx(12.5, abs=1e-12) and m["velocity_cost"] == pytest.approx(11.5, abs=1e-12)
@@ -194,6 +194,20 @@ def test_robustness_on_fewer_levels(acrobot, monkeypatch):
     assert 0.0 <= result["score"] <= 1.0
     again, _ = rg.run_protocol("robustness-v2", acrobot, spec, task, seed=3, progress=False)
     assert json.dumps(again, sort_keys=True) == json.dumps(summary, sort_keys=True)
+
+
+def test_up_is_their_tip_rule_at_the_upright_goal_and_the_goals_pose_elsewhere(acrobot):
+    up = Task.named("stretched", acrobot)
+    X = np.array([[0.0, 0.0, 0, 0], [0.4, -0.3, 0, 0], [np.pi / 2, 0, 0, 0], [0.1, np.pi, 5.0, 5.0]])
+    their = sc.up_rows(rg.their_angles(X), acrobot.params.l, float(np.sum(acrobot.params.l)))
+    assert np.array_equal(rg.up_rows(acrobot, up, X), their) and their.tolist() == [True, True, False, False]
+    gymnast = load_robot("gymnast")
+    folded = Task.named("folded", gymnast)
+    assert rg.up_threshold(gymnast, folded) is None
+    near = np.r_[folded.goal + np.array([0.5, -0.5, 0.5]) * folded.switch_region.angle, 9.0, 9.0, 9.0]
+    far = np.r_[folded.goal + np.array([0.0, 0.0, 1.01]) * folded.switch_region.angle, 0.0, 0.0, 0.0]
+    straight_up = np.zeros(6)  # its tip is higher than the folded goal's: a height rule would count it as up
+    assert rg.up_rows(gymnast, folded, np.array([near, far, straight_up])).tolist() == [True, False, False]
 
 
 @pytest.mark.parametrize("robot, goal", [("gymnast", "folded"), ("chain4", "stretched")])

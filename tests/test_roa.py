@@ -120,3 +120,20 @@ def test_bad_input_is_one_line_and_exit_2(capsys, args, words):
     code = main(["roa", "--json", *args])
     err = capsys.readouterr().err
     assert code == 2 and words in err and len(err.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize("name", ["vcl", "vc"])
+def test_the_roa_named_controllers_are_the_switch_option(name):
+    from paa_mj.control.combined import LevelCondition
+    from paa_mj.control.registry import ControllerSpec
+    from paa_mj.model import load_robot
+
+    robot = load_robot("gymnast")
+    task = Task.named("folded", robot)
+    named = ControllerSpec(f"{name}-roa", task=task).build(robot)
+    option = ControllerSpec(name, options=(("switch", "roa"),), task=task).build(robot)
+    assert isinstance(named.condition, LevelCondition) and named.name == f"{name}-roa"
+    assert np.array_equal(named.condition.S, option.condition.S) and named.condition.rho == option.condition.rho
+    rng = np.random.default_rng(0)
+    q, qd = task.goal + rng.normal(0, 0.3, (64, 3)), rng.normal(0, 0.5, (64, 3))
+    assert np.array_equal(named.condition.holds(q, qd, 0.0), option.condition.holds(q, qd, 0.0))

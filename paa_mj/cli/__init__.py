@@ -40,7 +40,9 @@ def build_parser():
 
 
 def _show_warning(message, category, filename, lineno, file=None, line=None):
-    print(f"paa-mj: warning: {message}", file=sys.stderr)
+    from ..control.gains import GainsNote
+
+    print(f"paa-mj: {'note' if issubclass(category, GainsNote) else 'warning'}: {message}", file=sys.stderr)
 
 
 def _choose_gl_early(argv):
@@ -112,9 +114,10 @@ def main(argv=None):
 
         with warnings.catch_warnings(), mujoco_log_off():
             warnings.showwarning = _show_warning
-            from ..control.gains import TheoryWarning
+            from ..control.gains import GainsNote, TheoryWarning
 
             warnings.simplefilter("always", TheoryWarning)
+            warnings.simplefilter("always", GainsNote)  # said once per robot and goal by the note itself
             with json_only_on_stdout() if getattr(args, "json", False) else contextlib.nullcontext():
                 code = args.func(args)
             sys.stdout.flush()  # a write that fails (a full disk) fails here, where it is reported

@@ -182,7 +182,7 @@ def initial_state(args, robot, task):
     return check_initial_state(args.x0, n)[0]
 
 
-def gains_parent(stored="the robot's stored gains"):
+def gains_parent(stored="the robot's stored gains where kD is above (41) for the goal, else the family rule's"):
     p = argparse.ArgumentParser(add_help=False)
     shown = stored.replace("%", "%%")  # argparse formats help with %
     p.add_argument("--kD", type=positive, help=f"gain kD of (40)/(12) [J kg m^2] (default: {shown})")
@@ -253,7 +253,7 @@ def spec_from_args(args, robot, task, name=None):
 
     Gains given on the command line replace the robot's stored ones, the others stay.
     """
-    from ..control.registry import GAIN_CONTROLLERS, ControllerSpec
+    from ..control.registry import GAIN_CONTROLLERS, ControllerSpec, resolve_gains
 
     from ..control.catalog import LQR_CONTROLLERS, PLANNERS
 
@@ -292,7 +292,8 @@ def spec_from_args(args, robot, task, name=None):
         return ControllerSpec(name, options=tuple(options), task=task)
     if name not in GAIN_CONTROLLERS:
         raise PaaError(f"--kD, --kP and --kV apply to the controllers {', '.join(GAIN_CONTROLLERS)}, not to {name}")
-    return ControllerSpec(name, tuple(robot.resolve_gains(**given).values()), options=tuple(options), task=task)
+    return ControllerSpec(name, tuple(resolve_gains(robot, task, **given).values()), options=tuple(options),
+                          task=task)
 
 
 _json_stdout = None

@@ -106,6 +106,7 @@ def cmd_simulate(args):
         print(f"robot {summary['robot']}, controller {summary['controller']}, {summary['engine']}"
               f" ({summary['integrator']}, dt = {summary['dt']}), {summary['final_time']:.3f} s")
         print(f"  switch to balance    {'never' if st is None else f'{st:.4f} s'}")
+        print(f"  outcome              {summary['outcome']}")
         goal = "UDD" if traj.goal == "folded" and traj.n_links == 3 else f"the {traj.goal} goal"
         label = f"balanced at {goal}"
         print(f"  {label:<20} {summary['balanced']}")

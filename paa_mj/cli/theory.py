@@ -11,9 +11,12 @@ def cmd_theory(args):
     from ..outputs.theory_report import chain_theory_report, chain_theory_table, theory_report, theory_table
     from ..theory.linear import theorem1_covers
 
+    from ..control.gains import FAMILY_RULE, family_gains
+    from ..control.registry import resolve_gains
+
     robot = load_robot(args.robot)
     task = task_from_args(args, robot)
-    gains = robot.resolve_gains(args.kD, args.kP, args.kV)
+    gains = resolve_gains(robot, task, args.kD, args.kP, args.kV)
     dt = float(robot.model.opt.timestep)
     if theorem1_covers(robot.analytic, task):
         report = theory_report(robot.analytic, **gains, dt=dt).to_json_dict()
@@ -21,6 +24,7 @@ def cmd_theory(args):
     else:
         report = chain_theory_report(robot.analytic, **gains, task=task, dt=dt)
         text = chain_theory_table
+    report["family_rule"] = {"rule": FAMILY_RULE.describe(), "gains": family_gains(robot.analytic, task)}
     if args.json:
         print_json(report)
     else:
@@ -41,6 +45,22 @@ def cmd_check(args):
         print(f"MuJoCo against the analytic model, {model}, robot {robot.name}, {args.samples} random states:")
         for key in ("max_rel_err_M", "max_rel_err_bias", "max_rel_err_qacc", "max_rel_err_energy"):
             print(f"  {key:<22} {result[key]:.3e}")
+    return 0
+
+
+def cmd_gain_search(args):
+    from ..control.gains import FAMILY_RULE
+    from ..studies.gain_search import gain_search, search_table
+
+    found = gain_search(t_final=args.t_final, progress=not args.json)
+    summary = {"t_final": found["t_final"], "robots": [f"{n} {g}" for n, g in found["robots"]],
+               "rules": [vars(rule) for rule in found["rules"]], "balanced": found["balanced"].tolist(),
+               "best": vars(found["best"]), "family_rule": vars(FAMILY_RULE)}
+    if args.json:
+        print_json(summary)
+    else:
+        print(search_table(found))
+        print(f"best rule: {found['best'].describe()}; the family rule: {FAMILY_RULE.describe()}")
     return 0
 
 
@@ -90,40 +110,29 @@ def cmd_make_model(args):
         model = AnalyticModel.from_params(params)
         check_gains_for(model, **gains, task=Task.named("folded", model))  # every command would refuse it later
 
-    def write(gains):
-        return mjcf_from_params(params, name=args.name, title=args.title, gains=gains, torque_limits=limits)
-
-    xml = write(gains)
-    params_from_model(compile_mjcf(xml, "generated model"), source="generated model")
-    chosen = ""
+    rule_text = ""
     if gains is None:
-        gains = _rule_gains(params)
-        if gains is None:
-            chosen = ("; no gains stored: Theorem 1's bounds (41), (59), (60) are defined for the paper's 3-link"
-                      " gymnast without damping" if not params.is_paper_shape else
-                      "; no gains stored: the bounds (41), (59), (60) are not finite for this robot")
-        else:
-            xml = write(gains)
-            chosen = ("; stored gains kD = {kD:.6g}, kP = {kP:.6g}, kV = {kV:.6g}, 5 % above the bounds (41),"
-                      " (59), (60)").format(**gains)
+        gains, rule_text = _rule_gains(params)
+    xml = mjcf_from_params(params, name=args.name, title=" ".join(t for t in (args.title or "Parameters given by the user.", rule_text) if t),
+                           gains=gains, torque_limits=limits)
+    params_from_model(compile_mjcf(xml, "generated model"), source="generated model")
+    chosen = "; stored gains kD = {kD:.6g}, kP = {kP:.6g}, kV = {kV:.6g}".format(**gains)
     write_text(args.out, xml)
-    print(f"wrote {args.out}{chosen}")
+    print(f"wrote {args.out}{chosen}" + (f" ({rule_text})" if rule_text else ""))
     return 0
 
 
 def _rule_gains(params):
-    """Gains 5 % above Theorem 1's bounds for ``params`` (the atlas's rule), or None where a bound is not finite."""
-    import numpy as np
-
-    from ..control.gains import gain_rule
+    """The family rule's gains for the folded goal (stored), and a line for the file's header with both goals'."""
+    from ..control.gains import FAMILY_RULE, family_gains
     from ..model.dynamics import AnalyticModel
-    from ..theory.conditions import thresholds
+    from ..task import Task
 
-    if not params.is_paper_shape:
-        return None
-    kd, e1, e2 = thresholds(AnalyticModel.from_params(params))
-    gains = gain_rule(kd.value, e1.value, e2.value)
-    return gains if all(np.isfinite(v) and v > 0 for v in gains.values()) else None
+    model = AnalyticModel.from_params(params)
+    per_goal = {goal: family_gains(model, Task.named(goal, model)) for goal in ("folded", "stretched")}
+    text = f"Gains of the family rule ({FAMILY_RULE.describe()}): " + "; ".join(
+        f"{goal} goal kD = {g['kD']:.6g}, kP = {g['kP']:.6g}, kV = {g['kV']:.6g}" for goal, g in per_goal.items()) + " (the folded goal's stored)."
+    return per_goal["folded"], text
 
 
 def register(sub, parser_class):
@@ -135,6 +144,13 @@ def register(sub, parser_class):
     p.add_argument("--json", action="store_true", help="one JSON object on stdout")
     p.set_defaults(func=cmd_theory)
 
+    p = sub.add_parser("gain-search", help="the search behind the family rule's gains (no gains given)",
+                       description="Kip every stored robot at both goals with vcl under each gain rule of a grid"
+                                   " (kD = margin kD_min (41), kP = p kD, kV = v kD): which rules balance which.")
+    p.add_argument("--t-final", type=positive, default=30.0, help="duration of each kip [s]")
+    p.add_argument("--json", action="store_true", help="one JSON object on stdout")
+    p.set_defaults(func=cmd_gain_search)
+
     p = sub.add_parser("check", parents=[robot_parent()], help="cross-check MuJoCo against the analytic model",
                        description="MuJoCo's inertia matrix, bias forces, accelerations and energy against (1)-(7)"
                                    " at random states.")
@@ -143,8 +159,8 @@ def register(sub, parser_class):
     p.add_argument("--json", action="store_true", help="one JSON object on stdout")
     p.set_defaults(func=cmd_check)
 
-    p = sub.add_parser("make-model", parents=[gains_parent(stored="5 % above the bounds (41), (59), (60) of the new"
-                                                                   " robot, for a 3-link gymnast without damping")],
+    p = sub.add_parser("make-model", parents=[gains_parent(stored="the family rule's for the folded goal, written"
+                                                                   " into the file's header with the stretched goal's")],
                        help="write the MJCF of a chain on the bar (the gymnast by default) with given parameters",
                        description="Write the MJCF file of a planar chain of N links hanging from the bar (joint 1"
                                    " passive, a motor on each of joints 2..N; N = 3 is the gymnast, N = 2 an acrobot)"

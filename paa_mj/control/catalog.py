@@ -9,8 +9,10 @@ from __future__ import annotations
 DESCRIPTIONS = {
     "vcl": "(40) swing-up, then LQR (67) on entering region (68): the paper's controller",
     "vcl-only": "(40) alone",
+    "vcl-roa": "(40) swing-up, then LQR (67) once its cost-to-go is below the level of its region of attraction",
     "vc": "conventional candidate (12), then LQR (67) on entering (68)",
     "vc-only": "conventional candidate (12) alone",
+    "vc-roa": "conventional candidate (12), then LQR (67) once its cost-to-go is below its region of attraction's level",
     "lqr": "LQR (67) alone",
     "passive": "zero torque",
     "trajopt": "minimum-time kip by collocation, tracked by TVLQR, then (67)",
@@ -18,12 +20,12 @@ DESCRIPTIONS = {
     "spong": "Spong's acrobot swing-up, then LQR below a cost-to-go (Drake's defaults; 2 links, --goal stretched)",
 }
 #: Controllers that take the gains kD, kP, kV of (40) / (12).
-GAIN_CONTROLLERS = ("vcl", "vcl-only", "vc", "vc-only")
+GAIN_CONTROLLERS = ("vcl", "vcl-only", "vcl-roa", "vc", "vc-only", "vc-roa")
 #: Controllers that plan a kip, with options limit, duration and intervals.
 PLANNERS = ("trajopt", "trajopt-effort")
 #: Controllers that balance by the LQR (67), with the option lqr_weights = (q, r): Q = q I, R = r I (the paper's
 #: q = 1e4, r = 1 by default).
-LQR_CONTROLLERS = ("vcl", "vc", "lqr", "trajopt", "trajopt-effort")
+LQR_CONTROLLERS = ("vcl", "vcl-roa", "vc", "vc-roa", "lqr", "trajopt", "trajopt-effort")
 #: Controllers that switch from a swing-up to (67), with the option switch = "region" ((68), the default) or "roa"
 #: (the LQR's cost-to-go below the level of its region of attraction, :mod:`paa_mj.theory.roa`).
 SWITCHED = ("vcl", "vc")

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import warnings
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -17,17 +18,17 @@ from ..theory.linear import theorem1_covers
 MAX_GAIN = 1e12
 
 
-#: How far above its bound :func:`gain_rule` puts each gain.
+#: How far above its bound the atlas's :func:`gain_rule` puts each gain.
 MARGIN = 1.05
 
 
 def gain_rule(kd, e1, e2, base_gains=None):
-    """Gains that meet the bounds: kD = 1.05 kD_min (41), kP = 1.05 max(eta1 (59), eta2 (60)),
+    """The atlas's gains, which meet the bounds: kD = 1.05 kD_min (41), kP = 1.05 max(eta1 (59), eta2 (60)),
     kV = kD x (kV / kD of ``base_gains``, 1 without them).
 
     Where (59) and (60) are not defined (``e1`` and ``e2`` None: a robot or goal beyond Theorem 1),
-    kP = kD x (kP / kD of ``base_gains``, 2 without them) instead. Used by the atlas for every robot
-    it maps, and by ``paa-mj make-model`` when no gains are given.
+    kP = kD x (kP / kD of ``base_gains``, 2 without them) instead. The atlas maps a family around a robot with
+    that robot's ratios; a robot run with no gains of its own takes :data:`FAMILY_RULE`.
     """
     kD = MARGIN * kd
     ratio_v = base_gains["kV"] / base_gains["kD"] if base_gains else 1.0
@@ -36,6 +37,77 @@ def gain_rule(kd, e1, e2, base_gains=None):
     else:
         kP = MARGIN * max(e1, e2)
     return {"kD": kD, "kP": kP, "kV": ratio_v * kD}
+
+
+@dataclass(frozen=True)
+class GainRule:
+    """Gains of (40) from the robot and goal alone: kD = ``margin`` x kD_min of (41) for the goal, kP = ``p`` x kD
+    and kV = ``v`` x kD (each in the units (40) gives it); where Theorem 1 covers the robot and goal, kP is at
+    least ``margin`` x max(eta1 (59), eta2 (60)) as well.
+
+    The ratios are the family's: the search behind them (:mod:`paa_mj.studies.gain_search`, ``paa-mj
+    gain-search``) kips every stored robot at both goals over a grid of (margin, p, v).
+    """
+
+    margin: float
+    p: float
+    v: float
+
+    def describe(self) -> str:
+        return f"kD = {self.margin:g} kD_min (41), kP = {self.p:g} kD, kV = {self.v:g} kD"
+
+
+#: The family rule (:class:`GainRule`): the search's best (docs/controllers.md), the atlas's margin.
+FAMILY_RULE = GainRule(margin=MARGIN, p=2.0, v=0.5)
+
+
+def singularity_bound(model: AnalyticModel, task: Task) -> float:
+    """kD_min of (41) for the robot and the task's goal: Theorem 1's closed form where it covers them, its
+    definition computed for the chain elsewhere (:func:`chain_singularity_bound`)."""
+    if theorem1_covers(model, task):
+        return thresholds(model)[0].value
+    return chain_singularity_bound(model, task)
+
+
+def family_gains(model: AnalyticModel, task: Task, rule: GainRule = FAMILY_RULE) -> dict:
+    """The gains ``rule`` gives the robot for the task's goal: {"kD", "kP", "kV"}."""
+    kD = rule.margin * singularity_bound(model, task)
+    kP = rule.p * kD
+    if theorem1_covers(model, task):
+        _, e1, e2 = thresholds(model)
+        if np.isfinite(e1.value) and np.isfinite(e2.value):
+            kP = max(kP, rule.margin * max(e1.value, e2.value))
+    return {"kD": kD, "kP": kP, "kV": rule.v * kD}
+
+
+def gains_text(gains: dict) -> str:
+    """``--kD X --kP Y --kV Z``: gains as the command line takes them."""
+    return " ".join(f"--{k} {gains[k]:.6g}" for k in ("kD", "kP", "kV"))
+
+
+class GainsNote(UserWarning):
+    """The run uses the family rule's gains instead of gains the robot stores (or it stores none)."""
+
+
+_NOTED: set = set()
+
+
+def default_gains(model: AnalyticModel, task: Task, stored: dict | None) -> dict:
+    """The gains a controller takes when none are given: the robot's stored gains where their kD is above the
+    bound (41) of the task's goal, else the family rule's (:func:`family_gains`), said once per robot and goal by
+    a :class:`GainsNote`."""
+    bound = singularity_bound(model, task)
+    if stored and all(k in stored for k in ("kD", "kP", "kV")) and stored["kD"] > bound:
+        return dict(stored)
+    gains = family_gains(model, task)
+    key = (model.key(), task.name, bool(stored))
+    if key not in _NOTED:
+        _NOTED.add(key)
+        why = (f"its stored kD = {stored['kD']:g} is not above kD_min = {bound:.6g} of (41) for the {task.name} goal"
+               if stored and "kD" in stored else "it stores no gains")
+        warnings.warn(f"gains of the family rule ({FAMILY_RULE.describe()}): {gains_text(gains)}, since {why}",
+                      GainsNote, stacklevel=2)
+    return gains
 
 
 class TheoryWarning(UserWarning):
@@ -82,7 +154,8 @@ def check_gains(model: AnalyticModel, kD, kP, kV, stacklevel=3):
     check_gain_range(kD, kP, kV)
     kd, e1, e2 = thresholds(model)
     if kD <= kd.value:
-        raise PaaError(f"gain kD = {kD:g} is not above kD_min = {kd.value:.6g} of (41): controller (40) can become singular")
+        raise PaaError(f"gain kD = {kD:g} is not above kD_min = {kd.value:.6g} of (41): controller (40) can become"
+                       f" singular; the family rule's gains would do: {gains_text(family_gains(model, Task.named('folded', model)))}")
     messages = []
     if model.E_r <= 0:
         messages.append(f"E_r = {model.E_r:.6g} J <= 0: the method of the paper does not apply (9)")
@@ -121,7 +194,8 @@ def check_chain_gains(model: AnalyticModel, kD, kP, kV, task: Task):
     bound = chain_singularity_bound(model, task)
     if kD <= bound:
         raise PaaError(f"gain kD = {kD:g} is not above kD_min = {bound:.6g} of (41) (its definition, computed for this"
-                       f" {model.n_links}-link robot and the {task.name} goal): controller (40) can become singular")
+                       f" {model.n_links}-link robot and the {task.name} goal): controller (40) can become singular;"
+                       f" the family rule's gains would do: {gains_text(family_gains(model, task))}")
 
 
 def check_gains_for(model: AnalyticModel, kD, kP, kV, task: Task, stacklevel=3):

@@ -5,6 +5,9 @@ Built-in names (:data:`BUILTIN`):
 - ``vcl``: the paper's controller, swing-up (40) then LQR (67) when the state
   first enters region (68) (the default);
 - ``vcl-only``: (40) alone (the paper's Figs. 6-8 and 12-14);
+- ``vcl-roa``, ``vc-roa``: ``vcl`` and ``vc`` handing over when the LQR's cost-to-go falls below the level of its
+  region of attraction (option ``switch="roa"``, :mod:`paa_mj.theory.roa`), so that both hand-overs can be
+  scored side by side where controllers are named;
 - ``vc``: the conventional candidate (12) then LQR (67) by (68);
 - ``lqr``: (67) alone;
 - ``passive``: zero torque;
@@ -43,14 +46,24 @@ from .base import Binding, Controller
 from .catalog import DESCRIPTIONS, GAIN_CONTROLLERS, OPTIONS
 from .combined import CombinedController, LevelCondition, RegionCondition
 from .energy import ConventionalController, EnergyVCLController
+from .gains import default_gains
 from .lqr import LQRController
 from .passive import PassiveController
 from .trajopt import INTERVALS, solve_kip
 from .tvlqr import kip_controller
 
 
-def _gains(robot, gains):
-    return robot.resolve_gains(**(gains or {}))
+def resolve_gains(robot, task, kD=None, kP=None, kV=None) -> dict:
+    """The gains given, the rest from the robot's stored gains where they meet (41) for ``task``'s goal, else from
+    the family rule (:func:`~paa_mj.control.gains.default_gains`, which says so)."""
+    given = {"kD": kD, "kP": kP, "kV": kV}
+    if all(v is not None for v in given.values()):
+        return robot.resolve_gains(**given)
+    return robot.resolve_gains(**given, defaults=default_gains(robot.analytic, task, robot.gains))
+
+
+def _gains(robot, task, gains):
+    return resolve_gains(robot, task, **(gains or {}))
 
 
 #: Fraction of the torque limit a planned kip may use (the rest is the tracking controller's).
@@ -132,7 +145,7 @@ def build_vcl(robot, task, gains=None, check=True, lqr_weights=None, switch=None
 
 def build_vcl_only(robot, task, gains=None, check=True):
     """Controller (40) alone, for the whole run."""
-    return EnergyVCLController(robot.analytic, **_gains(robot, gains), check=check, task=task)
+    return EnergyVCLController(robot.analytic, **_gains(robot, task, gains), check=check, task=task)
 
 
 def build_vc(robot, task, gains=None, check=True, lqr_weights=None, switch=None):
@@ -142,7 +155,17 @@ def build_vc(robot, task, gains=None, check=True, lqr_weights=None, switch=None)
 
 def build_vc_only(robot, task, gains=None, check=True):
     """The conventional candidate (12) alone."""
-    return ConventionalController(robot.analytic, **_gains(robot, gains), check=check, task=task)
+    return ConventionalController(robot.analytic, **_gains(robot, task, gains), check=check, task=task)
+
+
+def build_vcl_roa(robot, task, gains=None, check=True, lqr_weights=None):
+    """``vcl`` handing over to (67) on the LQR's region of attraction (``switch="roa"``) instead of (68)."""
+    return _switched(robot, task, build_vcl_only(robot, task, gains, check), "vcl-roa", lqr_weights, "roa")
+
+
+def build_vc_roa(robot, task, gains=None, check=True, lqr_weights=None):
+    """``vc`` handing over to (67) on the LQR's region of attraction (``switch="roa"``) instead of (68)."""
+    return _switched(robot, task, build_vc_only(robot, task, gains, check), "vc-roa", lqr_weights, "roa")
 
 
 def build_lqr(robot, task, gains=None, check=True, lqr_weights=None):
@@ -166,7 +189,8 @@ def build_spong(robot, task, gains=None, check=True):
 
 
 BUILTIN = {name: (builder, DESCRIPTIONS[name]) for name, builder in (
-    ("vcl", build_vcl), ("vcl-only", build_vcl_only), ("vc", build_vc), ("vc-only", build_vc_only),
+    ("vcl", build_vcl), ("vcl-only", build_vcl_only), ("vcl-roa", build_vcl_roa), ("vc", build_vc),
+    ("vc-only", build_vc_only), ("vc-roa", build_vc_roa),
     ("lqr", build_lqr), ("passive", build_passive), ("trajopt", build_trajopt),
     ("trajopt-effort", build_trajopt_effort), ("spong", build_spong))}
 
@@ -391,6 +415,6 @@ def make_controller(name: str, robot, *, task: Task | str | None = None, gains: 
     if gains:
         if not isinstance(gains, dict) or set(gains) - {"kD", "kP", "kV"}:
             raise PaaError(f"gains must be a dict with some of kD, kP, kV, got {gains!r}")
-        values = tuple(robot.resolve_gains(**gains).values())
+        values = tuple(resolve_gains(robot, as_task(task, robot), **gains).values())
     return ControllerSpec(name, values, check=check, options=tuple(options.items()),
                           task=as_task(task, robot)).build(robot)

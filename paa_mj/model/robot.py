@@ -53,10 +53,11 @@ class Robot:
     torque_limits: np.ndarray
     xml: str
 
-    def resolve_gains(self, kD=None, kP=None, kV=None) -> dict:
-        """Gains given by the user, falling back on the model's defaults for the rest."""
+    def resolve_gains(self, kD=None, kP=None, kV=None, defaults=None) -> dict:
+        """Gains given by the user, falling back for the rest on ``defaults`` (default: the model's stored gains;
+        :func:`paa_mj.control.registry.resolve_gains` gives those of a task)."""
         given = {"kD": kD, "kP": kP, "kV": kV}
-        base = self.gains or {}
+        base = (self.gains or {}) if defaults is None else defaults
         missing = [k for k, v in given.items() if v is None and k not in base]
         if missing:
             raise PaaError(f"robot {self.name} stores no default gains: give {', '.join('--' + k for k in missing)}")

@@ -39,13 +39,17 @@ def robustness_figure(summary):
     return fig
 
 
-def global_figure(summary, T, height, threshold):
-    """The tip's height over the global-policy test, with the threshold and the reset times."""
+def global_figure(summary, T, height, up, threshold):
+    """The tip's height over the global-policy test, the times counted as up (shaded), their threshold where the
+    goal has one, and the reset times."""
     from .plots import new_figure
 
     fig, ax = new_figure(figsize=(8, 3))
     ax.plot(T, height, lw=0.7, color="C0", label="tip height")
-    ax.axhline(threshold, color="C2", lw=1, ls="--", label="up (their 0.9)")
+    ax.fill_between(T, 0, 1, where=up, color="C2", alpha=0.15, lw=0, transform=ax.get_xaxis_transform(),
+                    label="up" if threshold is not None else "up (at the goal's pose)")
+    if threshold is not None:
+        ax.axhline(threshold, color="C2", lw=1, ls="--", label="up (their 0.9)")
     for t in summary["result"]["reset_times"]:
         ax.axvline(t, color="C3", lw=0.6, alpha=0.6)
     ax.set_xlabel("t [s]")
@@ -67,6 +71,6 @@ def write_realaigym(out_dir, summary, arrays):
     if summary["protocol"] == "robustness-v2" and "scores" in summary["result"]:
         writers.update(figure_writers(robustness_figure(summary), "robustness_v2"))
     if summary["protocol"] == "global-v3":
-        writers.update(figure_writers(global_figure(summary, arrays["T"], arrays["height"], arrays["threshold"]),
-                                      "global_v3"))
+        figure = global_figure(summary, arrays["T"], arrays["height"], arrays["up"], arrays["threshold"])
+        writers.update(figure_writers(figure, "global_v3"))
     return write_set(out_dir, writers)

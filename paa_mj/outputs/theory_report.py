@@ -156,8 +156,17 @@ def chain_theory_table(name, r) -> str:
         lines.append("      [" + "  ".join(f"{v:10.3f}" for v in row) + " ]")
     lines += _sampled_line(r)
     lines.append(f"  gains                      kD = {g['kD']:g}, kP = {g['kP']:g}, kV = {g['kV']:g}")
+    lines += _rule_line(r)
     lines.append(f"  Theorem 1                  {r['theorem1']}")
     return "\n".join(lines)
+
+
+def _rule_line(r):
+    rule = r.get("family_rule")
+    if rule is None:
+        return []
+    g = rule["gains"]
+    return [f"  family rule ({rule['rule']})  kD = {g['kD']:.6g}, kP = {g['kP']:.6g}, kV = {g['kV']:.6g}"]
 
 
 def _sampled_line(r):
@@ -195,6 +204,7 @@ def theory_table(name, r) -> str:
         lines.append("      [" + "  ".join(f"{v:10.3f}" for v in row) + " ]")
     lines += _sampled_line(r)
     lines.append(f"  gains                      kD = {g['kD']:g}, kP = {g['kP']:g}, kV = {g['kV']:g}")
+    lines += _rule_line(r)
     lines.append(f"  DUU closed-loop eigenvalues ({'unstable' if r['duu_unstable'] else 'NOT unstable'}):")
     for re, im in r["duu_eigenvalues"]:
         lines.append(f"      {re:+.6f} {im:+.6f}j")

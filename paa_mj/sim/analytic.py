@@ -372,7 +372,7 @@ class _Integration:
             when = float(t[-1]) if len(t) else 0.0
             why = self.failure or "non-finite state"
             traj.meta["status"] = f"diverged at t = {when:.4f} s: {why}"
-            raise SimulationDiverged(f"analytic integration failed at t = {when:.4f} s: {why}", traj)
+            raise SimulationDiverged(f"analytic integration {traj.outcome()}", traj)
         traj.meta["status"] = f"interrupted at t = {float(t[-1]) if len(t) else 0.0:.4f} s" if self.interrupted else "ok"
         if self.interrupted:
             traj.meta["interrupted"] = True

@@ -103,7 +103,7 @@ def simulate_mujoco(robot: Robot, controller="vcl", x0: ArrayLike | None = None,
     if status in engine.DIVERGED:
         traj.meta["status"] = f"diverged at t = {when:.4f} s: {engine.STATUS_TEXT[status]}"
         if stop_on_divergence:
-            raise SimulationDiverged(f"simulation diverged at t = {when:.4f} s: {engine.STATUS_TEXT[status]}", traj)
+            raise SimulationDiverged(f"simulation {traj.outcome()}", traj)
     elif status == engine.RETIRED:
         traj.meta["status"] = f"balanced for good at t = {when:.4f} s (stopped early)"
     elif status == engine.STOPPED:

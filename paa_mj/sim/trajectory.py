@@ -77,8 +77,39 @@ class Trajectory:
         """True when the final state is within the task's balance tolerance of its goal (angles mod 2 pi)."""
         return bool(len(self)) and bool(self.task.balanced(self.q[-1], self.qd[-1]))
 
+    def outcome(self) -> str:
+        """What became of the run, in one sentence, and what to try where the goal was not reached: diverged (when,
+        and after which switch), never entered region (68), entered it without switching, switched without
+        balancing; with the torque limit named where the torques reached it."""
+        status = self.meta.get("status", "")
+        switched = "" if self.switch_time is None else f" after switching to (67) at t = {self.switch_time:.4f} s"
+        saturated = self._saturation()
+        if status.startswith("diverged"):
+            return (f"{status}{switched}{saturated}; try gains with a larger margin over kD_min (41) (paa-mj theory"
+                    " shows the family rule's), a smaller --dt or --switch roa")
+        if self.meta.get("success", self.balanced()):
+            return f"reached the {self.goal} goal and held it (the task's success){switched}{saturated}"
+        if self.switch_time is None:
+            inside = self.task.in_switch_region(self.q, self.qd) if len(self) else np.zeros(0, bool)
+            if not inside.any():
+                return (f"never entered region (68) in {self.meta.get('t_final', 0.0):g} s{saturated}; try a longer"
+                        " --t-final or other gains (paa-mj gain-search compares rules of gains)")
+            return (f"entered region (68) at t = {float(self.t[np.argmax(inside)]):.4f} s but never handed over to"
+                    f" (67){saturated}")
+        return (f"not balanced at the {self.goal} goal at the end{switched}{saturated}; try --switch roa (a certified"
+                " hand-over) or a longer --t-final")
+
+    def _saturation(self) -> str:
+        limit = self.meta.get("torque_limit")
+        peaks = self.meta.get("max_abs_tau")
+        if limit is None or peaks is None:
+            return ""
+        hit = [i + 2 for i, (p, lim) in enumerate(zip(peaks, limit)) if np.isfinite(lim) and p >= lim * (1 - 1e-9)]
+        return f", the torque of joint{'s' * (len(hit) > 1)} {', '.join(map(str, hit))} at its limit" if hit else ""
+
     def summary(self) -> dict:
         return {
+            "outcome": self.outcome(),
             "switch_time": self.switch_time,
             "balanced": self.balanced(),
             "final_time": float(self.t[-1]) if len(self) else 0.0,

@@ -23,14 +23,21 @@ NumPy's global generator unseeded; here each run draws from its own legacy gener
 ``RandomState([seed, criterion, level, run])`` in their order (the pulses, then 5n normals a step), and
 ``global-v3`` draws its reset states and times from ``RandomState(seed)`` as their wrapper does after
 ``np.random.seed(seed)`` (a seed of 777 stands, commented out, in their pendubot script; it is the default).
+
+"Up" (the swing-up time of v2, the time up of v3) is their rule, the tip above 0.9 of its height at the goal,
+where the goal holds the tip at its highest; at any other goal (the folded one) it is the goal's pose, every
+angle within the task's switch angle of the goal (:func:`up_rows`).
 """
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
 from ..control.base import reset_controller, torque_of
 from ..errors import PaaError
 from ..model.robot import Robot
+from ..model.states import wrap
 from ..sim import protocol
 from ..sim.engine import pack
 from ..task import Task, as_task
@@ -186,6 +193,25 @@ def _goal_height(robot, task):
     return float(scores.tip_height(their_angles(goal), robot.params.l)[0])
 
 
+def up_threshold(robot, task):
+    """Their "up" threshold [m], 0.9 of the tip's height at the goal, where the goal holds the tip at its highest
+    (every link up, their acrobot's goal); None for any other goal, whose tip may be low (the gymnast's folded tip
+    is 1.1 m below its highest), so that a height threshold would count a hanging-down chain as up."""
+    highest = math.isclose(_goal_height(robot, task), float(np.sum(robot.params.l)), rel_tol=1e-9)
+    return 0.9 * _goal_height(robot, task) if highest else None
+
+
+def up_rows(robot, task, X):
+    """Rows of paa_mj's states X (K, 2n) counted as up by the swing-up time (v2) and the time up (v3): their tip
+    rule where :func:`up_threshold` gives one; otherwise the goal's pose, every angle within the task's switch
+    angle of the goal (the angles of region (68))."""
+    threshold = up_threshold(robot, task)
+    if threshold is not None:
+        return scores.tip_height(their_angles(X), robot.params.l) > threshold
+    n = robot.params.n_links
+    return np.all(np.abs(wrap(np.asarray(X, float)[:, :n] - task.goal)) < task.switch_region.angle, axis=1)
+
+
 def _saved_rows(T, X, U):
     """Their saved CSV's rows: (t_k, x_k, u_k), k < K - 1 (``save_trajectory`` cuts to the shortest column)."""
     return T[:len(U)], X[:len(U)], U
@@ -197,7 +223,7 @@ def performance_v2(robot: Robot, controller, task: Task, x0=None) -> dict:
     T = their_times(T_FINAL)
     X, U = runs.run(plant(robot), hanging(runs.n) if x0 is None else x0, T)
     rows = _saved_rows(T[:len(X)], their_angles(X), U)
-    result = scores.performance(*rows, robot.params.l, _goal_height(robot, task), T_FINAL)
+    result = scores.performance(*rows, up_rows(robot, task, X[:len(U)]), T_FINAL)
     summary = {"criteria": result, "score": result["score_v2"], "steps": len(U)}
     if len(X) < len(T):
         summary["diverged_at"] = float(T[len(X) - 1])
@@ -218,12 +244,12 @@ def global_v3(robot: Robot, controller, task: Task, x0=None, seed=777) -> dict:
     record = protocol.reset_record(times, angles, RESET_LENGTH)
     X, U = runs.run(plant(robot, global_test=True), hanging(n) if x0 is None else x0, T, reset=record)
     Tr, Xr, _ = _saved_rows(T[:len(X)], their_angles(X), U)
-    goal_height = _goal_height(robot, task)
-    time_up = scores.uptime(Tr, scores.up_rows(Xr, robot.params.l, goal_height))
+    up = up_rows(robot, task, X[:len(U)])
+    time_up = scores.uptime(Tr, up)
     summary = {"time_up": time_up, "score": time_up / T_FINAL_GLOBAL, "reset_times": times.tolist(),
                "steps": len(U), "diverged": len(X) < len(T)}
-    return summary, {"T": Tr, "X": Xr, "U": U, "height": scores.tip_height(Xr, robot.params.l),
-                     "threshold": 0.9 * goal_height}
+    return summary, {"T": Tr, "X": Xr, "U": U, "height": scores.tip_height(Xr, robot.params.l), "up": up,
+                     "threshold": up_threshold(robot, task)}
 
 
 def robustness_cases(robot: Robot):

@@ -81,10 +81,11 @@ def velocity_cost(T, X):
     return float(np.einsum("ij, i, ij", X[:-1, n:], np.diff(T), X[:-1, n:]))
 
 
-def performance(T, X, U, lengths, goal_height, t_final):
-    """Their criteria and both scores of one run's rows (module docstring)."""
+def performance(T, X, U, up, t_final):
+    """Their criteria and both scores of one run's rows (module docstring); ``up``: which rows count as up
+    (their rule: :func:`up_rows`)."""
     T, X, U = (np.asarray(a, float) for a in (T, X, U))
-    swingup = swingup_time(T, up_rows(X, lengths, goal_height), t_final)
+    swingup = swingup_time(T, np.asarray(up, bool), t_final)
     success = bool(swingup < T[-1])
     c = {"swingup_time": swingup, "max_tau": float(np.max(np.abs(U))), "energy": energy(X, U),
          "integ_tau": integrated_torque(T, U), "tau_cost": torque_cost(T, U), "tau_smoothness": tau_smoothness(U),

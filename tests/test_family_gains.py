@@ -1,0 +1,88 @@
+"""Gains when none are given: the family rule, the note that says so, refusals that name the gains that would do,
+the outcome of a run in words, and the search behind the rule on a small case."""
+import json
+import warnings
+
+import numpy as np
+import pytest
+
+from paa_mj.control import gains as G
+from paa_mj.control.registry import ControllerSpec, resolve_gains
+from paa_mj.model import load_robot
+from paa_mj.studies.gain_search import gain_search, search_table
+from paa_mj.task import Task
+from paa_mj.theory.conditions import chain_kd_min, thresholds
+
+from .helpers import cli
+
+
+def test_the_rule_is_its_ratios_over_the_bound_of_the_goal():
+    gymnast = load_robot("gymnast")
+    for goal in ("folded", "stretched"):
+        task = Task.named(goal, gymnast)
+        g = G.family_gains(gymnast.analytic, task, G.GainRule(1.5, 3.0, 0.25))
+        bound = thresholds(gymnast.analytic)[0].value if goal == "folded" else chain_kd_min(gymnast.analytic, task).value
+        assert g["kD"] == pytest.approx(1.5 * bound, rel=1e-12) and g["kV"] == pytest.approx(0.25 * g["kD"])
+        if goal == "stretched":
+            assert g["kP"] == pytest.approx(3.0 * g["kD"])
+    _, e1, e2 = thresholds(gymnast.analytic)
+    low_p = G.family_gains(gymnast.analytic, Task.named("folded", gymnast), G.GainRule(1.05, 1e-6, 1.0))
+    assert low_p["kP"] == pytest.approx(1.05 * max(e1.value, e2.value))  # Theorem 1's bounds (59), (60) kept
+
+
+def test_stored_gains_stand_where_they_meet_the_bound_and_the_rule_says_so_elsewhere():
+    gymnast = load_robot("gymnast")
+    folded, stretched = Task.named("folded", gymnast), Task.named("stretched", gymnast)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", G.GainsNote)
+        assert resolve_gains(gymnast, folded) == gymnast.resolve_gains()
+    G._NOTED.clear()
+    with pytest.warns(G.GainsNote, match=r"not above kD_min = 10111.9 of \(41\) for the stretched goal"):
+        chosen = resolve_gains(gymnast, stretched)
+    assert chosen == G.family_gains(gymnast.analytic, stretched)
+    assert resolve_gains(gymnast, stretched, kP=7.0)["kP"] == 7.0  # given gains stand, the rest from the rule
+    controller = ControllerSpec("vcl", task=stretched).build(gymnast)
+    assert controller.first.kD == chosen["kD"]
+
+
+def test_a_run_without_gains_states_them_and_its_outcome(tmp_path):
+    proc = cli("simulate", "--robot", "gymnast", "--goal", "stretched", "--t-final", "0.5", "--json")
+    assert proc.returncode == 0, proc.stderr
+    notes = [line for line in proc.stderr.splitlines() if line.startswith("paa-mj: note: gains of the family rule")]
+    gymnast = load_robot("gymnast")
+    rule = G.gains_text(G.family_gains(gymnast.analytic, Task.named("stretched", gymnast)))
+    assert len(notes) == 1 and rule in notes[0]
+    summary = json.loads(proc.stdout)
+    assert summary["outcome"].startswith("never entered region (68) in 0.5 s") and "try" in summary["outcome"]
+
+
+def test_gains_below_the_bound_are_refused_with_the_gains_that_would_do():
+    proc = cli("simulate", "--robot", "gymnast", "--goal", "stretched", "--kD", "5000", "--kP", "1", "--kV", "1")
+    assert proc.returncode == 2
+    line = proc.stderr.strip().splitlines()[-1]
+    gymnast = load_robot("gymnast")
+    rule = G.gains_text(G.family_gains(gymnast.analytic, Task.named("stretched", gymnast)))
+    assert "kD_min = 10111.9 of (41)" in line and f"would do: {rule}" in line
+    assert rule.startswith("--kD 10617.4 ")  # 1.05 x kD_min = 10111.85
+
+
+def test_make_model_writes_the_rule_into_the_header_and_its_robot_runs(tmp_path):
+    out = tmp_path / "c4.xml"
+    proc = cli("make-model", "--links", "4", "--m", "30", "20", "15", "10", "--l", "1", "0.8", "0.7", "0.6",
+               "--out", str(out))
+    assert proc.returncode == 0, proc.stderr
+    robot = load_robot(str(out))
+    rule = G.family_gains(robot.analytic, Task.named("folded", robot))
+    assert robot.gains == pytest.approx(rule, rel=1e-9)
+    header = out.read_text().split("-->")[0]
+    assert "Gains of the family rule" in header and "stretched goal kD = " in header
+    proc = cli("simulate", "--robot", str(out), "--goal", "stretched", "--t-final", "0.2", "--json")
+    assert proc.returncode == 0 and "paa-mj: note: gains of the family rule" in proc.stderr
+
+
+def test_the_search_scores_rules_by_the_robots_they_balance():
+    found = gain_search(robots=(("acrobot", "folded"),), grid=((2.0,), (2.0, 0.5), (0.5,)), t_final=30.0)
+    assert found["balanced"].shape == (2, 1)
+    best = int(np.argmax(found["balanced"].sum(axis=1)))
+    assert found["best"] == found["rules"][best]
+    assert search_table(found).count("\n") == 3

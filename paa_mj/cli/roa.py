@@ -59,15 +59,13 @@ def cmd_roa(args):
 
     from ..model.robot import load_robot
     from ..control.lqr import lqr_weights
-    from ..theory.linear import lqr_solution
+    from ..theory.linear import LQR_WEIGHT, lqr_solution, lqr_weight_matrices
     from ..theory.roa import region_of_attraction, uniform_in_ellipsoid, on_ellipsoid
 
     robot = load_robot(args.robot)
     task = task_from_args(args, robot)
     n = robot.params.n_links
-    Q, R = lqr_weights(n, args.lqr_weights)
-    Q = 1e4 * np.eye(2 * n) if Q is None else Q
-    R = np.eye(n - 1) if R is None else R
+    Q, R = lqr_weight_matrices(n, *lqr_weights(n, args.lqr_weights))
     K, S = lqr_solution(robot.analytic, task, Q, R)
     limits = _torque_limits(robot, args.torque_limit)
     dt = float(robot.model.opt.timestep)
@@ -77,7 +75,7 @@ def cmd_roa(args):
     inside = uniform_in_ellipsoid(S, roa.rho, args.check, rng) if roa.rho > 0 else np.zeros((0, 2 * n))
     check, _ = mujoco_check(robot, task, args.lqr_weights, roa, limits, inside)
     summary = {"robot": robot.name, "goal": task.name, "controller": "lqr",
-               "lqr_weights": list(args.lqr_weights) if args.lqr_weights else [1e4, 1.0],
+               "lqr_weights": list(args.lqr_weights) if args.lqr_weights else [LQR_WEIGHT, 1.0],
                "K": K.tolist(), **roa.to_dict(), "mujoco_check": check, **task.describe()}
     if args.plot:
         from ..outputs.roa import write_roa_figure

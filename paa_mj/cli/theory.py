@@ -113,8 +113,8 @@ def cmd_make_model(args):
     rule_text = ""
     if gains is None:
         gains, rule_text = _rule_gains(params)
-    xml = mjcf_from_params(params, name=args.name, title=" ".join(t for t in (args.title or "Parameters given by the user.", rule_text) if t),
-                           gains=gains, torque_limits=limits)
+    title = " ".join(t for t in (args.title or "Parameters given by the user.", rule_text) if t)
+    xml = mjcf_from_params(params, name=args.name, title=title, gains=gains, torque_limits=limits)
     params_from_model(compile_mjcf(xml, "generated model"), source="generated model")
     chosen = "; stored gains kD = {kD:.6g}, kP = {kP:.6g}, kV = {kV:.6g}".format(**gains)
     write_text(args.out, xml)
@@ -131,8 +131,8 @@ def _rule_gains(params):
     model = AnalyticModel.from_params(params)
     per_goal = {goal: family_gains(model, Task.named(goal, model)) for goal in ("folded", "stretched")}
     text = f"Gains of the family rule ({FAMILY_RULE.describe()}): " + "; ".join(
-        f"{goal} goal kD = {g['kD']:.6g}, kP = {g['kP']:.6g}, kV = {g['kV']:.6g}" for goal, g in per_goal.items()) + " (the folded goal's stored)."
-    return per_goal["folded"], text
+        f"{goal} goal kD = {g['kD']:.6g}, kP = {g['kP']:.6g}, kV = {g['kV']:.6g}" for goal, g in per_goal.items())
+    return per_goal["folded"], text + " (the folded goal's stored)."
 
 
 def register(sub, parser_class):

@@ -118,14 +118,12 @@ def _condition(robot, task, lqr_weights, switch):
         return RegionCondition(task)
     if switch != "roa":
         raise PaaError(f"the option switch is one of {', '.join(SWITCHES)}, got {switch!r}")
-    from ..theory.linear import LQR_WEIGHT
+    from ..theory.linear import lqr_weight_matrices
     from ..theory.roa import switch_level
     from .lqr import lqr_weights as weights_of
 
     n = robot.params.n_links
-    Q, R = weights_of(n, lqr_weights)
-    Q = LQR_WEIGHT * np.eye(2 * n) if Q is None else Q
-    R = np.eye(n - 1) if R is None else R
+    Q, R = lqr_weight_matrices(n, *weights_of(n, lqr_weights))
     S, rho = switch_level(robot.analytic, task, Q, R, u_max=robot.torque_limits,
                           dt=float(robot.model.opt.timestep))
     return LevelCondition(task, S, rho)

@@ -29,7 +29,7 @@ from ..errors import PaaError
 from ..model.dynamics import AnalyticModel
 from ..model.states import wrap
 from ..task import Task
-from ..theory.linear import LQR_Q, LQR_R, LQR_WEIGHT, goal_linearization
+from ..theory.linear import LQR_Q, LQR_R, LQR_WEIGHT, goal_linearization, lqr_weight_matrices
 from .base import CompiledForm, Controller, kernel
 from .combined import CombinedController, TimeCondition
 from .lqr import LQRController
@@ -109,8 +109,7 @@ def riccati_gains(am: AnalyticModel, times, x_ref, u_ref, task: Task, Q=None, R=
     ca = casadi_module()
     f = dynamics_function(am)
     nx, nu = 2 * am.n_links, am.n_links - 1
-    Q = LQR_WEIGHT * np.eye(nx) if Q is None else Q
-    R = np.eye(nu) if R is None else R
+    Q, R = lqr_weight_matrices(am.n_links, Q, R)
     x, u = ca.SX.sym("x", nx), ca.SX.sym("u", nu)
     jac = ca.Function("AB", [x, u], [ca.jacobian(f(x, u), x), ca.jacobian(f(x, u), u)])
     pairs = [jac(x_ref[i], u_ref[i]) for i in range(len(times))]

@@ -31,11 +31,11 @@ GRID = ((1.05, 1.5, 2.0, 3.0), (0.25, 0.5, 1.0, 2.0, 4.0), (0.1, 0.25, 0.5, 1.0,
 
 
 def gain_search(robots=ROBOTS, grid=GRID, t_final=30.0, progress=False) -> dict:
-    """Which rules of ``grid`` balance which robots: ``{"rules": [...], "robots": [...], "balanced": (R, B) bool,
-    "switch_time": (R, B) [s]}`` (rules by rows), and the best rule (the most balanced, then the smaller margin)."""
+    """Which rules of ``grid`` balance which robots: ``{"rules": [...], "robots": [...], "balanced": (R, B) bool}``
+    (rules by rows), ``"ranked"``, the rules' indices from the best (the most balanced, then the smaller margin),
+    and ``"best"``, the first of them."""
     rules = [GainRule(*values) for values in itertools.product(*grid)]
     balanced = np.zeros((len(rules), len(robots)), bool)
-    switch = np.full((len(rules), len(robots)), np.nan)
     for j, (name, goal) in enumerate(robots):
         robot = load_robot(name)
         task = Task.named(goal, robot)
@@ -43,20 +43,19 @@ def gain_search(robots=ROBOTS, grid=GRID, t_final=30.0, progress=False) -> dict:
                                 task=task) for rule in rules]
         result = simulate_batch(robot, np.repeat(task.start[None], len(rules), 0), t_final, task=task,
                                 controller=specs, progress=progress)
-        balanced[:, j], switch[:, j] = result.success, result.switch_time
+        balanced[:, j] = result.success
     score = balanced.sum(axis=1)
-    best = min(range(len(rules)), key=lambda i: (-score[i], rules[i].margin, i))
-    return {"rules": rules, "robots": list(robots), "balanced": balanced, "switch_time": switch, "best": rules[best],
+    ranked = sorted(range(len(rules)), key=lambda i: (-score[i], rules[i].margin, i))
+    return {"rules": rules, "robots": list(robots), "balanced": balanced, "ranked": ranked, "best": rules[ranked[0]],
             "t_final": t_final}
 
 
 def search_table(found: dict, top=8) -> str:
     """The ``top`` rules by robots balanced, as a Markdown table (1: balanced within ``t_final``)."""
     score = found["balanced"].sum(axis=1)
-    order = sorted(range(len(found["rules"])), key=lambda i: (-score[i], found["rules"][i].margin, i))[:top]
     head = " | ".join(f"{name} {goal}" for name, goal in found["robots"])
     lines = [f"| margin | p | v | balanced | {head} |", "|---" * (4 + len(found["robots"])) + "|"]
-    for i in order:
+    for i in found["ranked"][:top]:
         rule = found["rules"][i]
         lines.append(f"| {rule.margin:g} | {rule.p:g} | {rule.v:g} | {score[i]} | "
                      + " | ".join(str(int(b)) for b in found["balanced"][i]) + " |")

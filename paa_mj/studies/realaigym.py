@@ -196,9 +196,9 @@ def _goal_height(robot, task):
 def up_threshold(robot, task):
     """Their "up" threshold [m], 0.9 of the tip's height at the goal, where the goal holds the tip at its highest
     (every link up, their acrobot's goal); None for any other goal, whose tip may be low (the gymnast's folded tip
-    is 1.1 m below its highest), so that a height threshold would count a hanging-down chain as up."""
-    highest = math.isclose(_goal_height(robot, task), float(np.sum(robot.params.l)), rel_tol=1e-9)
-    return 0.9 * _goal_height(robot, task) if highest else None
+    is below its highest), so that a height threshold would count a hanging-down chain as up."""
+    height = _goal_height(robot, task)
+    return 0.9 * height if math.isclose(height, float(np.sum(robot.params.l)), rel_tol=1e-9) else None
 
 
 def up_rows(robot, task, X):

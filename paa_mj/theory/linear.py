@@ -84,15 +84,18 @@ def lqr_gain(am: AnalyticModel, task: Task, Q=None, R=None):
     return lqr_solution(am, task, Q, R)[0]
 
 
+def lqr_weight_matrices(n_links, Q=None, R=None):
+    """(Q, R) of (67), each the paper's where None: Q = 1e4 I (2n x 2n), R = I (n - 1 x n - 1)."""
+    return (LQR_WEIGHT * np.eye(2 * n_links) if Q is None else Q, np.eye(n_links - 1) if R is None else R)
+
+
 def lqr_solution(am: AnalyticModel, task: Task, Q=None, R=None):
     """(K, S) of (67): S the stabilising solution of A^T S + S A - S B R^-1 B^T S + Q = 0 on the linearisation at
     the task's goal, K = R^-1 B^T S, so that x^T S x is the LQR's cost-to-go of the linear loop (:func:`lqr_gain`
     for the weights and the errors)."""
     from scipy.linalg import solve_continuous_are
 
-    n = am.n_links
-    Q = LQR_WEIGHT * np.eye(2 * n) if Q is None else Q
-    R = np.eye(n - 1) if R is None else R
+    Q, R = lqr_weight_matrices(am.n_links, Q, R)
     A, Bl = goal_linearization(am, task)
     try:
         S = solve_continuous_are(A, Bl, Q, R)

@@ -96,11 +96,21 @@ def _protocols():
         runs.run(plant(acrobot, global_test=True), np.zeros(4), times, reset=reset)
 
 
+def _bounds():
+    from .model import load_robot
+    from .task import Task
+    from .theory.conditions import chain_kd_min
+
+    chain4 = load_robot("chain4")
+    chain_kd_min(chain4.analytic, Task.named("folded", chain4), progress=False)
+
+
 #: The stages of :func:`compile_kernels`: what each compiles, and the code that compiles it.
 STAGES = (("the rollouts: compiled and Python controllers, single and batched", _rollouts),
           ("the family: the chain's dynamics and controllers", _family),
           ("the Gymnasium environments, single and vector", _environments),
-          ("RealAIGym's simulator (paa-mj realaigym)", _protocols))
+          ("RealAIGym's simulator (paa-mj realaigym)", _protocols),
+          ("the certified search for kD_min (41) of a chain (paa-mj theory)", _bounds))
 
 
 def compile_kernels(progress=None) -> list[dict]:

@@ -45,6 +45,10 @@ class _LogBar:
         if now - self.last >= due and unfinished:  # work that ends before its first line is due says nothing
             self._line(now)
 
+    def set_description_str(self, desc=None, refresh=True):
+        """What the next lines say before the count (tqdm's method; ``refresh`` is tqdm's, unused here)."""
+        self.desc = desc
+
     def _line(self, now):
         text = tqdm.format_meter(self.n, self.total, now - self.start, ncols=0, prefix=self.desc or "",
                                  unit=self.unit, initial=self.initial, ascii=True)

@@ -217,12 +217,13 @@ def test_bench_reports_ratios_without_timing_assertions():
     from paa_mj.studies.bench import format_bench, run_bench
 
     r = run_bench(batch_size=8, batch_seconds=0.05, repeats=1, basin_grid=2, basin_seconds=0.1, vector_envs=4,
-                  vector_steps=5, rollout_seconds=2.0, python_seconds=0.2, bare_steps=2000, realaigym=False)
+                  vector_steps=5, rollout_seconds=2.0, python_seconds=0.2, bare_steps=2000, realaigym=False,
+                  kd_links=4)
     for key in ("bare_mj_step_us", "single_step_ratio", "batch_step_ratio", "basin_effective_ratio",
                 "analytic_to_mujoco_ratio", "python_step_vs_hand_loop"):
         assert np.isfinite(r[key]) and r[key] > 0
     assert "basin_effective_ratio" in format_bench(r) and "python_step_vs_hand_loop" in format_bench(r)
-    assert r["rollout_t_final"] == 2.0
+    assert r["rollout_t_final"] == 2.0 and r["kd_min_certified"] and r["kd_min_boxes"] > 0
 
 
 def test_compile_leaves_no_kernel_to_compile_later():
@@ -236,7 +237,7 @@ def test_compile_leaves_no_kernel_to_compile_later():
     proc = subprocess.run([sys.executable, "-m", "paa_mj.cli", "compile", "--json"], capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
     report = json.loads(proc.stdout)
-    assert report["uncached"] == [] and len(report["stages"]) == 4
+    assert report["uncached"] == [] and len(report["stages"]) == 5
     assert report["several_signatures"] == {}
     kernels = cached_kernels()
     assert len(kernels) >= 50 and report["cache"] in str(next(iter(kernels.values()))._cache._cache_path)

@@ -9,7 +9,7 @@ import numpy as np
 from ..errors import PaaError
 from ..model.dynamics import AnalyticModel
 from ..task import Task
-from ..theory.conditions import chain_kd_min, constraint_54, thresholds
+from ..theory.conditions import bracket_words, chain_kd_min, constraint_54, thresholds
 from ..theory.linear import theorem1_covers
 
 
@@ -171,31 +171,31 @@ def check_gains(model: AnalyticModel, kD, kP, kV, stacklevel=3):
     return messages
 
 
-_KD_MIN_CACHE: dict = {}
-
-
 def chain_singularity_bound(model: AnalyticModel, task: Task) -> float:
     """kD_min of (41) from its definition for any chain and the task's goal
-    (:func:`~paa_mj.theory.conditions.chain_kd_min`), cached per robot and goal."""
-    key = (model.key(), task.name)
-    if key not in _KD_MIN_CACHE:
-        _KD_MIN_CACHE[key] = chain_kd_min(model, task).value
-    return _KD_MIN_CACHE[key]
+    (:func:`~paa_mj.theory.conditions.chain_kd_min`, cached per robot and goal): its value, or where the search
+    could only bracket it, its certified upper bound."""
+    kd = chain_kd_min(model, task)
+    return kd.value if kd.certified else kd.upper
 
 
 def check_chain_gains(model: AnalyticModel, kD, kP, kV, task: Task):
     """Gains of (40) (or (12)) on a chain or goal beyond the paper, or a one-line error.
 
     Each in range (:func:`check_gain_range`), and kD above the singularity bound (41) computed from its
-    definition for this robot and goal: below it Lambda (38) can become singular. Theorem 1's other
+    definition for this robot and goal: below it Lambda (38) can become singular. Where the search could only
+    bracket the bound (long chains), kD must be above the bracket's certified upper end. Theorem 1's other
     bounds, (59) and (60), are proved for the paper's gymnast and goal only and are not checked here.
     """
     check_gain_range(kD, kP, kV)
-    bound = chain_singularity_bound(model, task)
-    if kD <= bound:
-        raise PaaError(f"gain kD = {kD:g} is not above kD_min = {bound:.6g} of (41) (its definition, computed for this"
-                       f" {model.n_links}-link robot and the {task.name} goal): controller (40) can become singular;"
-                       f" the family rule's gains would do: {gains_text(family_gains(model, task))}")
+    kd = chain_kd_min(model, task)
+    where = f"its definition, computed for this {model.n_links}-link robot and the {task.name} goal"
+    would_do = f"the family rule's gains would do: {gains_text(family_gains(model, task))}"
+    if kD <= kd.value:
+        raise PaaError(f"gain kD = {kD:g} is not above kD_min = {kd.value:.6g} of (41) ({where}): controller (40)"
+                       f" can become singular; {would_do}")
+    if not kd.certified and kD <= kd.upper:
+        raise PaaError(f"gain kD = {kD:g} is not certified singularity-free: {bracket_words(kd)} ({where}); {would_do}")
 
 
 def check_gains_for(model: AnalyticModel, kD, kP, kV, task: Task, stacklevel=3):

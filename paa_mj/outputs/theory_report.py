@@ -45,6 +45,13 @@ class TheoryReport:
     lqr_sampled_radius: float | None = None
     dt: float | None = None
     goal: str = "folded"
+    #: How kD_min was found, and its certificate: kD_min <= kD_min_upper, by the branch and bound of
+    #: :mod:`paa_mj.theory.kd_search`; certified when (upper - kD_min) / kD_min <= kD_min_tolerance.
+    kD_min_method: str = ""
+    kD_min_upper: float | None = None
+    kD_min_certified: bool | None = None
+    kD_min_tolerance: float | None = None
+    kD_min_gap: float | None = None
 
     def to_json_dict(self):
         """The report as JSON data; the sampled LQR's keys only where a time step was given."""
@@ -61,6 +68,7 @@ def theory_report(am: AnalyticModel, kD, kP, kV, dt=None) -> TheoryReport:
     check_gain_range(kD, kP, kV)
     task = Task.named("folded", am)
     kd, e1, e2 = thresholds(am)
+    certificate = _certify(am, kd, task)
     c54 = constraint_54(am)
     frozen_ok, db_min, db_max = frozen_acrobot_controllable(am)
     ctrb = goal_controllability(am, task)
@@ -87,8 +95,22 @@ def theory_report(am: AnalyticModel, kD, kP, kV, dt=None) -> TheoryReport:
         duu_eigenvalues=[[float(e.real), float(e.imag)] for e in eig],
         duu_charpoly=[float(c) for c in poly],
         duu_unstable=bool(np.max(eig.real) > 0),
-        theorem1=conditions,
+        theorem1=conditions, **certificate,
     )
+
+
+def _certify(am, kd, task):
+    """The grid's kD_min of (41) certified by the branch and bound (:func:`~paa_mj.theory.conditions.chain_kd_min`,
+    the same function of the actuated angles): its upper bound, and the relative gap to the grid's value."""
+    from ..theory.conditions import chain_kd_min
+
+    bound = chain_kd_min(am, task, progress=False)
+    upper = max(bound.upper, kd.value)
+    gap = (upper - kd.value) / abs(kd.value)
+    return {"kD_min_method": ("grid 121 x 121 over (q2, q3) and zoomed grids, certified by"
+                              f" {bound.method}"),
+            "kD_min_upper": upper, "kD_min_certified": bool(gap <= bound.tol), "kD_min_tolerance": bound.tol,
+            "kD_min_gap": gap}
 
 
 def _sampled_radius(am, K, dt, task, controllable):
@@ -97,7 +119,7 @@ def _sampled_radius(am, K, dt, task, controllable):
     return float(sampled_spectral_radius(am, K, dt, task))
 
 
-def chain_theory_report(am: AnalyticModel, kD, kP, kV, task: Task, dt=None) -> dict:
+def chain_theory_report(am: AnalyticModel, kD, kP, kV, task: Task, dt=None, kd_budget_cpu_s=None) -> dict:
     """What is defined and computable for a robot or goal beyond Theorem 1 (beyond the paper).
 
     The energy at the goal and its sign, the singularity bound (41) from its definition, linear
@@ -112,7 +134,8 @@ def chain_theory_report(am: AnalyticModel, kD, kP, kV, task: Task, dt=None) -> d
 
     check_gain_range(kD, kP, kV)
     E_r = task.goal_energy(am)
-    kd = chain_kd_min(am, task)
+    kd = chain_kd_min(am, task, budget_cpu_s=kd_budget_cpu_s)
+    safe_above = kd.value if kd.certified else kd.upper
     A, B = goal_linearization(am, task)
     ctrb = goal_controllability(am, task)
     rank = int(np.linalg.matrix_rank(control.ctrb(A, B)))
@@ -123,7 +146,7 @@ def chain_theory_report(am: AnalyticModel, kD, kP, kV, task: Task, dt=None) -> d
     return {
         "links": am.n_links, "goal": task.name, "beta": am.gravity_constants.tolist(), "E_r": E_r,
         "E_r_positive": bool(E_r > 0),
-        "kD_min": kd.value, "kD_min_at": list(kd.argmax), "kD_above_kD_min": bool(kD > kd.value),
+        **kd.as_dict("kD_min"), "kD_min_boxes": kd.boxes, "kD_above_kD_min": bool(kD > safe_above),
         "goal_controllable": ctrb.controllable, "goal_controllability": asdict(ctrb), "ctrb_rank": rank,
         "state_dimension": int(A.shape[0]),
         "lqr_K": K.tolist(),
@@ -143,8 +166,9 @@ def chain_theory_table(name, r) -> str:
         f"Theory for robot {name}: {r['links']} links, {r['goal']} goal (beyond the paper)",
         "  b_k (gravity constants)    " + "  ".join(f"{v:.4f}" for v in r["beta"]) + "  J",
         f"  E_r = P(q*)                {r['E_r']:.4f} J   {'> 0' if r['E_r_positive'] else '<= 0'}",
-        f"  kD_min (41), by definition {r['kD_min']:.6g}   at q_a = ({', '.join(f'{v:.4f}' for v in r['kD_min_at'])});"
+        f"  kD_min (41), by definition {_kd_words(r)}   at q_a = ({', '.join(f'{v:.4f}' for v in r['kD_min_at'])});"
         f" kD = {g['kD']:g} {'above' if r['kD_above_kD_min'] else 'NOT above'}",
+        f"      by {r['kD_min_method']}" + (f", {r['kD_min_boxes']} boxes" if r["kD_min_boxes"] else ""),
         f"  goal linearly controllable {_yes(r['goal_controllable'])} (rank {r['goal_controllability']['rank']} of"
         f" {r['state_dimension']}; python-control ctrb rank {r['ctrb_rank']}; PBH margin"
         f" {r['goal_controllability']['pbh_min']:.3g})",
@@ -169,6 +193,13 @@ def _rule_line(r):
     return [f"  family rule ({rule['rule']})  kD = {g['kD']:.6g}, kP = {g['kP']:.6g}, kV = {g['kV']:.6g}"]
 
 
+def _kd_words(r):
+    """The chain's kD_min: its value, certified to its tolerance, or its bracket."""
+    if r["kD_min_certified"]:
+        return f"{r['kD_min']:.6g} (certified to {r['kD_min_tolerance']:.0e})"
+    return f"in [{r['kD_min']:.6g}, {r['kD_min_upper']:.6g}] (NOT certified)"
+
+
 def _sampled_line(r):
     radius = r.get("lqr_sampled_radius")
     if radius is None:
@@ -190,6 +221,9 @@ def theory_table(name, r) -> str:
         f"  b1, b2, b3 (4)             {r['beta'][0]:.4f}  {r['beta'][1]:.4f}  {r['beta'][2]:.4f}  J",
         f"  E_r = b1 - b2 - b3 (9)     {r['E_r']:.4f} J   {'> 0' if r['E_r'] > 0 else '<= 0: the method does not apply'}",
         f"  kD_min (41)                {r['kD_min']:.6g}   at (q2, q3) = ({r['kD_min_at'][0]:.4f}, {r['kD_min_at'][1]:.4f})",
+        f"      {r['kD_min_method']}:",
+        f"      kD_min <= {r['kD_min_upper']:.10g}"
+        f" ({'certified' if r['kD_min_certified'] else 'NOT certified'} to {r['kD_min_tolerance']:.0e})",
         f"  eta1 (59)                  {r['eta1']:.6g}   at (y, z) = ({r['eta1_at'][0]:.4f}, {r['eta1_at'][1]:.4f})",
         f"  eta2 (60)                  {r['eta2']:.6g}   at z = {r['eta2_at']:.4f}",
         f"  constraint (54)            {'holds' if c54['holds'] else 'FAILS'}: f in [{c54['f_min']:.6g}, {c54['f_max']:.6g}],"

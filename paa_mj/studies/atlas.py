@@ -139,10 +139,11 @@ def robot_theory(params: RobotParams, task: Task, base_gains=None, dt=1e-3) -> d
         growth = float(np.max(duu_eigenvalues(am, **gains)[0].real)) if np.all(np.isfinite(list(gains.values()))) \
             else float("nan")
     else:
-        kd, e1, e2 = chain_kd_min(am, task).value, float("nan"), float("nan")
+        bound = chain_kd_min(am, task, progress=False)
+        kd, e1, e2 = bound.value, float("nan"), float("nan")
         holds, f_min, f_max = False, float("nan"), float("nan")
         _, db_min, db_max = merged_acrobot_deltabar(am)
-        gains = gain_rule(kd, None, None, base_gains)
+        gains = gain_rule(kd if bound.certified else bound.upper, None, None, base_gains)  # above a bracket's top
         growth = float("nan")
     radius = sampled_spectral_radius(am, lqr_gain(am, task), dt, task) if controllable else float("inf")
     return {"params": {"m": params.m.tolist(), "l": params.l.tolist(), "lc": params.lc.tolist(), "J": params.J.tolist()},

@@ -16,7 +16,9 @@
   10 ms control period (10 RK4 steps, mostly physics) and at 1 ms (``..._frame_skip_1``, mostly Python);
   the same with ``physics="analytic"`` (RK4 of the robot's own equations, :mod:`paa_mj.sim.rk4`):
   ``vector_env_analytic_speedup`` (single / vector, both analytic) and
-  ``vector_env_analytic_vs_single_mujoco`` (single environments on MuJoCo, the default, / the analytic vector).
+  ``vector_env_analytic_vs_single_mujoco`` (single environments on MuJoCo, the default, / the analytic vector);
+* kD_min: CPU time of the certified search for kD_min (41) of a chain of 7 uniform rods, folded goal
+  (:func:`~paa_mj.theory.kd_search.kd_min_search`, all cores; ``kd_min_cpu_s``, ``kd_min_boxes``).
 
 Every ratio divides two costs measured in this run, on this machine.
 """
@@ -202,13 +204,14 @@ def _bare_step_cost(robot, steps, repeats):
 
 def run_bench(batch_size=1024, batch_seconds=2.0, repeats=3, basin_grid=16, basin_seconds=30.0, progress=False,
               vector_envs=64, vector_steps=50, robot="gymnast", task=None, rollout_seconds=30.0,
-              python_seconds=2.0, bare_steps=20000, realaigym=True):
+              python_seconds=2.0, bare_steps=20000, realaigym=True, kd_links=7):
     """Measure every cost of the module docstring; each is the best of ``repeats`` runs (the basin: of 2).
 
     ``rollout_seconds`` [s] is the length of the single MuJoCo and analytic rollouts (``mujoco_30s_seconds``,
     ``analytic_30s_seconds``: 30 s unless asked otherwise, ``rollout_t_final`` in the result), ``python_seconds``
     [s] that of the Python controllers' runs, ``bare_steps`` the number of bare ``mj_step`` calls timed;
-    ``realaigym``: also time one whole robustness v2 of RealAIGym's (``realaigym_robustness_v2_cpu_s``).
+    ``realaigym``: also time one whole robustness v2 of RealAIGym's (``realaigym_robustness_v2_cpu_s``);
+    ``kd_links``: the links of the chain whose kD_min (41) is timed.
 
     ``robot`` (a name or MJCF path) and ``task`` (a Task or a goal's name, default the folded one) choose the
     robot and task measured; the vector environment is the gymnast's, measured for it alone.
@@ -252,6 +255,7 @@ def run_bench(batch_size=1024, batch_seconds=2.0, repeats=3, basin_grid=16, basi
     vector = _vector_rows(vector_envs, vector_steps, repeats) if name == "gymnast" and task.name == "folded" \
         else {}
     protocols = _realaigym_rows(bare_step, progress) if realaigym else {}
+    bound = _kd_min_rows(kd_links)
     return {
         "robot": robot.name, "goal": task.name,
         "machine_cores": os.cpu_count(),
@@ -277,7 +281,25 @@ def run_bench(batch_size=1024, batch_seconds=2.0, repeats=3, basin_grid=16, basi
         "analytic_to_mujoco_ratio": analytic / single,
         **vector,
         **protocols,
+        **bound,
     }
+
+
+def _kd_min_rows(n_links) -> dict:
+    """CPU time and boxes of the certified search for kD_min (41) of ``n_links`` uniform rods (1 kg, 1 m), folded."""
+    from ..model.dynamics import AnalyticModel
+    from ..model.params import RobotParams
+    from ..theory.kd_search import kd_min_search
+
+    def search(n):
+        am = AnalyticModel.from_params(RobotParams.uniform_rods(np.ones(n), np.ones(n)))
+        return kd_min_search(am, Task.named("folded", am).goal_energy(am))
+
+    search(3)  # compile (or load) the kernels first
+    start = time.process_time()
+    kd = search(n_links)
+    return {"kd_min_links": n_links, "kd_min_cpu_s": time.process_time() - start, "kd_min_boxes": kd.boxes,
+            "kd_min_certified": kd.certified}
 
 
 def _realaigym_rows(bare_step, progress) -> dict:
@@ -332,6 +354,8 @@ def format_bench(r) -> str:
         f"  basin {r['basin_grid']} x {r['basin_grid']}, {r['basin_t_final']:g} s             {r['basin_seconds']:8.2f} s              basin_effective_ratio = {r['basin_effective_ratio']:.2f}",
         f"  {r['rollout_t_final']:g} s Table 1 run: solve_ivp {r['analytic_30s_seconds']:.2f} s, MuJoCo {r['mujoco_30s_seconds']:.2f} s"
         f" (ratio {r['analytic_to_mujoco_ratio']:.1f})",
+        f"  kD_min (41), {r['kd_min_links']} uniform links, certified {r['kd_min_certified']}:"
+        f" {r['kd_min_cpu_s']:.1f} CPU-s, {r['kd_min_boxes']} boxes",
     ] + ([
         f"  RealAIGym robustness v2 (spong, {r['realaigym_robustness_v2_runs']} runs of 10 s at 2 ms)"
         f" {r['realaigym_robustness_v2_cpu_s']:.1f} CPU-s   realaigym_step_ratio = {r['realaigym_step_ratio']:.2f}"

@@ -2,7 +2,9 @@
 
 - :mod:`~paa_mj.theory.conditions`: kD_min (41), eta1 (59), eta2 (60), constraint (54), deltabar (30);
 - :mod:`~paa_mj.theory.linear`: linearisation at UDD, controllability, the LQR gain of (67);
-- :mod:`~paa_mj.theory.maxima`: the coarse-grid-plus-zoom maxima these need.
+- :mod:`~paa_mj.theory.maxima`: the coarse-grid-plus-zoom maxima these need, and a certified branch and bound;
+- :mod:`~paa_mj.theory.kd_search`: kD_min of (41) for any chain, certified (bounds in
+  :mod:`~paa_mj.theory.bounds` and :mod:`~paa_mj.theory.second_order`).
 
 The closed-loop analysis at DUU needs controller (40) and lives in
 :mod:`paa_mj.control.closed_loop`; the whole report is
@@ -12,6 +14,7 @@ from ..lazy import lazy_exports
 
 _EXPORTS = {
     "Constraint54": ".conditions",
+    "chain_kd_min": ".conditions",
     "constraint_54": ".conditions",
     "deltabar": ".conditions",
     "eta1": ".conditions",
@@ -28,12 +31,15 @@ _EXPORTS = {
     "lqr_gain": ".linear",
     "udd_controllability": ".linear",
     "udd_linearization": ".linear",
+    "kd_min_search": ".kd_search",
     "Maximum": ".maxima",
+    "branch_and_bound": ".maxima",
     "grid_maximum": ".maxima",
 }
 
 __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, globals())
 
-__all__ = ["Constraint54", "LQR_Q", "LQR_R", "Maximum", "constraint_54", "deltabar", "eta1", "eta1_function", "eta2",
-           "eta2_function", "f54", "frozen_acrobot_controllable", "grid_maximum", "kd_bound_function", "kd_min",
-           "lqr_gain", "thresholds", "udd_controllability", "udd_linearization"]
+__all__ = ["Constraint54", "LQR_Q", "LQR_R", "Maximum", "branch_and_bound", "chain_kd_min", "constraint_54", "deltabar",
+           "eta1", "eta1_function", "eta2", "eta2_function", "f54", "frozen_acrobot_controllable", "grid_maximum",
+           "kd_bound_function", "kd_min", "kd_min_search", "lqr_gain", "thresholds", "udd_controllability",
+           "udd_linearization"]

@@ -69,19 +69,52 @@ def chain_actuated_inertia_lambda_max(am: AnalyticModel, q_a):
     return np.linalg.eigvalsh(S)[..., -1]
 
 
-def chain_kd_min(am: AnalyticModel, task) -> Maximum:
-    """kD_min of (41) from its definition, for any chain and goal [J kg m^2].
+def chain_kd_min(am: AnalyticModel, task, budget_cpu_s=None, progress=True) -> Maximum:
+    """kD_min of (41) from its definition, for any chain and goal [J kg m^2]: a certified maximum.
 
     E - E_r >= -(E_r + mu(q_a)) at every state (kinetic energy >= 0, P >= -mu), so Lambda =
     (E - E_r) I + kD B^T M^-1 B of (38) stays nonsingular for every state when kD exceeds the
     maximum over q_a of (E_r + mu) lambda_max((B^T M^-1 B)^-1). For the gymnast's UDD this is
-    (41), (42) (:func:`kd_min`); elsewhere it is beyond the paper: the same definition, maximised
-    on a grid of the n - 1 actuated angles and refined.
+    (41), (42) (:func:`kd_min`); elsewhere it is beyond the paper: the same definition, maximised by the branch and
+    bound of :func:`~paa_mj.theory.kd_search.kd_min_search`, certified to a relative 1e-6 (about 15 CPU-seconds
+    at 8 links, minutes at 9). Where its budget runs out first (from about 10 links) the result is a bracket:
+    ``value <= kD_min <= upper``, ``certified`` False. Cached per robot and goal: a later call reuses the result
+    when it is certified, when it asks for no budget of its own, or when it asks for no more than the first.
+
+    Parameters
+    ----------
+    am : AnalyticModel
+    task : Task
+        Its goal's energy is E_r.
+    budget_cpu_s : float, optional
+        CPU-seconds the search may take (default :data:`~paa_mj.theory.kd_search.BUDGET_CPU_S`).
+    progress : bool
+        A progress bar on stderr, with the bracket, while the search runs (lines from 2 s on).
     """
+    from .kd_search import BUDGET_CPU_S, kd_min_search
+
+    budget = BUDGET_CPU_S if budget_cpu_s is None else float(budget_cpu_s)
     E_r = task.goal_energy(am)
+    key = (am.key(), float(E_r))
+    known = _KD_MIN_CACHE.get(key)
+    if known is None or not (known[1].certified or budget_cpu_s is None or known[0] >= budget):
+        desc = f"kD_min (41), {am.n_links} links, {task.name} goal" if progress else None
+        known = _KD_MIN_CACHE[key] = (budget, kd_min_search(am, E_r, budget_cpu_s=budget, desc=desc))
+    return known[1]
+
+
+_KD_MIN_CACHE: dict = {}
+
+
+def chain_kd_min_grid(am: AnalyticModel, E_r) -> Maximum:
+    """kD_min of (41) as it was computed before the branch and bound: the maximum over a grid of the n - 1 actuated
+    angles (721 points for one, 121^2, 41^3, 17^4, then 9 per angle), refined by zoomed grids; not certified.
+
+    Kept as the reference the tests hold :func:`chain_kd_min` to on 2 to 6 links; its cost grows ninefold per link
+    (about 4 CPU-s at 6 links, 45 at 7, 0.9 GB).
+    """
     dim = am.n_links - 1
     coarse = {1: 721, 2: 121, 3: 41, 4: 17}.get(dim, 9)
-    _refuse_searches_beyond_reach(am.n_links, coarse**dim)
 
     def bound(*angles):
         q_a = np.stack(np.broadcast_arrays(*angles), axis=-1)
@@ -91,32 +124,12 @@ def chain_kd_min(am: AnalyticModel, task) -> Maximum:
                         zoom=21 if dim <= 2 else 7)
 
 
-#: The largest chain whose bound (41) is searched: a grid of 9^6 points over the 6 actuated angles of 7 links
-#: costs about 45 CPU-s and 0.9 GB; each further link multiplies both by 9.
-KD_MIN_MAX_LINKS = 7
-_KD_MIN_COST_AT_MAX = (45.0, 0.9)  # [CPU-s], [GB], measured for 7 links (paa-mj theory)
-
-
-def _refuse_searches_beyond_reach(n_links, points):
-    """One line, before any work, for a chain whose search for (41) would take hours and more memory than there
-    is: what it would need, and what to do instead."""
-    if n_links <= KD_MIN_MAX_LINKS:
-        return
-    from ..errors import PaaError
-
-    growth = 9.0 ** (n_links - KD_MIN_MAX_LINKS)
-    cpu, memory = (value * growth for value in _KD_MIN_COST_AT_MAX)
-    raise PaaError(f"kD_min of (41) for a chain of {n_links} links is a maximum over its {n_links - 1} actuated angles:"
-                   f" the search (a grid of {points:.3g} points) would need about {_duration(cpu)} of CPU and"
-                   f" {memory:.3g} GB of memory; paa_mj computes it for chains of up to {KD_MIN_MAX_LINKS} links."
-                   " Controllers that need no gains (lqr, passive, yours) run on any chain")
-
-
-def _duration(seconds):
-    for unit, size in (("years", 3.15e7), ("days", 86400.0), ("hours", 3600.0), ("minutes", 60.0)):
-        if seconds >= size:
-            return f"{seconds / size:.3g} {unit}"
-    return f"{seconds:.3g} s"
+def bracket_words(kd: Maximum) -> str:
+    """How far a :func:`chain_kd_min` is known, in words: its value, and its bracket where not certified."""
+    if kd.certified:
+        return f"kD_min = {kd.value:.6g} of (41) (certified to {kd.tol:.0e})"
+    return (f"kD_min of (41) is only bracketed, in [{kd.value:.6g}, {kd.upper:.6g}] ({kd.method}); every kD above"
+            f" {kd.upper:.6g} is singularity-free")
 
 
 # --- (59), (60) ---------------------------------------------------------------------

@@ -1,6 +1,14 @@
-"""Maxima over angles by a coarse grid and zoomed grids: the bounds of Theorem 1 need them to 1e-4 or better."""
+"""Maxima over angles: the bounds of Theorem 1 need them to 1e-4 or better.
+
+- :func:`grid_maximum`: a coarse grid, then zoomed grids around its best points (cheap in one or two angles);
+- :func:`branch_and_bound`: a certified maximum, the best value found and an upper bound within a relative
+  tolerance of it, for functions with upper bounds on boxes (kD_min of (41) for any chain,
+  :mod:`paa_mj.theory.bounds`).
+"""
 from __future__ import annotations
 
+import math
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -8,21 +16,53 @@ import numpy as np
 
 @dataclass(frozen=True)
 class Maximum:
-    """A maximum found by grid search and local refinement.
+    """A maximum: the best value found, where, and (when certified) an upper bound on the true maximum.
 
     Attributes
     ----------
     value : float
-        The refined maximum.
+        The refined maximum: a value the function takes (at ``argmax``), so a lower bound of the true maximum.
     argmax : tuple of float
         Where it is attained.
     grid_value : float
-        The best value on the grid, before refinement (<= value).
+        The best value on the grid or of the starting points, before refinement (<= value).
+    upper : float
+        An upper bound of the true maximum, certified by :func:`branch_and_bound` (NaN from a grid search,
+        which certifies nothing).
+    tol : float
+        The relative tolerance asked for: the maximum is certified when ``upper - value <= tol * |value|``.
+    method : str
+        How it was found, in words.
+    boxes : int
+        Boxes the branch and bound bounded (0 for a grid).
     """
 
     value: float
     argmax: tuple
     grid_value: float
+    upper: float = math.nan
+    tol: float = math.nan
+    method: str = "grid and zoomed grids (not certified)"
+    boxes: int = 0
+
+    @property
+    def certified(self) -> bool:
+        """``value <= max <= upper`` with ``upper - value <= tol * |value|`` (False from a grid)."""
+        return bool(self.upper - self.value <= self.tol * abs(self.value))
+
+    @property
+    def gap(self) -> float:
+        """``(upper - value) / |value|``: the relative accuracy the bracket certifies (NaN from a grid)."""
+        return float((self.upper - self.value) / abs(self.value)) if self.value else math.inf
+
+    def as_dict(self, name) -> dict:
+        """``name``, ``name_at`` and, where certified or bracketed, ``name_upper``, ``name_certified``,
+        ``name_tolerance`` (asked), ``name_gap`` (reached) and ``name_method``, for a JSON report."""
+        data = {name: self.value, f"{name}_at": list(self.argmax), f"{name}_method": self.method}
+        if not math.isnan(self.upper):
+            data.update({f"{name}_upper": self.upper, f"{name}_certified": self.certified,
+                         f"{name}_tolerance": self.tol, f"{name}_gap": self.gap})
+        return data
 
 
 def _evaluate(fun, mesh):
@@ -97,6 +137,102 @@ def grid_maximum(fun, bounds, n=(121, 121), periodic=None, n_starts=6, zoom=21, 
     best_x = tuple(float(lo + (x - lo) % (hi - lo)) if p else float(x)
                    for x, (lo, hi), p in zip(best_x, bounds, periodic))
     return Maximum(best_value, best_x, grid_value)
+
+
+
+#: Most bytes the live boxes of :func:`branch_and_bound` may take; beyond it the search stops with its bracket.
+LIVE_BYTES = 400 * 2**20
+
+
+def branch_and_bound(bound, lows, highs, value, x, refine, tol=1e-6, budget_s=math.inf, batch=1024, desc=None):
+    """The maximum of f over the box [lows, highs], certified: best-first branch and bound.
+
+    Each step halves the live boxes of highest upper bound (``batch`` of them, or an eighth of those alive if more)
+    along their axis of largest score, bounds the halves, and drops every box whose bound is at most
+    ``value + tol |value|``: f stays below it there. The best centre found is refined by ``refine`` when it beats
+    ``value``. The search ends when no box is left: the maximum is certified,
+    ``value <= max f <= upper <= value + tol |value|``; or when it has run ``budget_s`` CPU-seconds, or its live
+    boxes would take more than :data:`LIVE_BYTES`: then ``upper``, the largest bound of a box left, is still an
+    upper bound of f everywhere; a half keeps its box's bound where its own is larger, so ``upper`` only falls,
+    and the best-first order makes it fall as far as the search goes.
+
+    Parameters
+    ----------
+    bound : callable
+        ``bound(centres, radii, target) -> (upper, values, scores)``: upper bounds of f on the boxes
+        centres +- radii (K, d), f at the centres (K,), and each radius's share of the bound (K, d). A box whose
+        bound is at most ``target`` will be dropped, so its bound may be a cheap one.
+    lows, highs : array_like (d,)
+    value, x : float, ndarray (d,)
+        The best value known and where f takes it.
+    refine : callable
+        ``refine(point) -> (value, point)``: a local ascent.
+    tol : float
+        Relative tolerance of the certificate.
+    budget_s : float
+        CPU-seconds (of this process, all its threads) the search may take.
+    desc : str, optional
+        Shown, with the bracket, beside a progress bar on stderr (:func:`paa_mj.progress.progress`).
+
+    Returns
+    -------
+    value, x, upper : float, ndarray, float
+    boxes : int
+        Boxes bounded.
+    finished : bool
+        No box left: ``upper`` is within ``tol`` of ``value``.
+    """
+    from ..progress import progress
+
+    lows, highs = np.asarray(lows, float), np.asarray(highs, float)
+    d = lows.size
+    centres, radii = ((lows + highs) / 2)[None], ((highs - lows) / 2)[None]
+    uppers, axes = np.array([np.inf]), np.argmax(radii, axis=1)
+    dropped, boxes, live_cap = -np.inf, 0, max(batch, LIVE_BYTES // (8 * (2 * d + 2)))
+    deadline = time.process_time() + budget_s
+    bar = progress(desc=desc, unit="box", enabled=desc is not None)
+    while uppers.size and uppers.size < live_cap and time.process_time() < deadline:
+        pick = _best(uppers, max(batch, uppers.size // 8))
+        keep = np.ones(uppers.size, bool)
+        keep[pick] = False
+        new_c, new_r = _halves(centres[pick], radii[pick], axes[pick])
+        new_u, new_v, scores = bound(new_c, new_r, value + tol * abs(value))
+        new_u = np.minimum(new_u, np.tile(uppers[pick], 2))  # a half's bound is also its box's
+        boxes += new_u.size
+        best = int(np.argmax(new_v))
+        if new_v[best] > value:
+            value, x = max((new_v[best], new_c[best]), refine(new_c[best]), key=lambda pair: pair[0])
+        centres, radii = np.concatenate([centres[keep], new_c]), np.concatenate([radii[keep], new_r])
+        uppers = np.concatenate([uppers[keep], new_u])
+        axes = np.concatenate([axes[keep], np.argmax(scores, axis=1)])
+        alive = uppers > value + tol * abs(value)
+        if not alive.all():
+            dropped = max(dropped, float(np.max(uppers[~alive])))
+            centres, radii, uppers, axes = centres[alive], radii[alive], uppers[alive], axes[alive]
+        if uppers.size:
+            bar.set_description_str(f"{desc}: max in [{value:.7g}, {np.max(uppers):.7g}]", refresh=False)
+        bar.update(new_u.size)
+    bar.close()
+    upper = max(dropped, value, float(np.max(uppers)) if uppers.size else -np.inf)
+    return value, x, upper, boxes, not uppers.size
+
+
+def _best(uppers, k):
+    """The indices of the ``k`` largest ``uppers`` (all of them if there are no more)."""
+    if k >= uppers.size:
+        return np.arange(uppers.size)
+    return np.argpartition(-uppers, k - 1)[:k]
+
+
+def _halves(centres, radii, axes):
+    """The two halves of each box centres +- radii, cut across its axis ``axes``: (centres, radii), the lower
+    halves first."""
+    rows = np.arange(len(axes))
+    halves = radii.copy()
+    halves[rows, axes] /= 2
+    shift = np.zeros_like(halves)
+    shift[rows, axes] = halves[rows, axes]
+    return np.concatenate([centres - shift, centres + shift]), np.concatenate([halves, halves])
 
 
 def bounded_minimum(func, low, high, xatol=1e-5, maxiter=500):

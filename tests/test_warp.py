@@ -9,6 +9,7 @@ books and statuses), and the laws translated to Warp, run in float64, equal numb
 import json
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -18,14 +19,16 @@ from paa_mj.sim.warp_device import warp_available
 
 needs_warp = pytest.mark.skipif(not warp_available(), reason="warp and mujoco_warp not installed (paa_mj[gpu])")
 DEVICE = "cpu"
+ROOT = Path(__file__).resolve().parent.parent
 
 
-def test_without_warp_one_line_names_the_extra(tmp_path):
+def test_without_warp_one_line_names_the_extra():
     """With warp unimportable, --engine warp is one line on stderr naming the install, exit 2, no traceback."""
     script = ("import sys; sys.modules['warp'] = None; sys.modules['mujoco_warp'] = None\n"
               "from paa_mj.cli import main\n"
               "sys.exit(main(['basin', '--engine', 'warp', '--grid', '2', '--t-final', '0.01']))")
-    run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, cwd=tmp_path)
+    # from the repository's root: the package under test, whatever the interpreter has installed
+    run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, cwd=ROOT)
     assert run.returncode == 2, run.stderr
     assert run.stderr.count("\n") == 1 and "pip install 'paa_mj[gpu]'" in run.stderr, run.stderr
     assert "Traceback" not in run.stderr

@@ -206,7 +206,7 @@ def test_basin_command_on_the_warp_engine(tmp_path, warp_modules):
     def basin(*extra):
         run = subprocess.run([sys.executable, "-m", "paa_mj.cli", "basin", "--grid", "2", "--t-final", "0.05",
                               "--scheduler", "inline", "--json", *extra], capture_output=True, text=True,
-)
+                             cwd=ROOT)
         assert run.returncode == 0, run.stderr
         return json.loads(run.stdout)
 

@@ -61,8 +61,13 @@ install() {
   fi
   quiet .venv/bin/python -m pip install -q --disable-pip-version-check --no-compile -e ".[$1]"
 }
-if ! install "dev,peers"; then
-  echo "setup: Drake could not be installed; the tests of paa-mj peers will be skipped" >&2
-  install dev || true
+# MuJoCo Warp (extra "gpu") comes too, so that the tests run its engine on Warp's CPU device; where it cannot be
+# installed, those tests are skipped.
+if ! install "dev,peers,gpu"; then
+  echo "setup: MuJoCo Warp could not be installed; the tests of --engine warp will be skipped" >&2
+  if ! install "dev,peers"; then
+    echo "setup: Drake could not be installed; the tests of paa-mj peers will be skipped" >&2
+    install dev || true
+  fi
 fi
 .venv/bin/python -c "import paa_mj, mujoco" || { echo "setup: the install failed" >&2; exit 1; }

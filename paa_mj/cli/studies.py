@@ -20,16 +20,44 @@ def _study(args, command, run, write):
     robot = load_robot(args.robot)
     task = task_from_args(args, robot)
     spec = spec_from_args(args, robot, task)
-    scheduler = check_scheduler(args.scheduler)
+    engine = check_engine_args(args)
+    # the warp engine's worlds are one device's: its chunks run in this process unless a scheduler is named
+    scheduler = check_scheduler("inline" if args.scheduler is None and engine["engine"] == "warp" else args.scheduler)
     with output_lock(args.out, command):
         summary, arrays = run(robot, spec, dict(task=task, progress=not args.json, scheduler=scheduler,
                                                 out_dir=args.out, fresh=args.fresh, chunk=args.chunk,
-                                                torque_limit=args.torque_limit))
+                                                torque_limit=args.torque_limit, **engine))
         if args.out and summary["completed_fraction"] > 0:  # no figure of a study with no finished run
             write(args.out, summary, arrays)
     if args.json:
         print_json(summary)
     return summary
+
+
+def engine_parent():
+    import argparse
+
+    p = argparse.ArgumentParser(add_help=False)
+    p.add_argument("--engine", choices=("mujoco", "warp"), default="mujoco",
+                   help="mujoco: MuJoCo and the compiled controllers on the CPU's cores; warp: every run a world of"
+                        " MuJoCo Warp, the controller on the device too (pip install 'paa_mj[gpu]'; float32;"
+                        " controllers vcl, vc, vcl-only, vc-only, lqr, passive; chunks inline unless --scheduler)")
+    p.add_argument("--device", metavar="NAME",
+                   help="the Warp device of --engine warp: cpu, cuda:0, ... (default: $PAA_MJ_WARP_DEVICE, else the"
+                        " first GPU, else cpu)")
+    return p
+
+
+def check_engine_args(args) -> dict:
+    """The engine options, checked: ``--device`` goes with ``--engine warp``, which needs MuJoCo Warp installed."""
+    if args.device is not None and args.engine != "warp":
+        raise PaaError("--device chooses the Warp device of --engine warp; drop it or add --engine warp")
+    if args.engine == "warp":
+        from ..sim.warp_device import device_name, load_warp
+
+        wp, _ = load_warp()
+        device_name(wp, args.device)
+    return {"engine": args.engine, "device": args.device}
 
 
 def cmd_basin(args):
@@ -171,7 +199,7 @@ def cmd_compile(args):
 def _register_basin(sub):
     from ..studies.settings import BASIN_COORDINATES as COORDINATES, BASIN_MAX_GRID as MAX_GRID
 
-    p = sub.add_parser("basin", parents=[robot_parent(), goal_parent(), controller_parent(), study_parent(),
+    p = sub.add_parser("basin", parents=[robot_parent(), goal_parent(), controller_parent(), study_parent(), engine_parent(),
                                          output_parent("basin.png, basin.svg, basin.npz, summary.json and the"
                                                        " finished chunks (a rerun resumes)")],
                        help="outcome over a grid of initial states (two coordinates, the others zero)",
@@ -192,6 +220,7 @@ def _register_robustness(sub):
         STARTS
 
     p = sub.add_parser("robustness", parents=[robot_parent(), goal_parent(), controller_parent(), study_parent(),
+                                              engine_parent(),
                                               output_parent("one chart per factor (PNG, SVG), robustness.npz,"
                                                             " summary.json and the finished chunks")],
                        help="success rate against noise, limits, model error, delay, pushes and starts",

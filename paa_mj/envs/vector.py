@@ -51,6 +51,9 @@ from .stepper import _CTRL, _DATA, Robots, _float64_at, advance
 
 #: The most sub-environments of one vector environment.
 MAX_ENVS = 1_000_000
+#: The engines of the physics: MuJoCo on the CPU (``physics`` "mujoco" or "analytic"), or MuJoCo Warp on a device
+#: (:mod:`paa_mj.envs.warp_robots`, ``pip install "paa_mj[gpu]"``).
+ENGINES = ("mujoco", "warp")
 _MODES = {mode.value: mode for mode in AutoresetMode}
 
 
@@ -95,15 +98,10 @@ def _first_bad_action(actions):
 
 
 @njit(nogil=True, cache=True)
-def _vector_step(lo, hi, actions, normalized, restart, physics, rules, episodes, counters, out):
-    """One environment step of the sub-environments lo..hi-1, in one call (the actions checked finite before).
-
-    The torques of :func:`~paa_mj.envs.spaces.action_to_torque` (clip(a T, -T, T), the same operations), the
-    physics, observation and reward of :func:`~paa_mj.envs.stepper.advance` (the code of the single environment)
-    for the rows not in ``restart``, then the step counters, terminations, truncations and the information of
-    :meth:`GymnastVectorEnv._info` (time, and success as :func:`~paa_mj.task.book_succeeded` judges it), written
-    into ``out``. ``restart`` rows (reset by the caller) get reward 0, neither ended.
-    """
+def _vector_torques(lo, hi, actions, normalized, restart, rules, episodes):
+    """The torques of the sub-environments lo..hi-1 from their actions into ``episodes.tau`` (those of
+    :func:`~paa_mj.envs.spaces.action_to_torque`: clip(a T, -T, T), the same operations); returns the rows to step
+    (those not in ``restart``)."""
     limits = rules.limits
     rows = np.empty(hi - lo, np.intp)
     m = 0
@@ -120,7 +118,14 @@ def _vector_step(lo, hi, actions, normalized, restart, physics, rules, episodes,
         if not restart[i]:
             rows[m] = i
             m += 1
-    advance(physics, rules, episodes, rows[:m])
+    return rows[:m]
+
+
+@njit(nogil=True, cache=True)
+def _vector_finish(lo, hi, restart, episodes, counters, out):
+    """After the physics of a step: the step counters, terminations, truncations and the information of
+    :meth:`GymnastVectorEnv._info` (time, and success as :func:`~paa_mj.task.book_succeeded` judges it) of the
+    sub-environments lo..hi-1, written into ``out``. ``restart`` rows get reward 0, neither ended."""
     for i in range(lo, hi):
         if restart[i]:
             terminated, truncated, out.reward[i] = False, False, 0.0
@@ -139,6 +144,19 @@ def _vector_step(lo, hi, actions, normalized, restart, physics, rules, episodes,
         out.diverged[i] = episodes.diverged[i]
         out.success[i] = book_succeeded(episodes.book[i], episodes.phys_step[i], not episodes.diverged[i], False,
                                         counters.window)
+
+
+@njit(nogil=True, cache=True)
+def _vector_step(lo, hi, actions, normalized, restart, physics, rules, episodes, counters, out):
+    """One environment step of the sub-environments lo..hi-1, in one call (the actions checked finite before).
+
+    The torques (:func:`_vector_torques`), the physics, observation and reward of
+    :func:`~paa_mj.envs.stepper.advance` (the code of the single environment) for the rows not in ``restart``, then
+    the counters, terminations, truncations and information (:func:`_vector_finish`), written into ``out``.
+    """
+    rows = _vector_torques(lo, hi, actions, normalized, restart, rules, episodes)
+    advance(physics, rules, episodes, rows)
+    _vector_finish(lo, hi, restart, episodes, counters, out)
 
 
 @njit(nogil=True, cache=True)
@@ -169,6 +187,12 @@ class GymnastVectorEnv(VectorEnv):
         Threads that share the physics of one step, in [1, 1024] (default 1). The compiled stepping releases
         the GIL, so more threads cut the wall-clock time of a step on a machine with idle cores, not its CPU
         time; the numbers are the same with any number of threads (each sub-environment is stepped alone).
+    engine : "mujoco" or "warp"
+        ``warp``: every sub-environment a world of MuJoCo Warp on ``device`` (:mod:`paa_mj.envs.warp_robots`;
+        float32, so its numbers agree with ``mujoco``'s to float32 rounding, not bit for bit; ``num_threads``
+        does not apply).
+    device : str, optional
+        The Warp device of ``engine="warp"`` (``cpu``, ``cuda:0``; default ``$PAA_MJ_WARP_DEVICE`` or the first GPU).
     **kwargs
         The arguments of :class:`~paa_mj.envs.single.GymnastEnv` (``task``, ``robot``, ``frame_skip``, ...),
         checked the same way; ``render_mode`` must be None.
@@ -180,9 +204,16 @@ class GymnastVectorEnv(VectorEnv):
     """
 
     def __init__(self, num_envs=64, max_episode_steps=None, autoreset_mode=AutoresetMode.NEXT_STEP, num_threads=1,
-                 **kwargs):
+                 engine="mujoco", device=None, **kwargs):
         self._init_args = dict(num_envs=num_envs, max_episode_steps=max_episode_steps,
-                               autoreset_mode=autoreset_mode, num_threads=num_threads, **kwargs)
+                               autoreset_mode=autoreset_mode, num_threads=num_threads, engine=engine, device=device,
+                               **kwargs)
+        if engine not in ENGINES:
+            raise ValueError(f"engine must be one of {', '.join(map(repr, ENGINES))}, got {engine!r}")
+        if device is not None and engine != "warp":
+            raise ValueError(f"device chooses the Warp device of engine 'warp', not of {engine!r}")
+        if engine == "warp" and kwargs.get("physics", "mujoco") != "mujoco":
+            raise ValueError(f"engine 'warp' steps MuJoCo Warp: physics must be 'mujoco', got {kwargs['physics']!r}")
         num_envs = _whole("num_envs", num_envs, 1, MAX_ENVS)
         num_threads = _whole("num_threads", num_threads, 1, 1024)
         if kwargs.get("render_mode") is not None:
@@ -209,8 +240,19 @@ class GymnastVectorEnv(VectorEnv):
         self.observation_space = batch_space(proto.observation_space, num_envs)
         self.action_space = batch_space(proto.action_space, num_envs)
         self.task = proto.task
-        self._robots = Robots(self.model, num_envs, proto.frame_skip, proto._robots.rules.kind, self.torque_limits,
-                              self.task, proto.physics, proto.robot.analytic)
+        self.engine = engine
+        if engine == "warp":
+            from ..errors import PaaError
+            from .warp_robots import WarpRobots
+
+            try:
+                self._robots = WarpRobots(self.model, num_envs, proto.frame_skip, proto._robots.rules.kind,
+                                          self.torque_limits, self.task, device)
+            except PaaError as err:
+                raise ValueError(str(err)) from None
+        else:
+            self._robots = Robots(self.model, num_envs, proto.frame_skip, proto._robots.rules.kind,
+                                  self.torque_limits, self.task, proto.physics, proto.robot.analytic)
         self._links = self.task.n_links
         self._rngs = [None] * num_envs
         self._counters = Counters(np.zeros(num_envs, np.int64), np.zeros(num_envs, bool), proto.terminate_margin,
@@ -340,6 +382,12 @@ class GymnastVectorEnv(VectorEnv):
         """:func:`_vector_step` of every sub-environment: one call, or contiguous chunks on ``num_threads`` threads
         (each writes rows of the shared arrays that no other thread touches)."""
         robots = self._robots
+        if self.engine == "warp":  # every world in one device step, between two compiled calls on the host
+            rows = _vector_torques(0, self.num_envs, actions, self.normalize_actions, restart, robots.rules,
+                                   robots.episodes)
+            robots.advance(rows)
+            _vector_finish(0, self.num_envs, restart, robots.episodes, self._counters, out)
+            return
         args = (actions, self.normalize_actions, restart, robots.physics, robots.rules, robots.episodes,
                 self._counters, out)
         # a diverging step ends the episode; MuJoCo's warning must not leave MUJOCO_LOG.TXT

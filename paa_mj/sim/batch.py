@@ -26,7 +26,7 @@ from ..model.params import RobotParams
 from ..model.robot import Robot
 from ..task import B_ENTERED, B_LAST_FAR, Task, as_task
 from . import engine
-from .engine import DIVERGED, FINISHED, RETIRED, STATUS_TEXT
+from .engine import DIVERGED, FINISHED, RETIRED, RUNNING, STATUS_TEXT, STOPPED, run as run_engine
 from .inputs import check_initial_states, check_robot, per_rollout, sample_interval, steps_for
 from .integrators import mujoco_model_for
 from .records import SETTING, Run, Settings
@@ -100,6 +100,17 @@ class Disturbances:
 
 
 NO_DISTURBANCES = Disturbances()
+
+#: The engines of :func:`simulate_batch` (``--engine``): MuJoCo on the CPU, MuJoCo Warp on a device.
+ENGINES = ("mujoco", "warp")
+
+
+def check_engine(engine, device=None):
+    """``engine`` is one of :data:`ENGINES` (and ``device`` goes with ``warp`` only), or a one-line error."""
+    if engine not in ENGINES:
+        raise PaaError(f"engine must be one of {', '.join(ENGINES)}, got {engine!r}")
+    if device is not None and engine != "warp":
+        raise PaaError("a Warp device is chosen for engine warp only")
 
 
 @dataclass
@@ -277,7 +288,8 @@ def simulate_batch(robot: Robot, x0: ArrayLike, t_final: float | None = None, *,
                    controller="vcl", dt: float | None = None, integrator: str | None = None,
                    plants: list | None = None, torque_limit: ArrayLike | None = None,
                    disturbances: Disturbances | None = None, record: bool = False, sample_dt: float = 0.01,
-                   retire: bool = True, nthread: int | None = None, progress: bool = False) -> BatchResult:
+                   retire: bool = True, nthread: int | None = None, progress: bool = False, engine: str = "mujoco",
+                   device: str | None = None) -> BatchResult:
     """Closed-loop rollouts of N initial states at once.
 
     Parameters
@@ -307,7 +319,14 @@ def simulate_batch(robot: Robot, x0: ArrayLike, t_final: float | None = None, *,
         Stop each rollout once its balance can no longer fail (:mod:`paa_mj.sim.retirement`).
     nthread : int, optional
         Threads for compiled controllers (default: all cores).
+    engine : "mujoco" or "warp"
+        ``mujoco``: MuJoCo's ``mj_step`` and the compiled controllers on the CPU's cores (:mod:`paa_mj.sim.engine`);
+        ``warp``: every rollout a world of MuJoCo Warp, the controller on the device too
+        (:mod:`paa_mj.sim.warp_engine`, ``pip install "paa_mj[gpu]"``; float32, what it runs is listed there).
+    device : str, optional
+        The Warp device of ``engine="warp"`` (``cpu``, ``cuda:0``; default ``$PAA_MJ_WARP_DEVICE`` or the first GPU).
     """
+    check_engine(engine, device)
     check_robot(robot)
     task = as_task(task, robot)
     t_final = task.horizon if t_final is None else t_final
@@ -319,21 +338,27 @@ def simulate_batch(robot: Robot, x0: ArrayLike, t_final: float | None = None, *,
     plan = build_plan(robot, task, x0, t_final, controllers, dt=dt, integrator=integrator, plants=plants,
                       torque_limit=torque_limit, disturbances=disturbances or NO_DISTURBANCES, every=every,
                       retire=retire)
-    outcome = engine.run(plan, controllers, nthread=nthread, progress=progress, desc=f"{n} rollouts")
+    if engine == "warp":
+        from . import warp_engine
+
+        outcome = warp_engine.run(plan, controllers, device=device, progress=progress, desc=f"{n} rollouts")
+    else:
+        outcome = run_engine(plan, controllers, nthread=nthread, progress=progress, desc=f"{n} rollouts")
     plant_analytics = [robot.analytic if plants is None or plants[r] is None else None for r in range(n)]
     if plants is not None:
         from ..model.dynamics import AnalyticModel
 
         plant_analytics = [robot.analytic if p is None else AnalyticModel.from_params(p) for p in plants]
     out = outcome_arrays(plan, outcome, controllers, plant_analytics)
-    completed = ~np.isin(out["status"], (engine.STOPPED, engine.RUNNING))
+    completed = ~np.isin(out["status"], (STOPPED, RUNNING))
     trajectories = None
     if record:
         trajectories = {k: v for k, v in outcome.samples.items()}
     return BatchResult(**out, t_reached=float(np.max(out["t_end"][completed], initial=0.0)), task=task,
                        interrupted=outcome.interrupted, trajectories=trajectories,
                        meta={"robot": robot.name, "dt": plan.dt, "t_final": float(t_final), "n_steps": plan.n_steps,
-                             "status_text": STATUS_TEXT, "completed": completed})
+                             "status_text": STATUS_TEXT, "completed": completed, "engine": engine,
+                             **({"device": outcome.meta["device"]} if "device" in outcome.meta else {})})
 
 
 def kip_peak_torques(robot: Robot, controller, task: Task, torque_limit=None, t_final: float | None = None) \

@@ -16,7 +16,7 @@ from ..limits import check_memory, check_steps
 from ..model.robot import Robot
 from ..model.states import Q_DUU, wrap_angle
 from ..task import Task, as_task
-from .runner import CHUNK, RolloutSet, applied_limit, peak_torques, run_study
+from .runner import CHUNK, RolloutSet, applied_limit, engine_definition, peak_torques, run_study
 from .settings import BASIN_MAX_GRID as MAX_GRID, BASIN_RANGE as DEFAULT_RANGE
 from .store import ChunkStore, study_key
 
@@ -77,7 +77,7 @@ def classify(result, task: Task) -> np.ndarray:
 def basin(robot: Robot, axes: tuple[int, int] = (0, 1), grid: int = 64, t_final: float | None = None,
           controller: ControllerSpec | str = "vcl", *, task: Task | str | None = None, progress: bool = False,
           scheduler: str = "inline", out_dir=None, fresh: bool = False, chunk: int = CHUNK,
-          torque_limit=None) -> tuple[dict, dict]:
+          torque_limit=None, engine: str = "mujoco", device: str | None = None) -> tuple[dict, dict]:
     """Run the basin study; returns (summary dict, arrays dict).
 
     ``task`` (a :class:`~paa_mj.task.Task` or a goal's name, default the folded task) is what the controller
@@ -87,7 +87,8 @@ def basin(robot: Robot, axes: tuple[int, int] = (0, 1), grid: int = 64, t_final:
 
     ``scheduler``: "inline", "local" (a local Dask cluster) or a Dask scheduler
     address; the results are identical whichever (:mod:`paa_mj.studies.runner`).
-    With ``out_dir``, finished chunks are kept there and a rerun resumes.
+    With ``out_dir``, finished chunks are kept there and a rerun resumes. ``engine``, ``device``: MuJoCo on the CPU
+    (default) or MuJoCo Warp (:func:`~paa_mj.sim.batch.simulate_batch`).
     """
     task = as_task(task, robot)
     t_final = task.horizon if t_final is None else t_final
@@ -109,9 +110,9 @@ def basin(robot: Robot, axes: tuple[int, int] = (0, 1), grid: int = 64, t_final:
     spec.build(robot)  # checks the gains, and that it is built for this task (one line), before any work
     rollouts = RolloutSet(x0, spec, task, torque_limit=torque_limit)
     key = study_key({"study": "basin", "robot": robot.xml, "axes": list(axes), "grid": grid, "t_final": t_final,
-                     "chunk": chunk, **rollouts.definition()})
+                     "chunk": chunk, **rollouts.definition(), **engine_definition(engine)})
     result = run_study(robot, rollouts, t_final, scheduler=scheduler, store=ChunkStore(out_dir, key, fresh, "basin"),
-                       progress=progress, desc="basin", chunk=chunk)
+                       progress=progress, desc="basin", chunk=chunk, engine=engine, device=device)
     completed = result.meta["completed"]
     success = result.success
     switched = result.switch_time[np.isfinite(result.switch_time)]
@@ -132,6 +133,7 @@ def basin(robot: Robot, axes: tuple[int, int] = (0, 1), grid: int = 64, t_final:
         "diverged_fraction": fraction(result.diverged),
         "median_switch_time": float(np.median(switched)) if switched.size else None,
         "outcomes": {name: int(np.sum(outcome[completed] == code)) for code, name in enumerate(OUTCOME_NAMES)},
+        **engine_definition(engine),
     }
     arrays = {"x_values": xs, "y_values": ys, **{k: np.asarray(v) for k, v in result.arrays().items()},
               "outcome": outcome, "completed": completed}

@@ -45,7 +45,7 @@ from ..limits import check_memory, check_seed, check_steps, physical_torque_scal
 from ..model.robot import Robot
 from ..sim.batch import kip_peak_torques
 from ..task import Task, as_task
-from .runner import CHUNK, RolloutSet, applied_limit, peak_torques, run_study
+from .runner import CHUNK, RolloutSet, applied_limit, engine_definition, peak_torques, run_study
 from .settings import ROBUSTNESS_DEFAULT_FACTORS as DEFAULT_FACTORS, ROBUSTNESS_FACTORS as FACTORS, STARTS
 from .store import ChunkStore, study_key
 
@@ -185,7 +185,7 @@ def _rollouts(robot, spec, task, chosen, runs, base, base_limit, peak, seed):
 def robustness(robot: Robot, trials=64, t_final=None, seed=0, controller: ControllerSpec | str = "vcl",
                factors=DEFAULT_FACTORS, levels=None, start="random", *, task: Task | str | None = None,
                progress=False, scheduler="inline", out_dir=None, fresh=False, model_error=None, chunk=CHUNK,
-               torque_limit=None, torque_scale=None):
+               torque_limit=None, torque_scale=None, engine="mujoco", device=None):
     """Success rate against each factor; returns (summary dict, arrays dict).
 
     Parameters
@@ -205,6 +205,9 @@ def robustness(robot: Robot, trials=64, t_final=None, seed=0, controller: Contro
         The torque [N m] the ``torque_limit`` and ``torque_noise`` levels are fractions of
         (default: the peak torque of the controller's own run from the task's start); a leaderboard gives
         every controller the same scale, so that each meets the same disturbance.
+    engine, device : optional
+        MuJoCo on the CPU (default) or MuJoCo Warp (:func:`~paa_mj.sim.batch.simulate_batch`); the torque scale is
+        always MuJoCo's run.
     """
     task = as_task(task, robot)
     t_final = task.horizon if t_final is None else t_final
@@ -235,12 +238,13 @@ def robustness(robot: Robot, trials=64, t_final=None, seed=0, controller: Contro
     rollouts, index = _rollouts(robot, spec, task, chosen, runs, initial_states(trials, task, seed, start),
                                 base_limit, peak, seed)
     key = study_key({"study": "robustness", "robot": robot.xml, "t_final": t_final, "seed": seed, "chunk": chunk,
-                     **rollouts.definition()})
+                     **rollouts.definition(), **engine_definition(engine)})
     result = run_study(robot, rollouts, t_final, seed=seed, scheduler=scheduler, chunk=chunk,
                        store=ChunkStore(out_dir, key, fresh, study="robustness"), progress=progress,
-                       desc="robustness")
+                       desc="robustness", engine=engine, device=device)
     summary = _summary(robot, spec, task, result, index, chosen, start, trials, t_final, seed, base_limit, peak,
                        torque_scale, total)
+    summary.update(engine_definition(engine))
     arrays = {"x0": rollouts.x0, "success": result.success, "diverged": result.diverged,
               "switch_time": result.switch_time, "final_state": result.final_state, "max_abs_tau": result.max_abs_tau,
               "completed": result.meta["completed"]}

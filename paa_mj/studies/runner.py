@@ -32,7 +32,7 @@ from ..errors import PaaError, StudyIncomplete
 from ..progress import progress as progress_bar
 from ..limits import check_memory, check_steps
 from ..model.robot import Robot, robot_from_xml
-from ..sim.batch import OUTCOMES, BatchResult, Disturbances, simulate_batch
+from ..sim.batch import OUTCOMES, BatchResult, Disturbances, check_engine, simulate_batch
 from ..task import Task
 from .store import ChunkStore, check_arrays
 
@@ -200,6 +200,11 @@ class RolloutSet:
                 "pushes": self.pushes, "noise_ids": self.noise_ids, **task_definition(self.task)}
 
 
+def engine_definition(engine="mujoco") -> dict:
+    """What identifies the engine in a study's key: nothing for MuJoCo (the keys of before), else its name."""
+    return {} if engine == "mujoco" else {"engine": engine}
+
+
 def task_definition(task: Task | None) -> dict:
     """What identifies a task in a study's key: nothing for the folded task's defaults, the goal's name for another
     goal's defaults, else every field (so that chunks judged by another task are never reused)."""
@@ -231,12 +236,13 @@ def peak_torques(max_abs_tau, completed):
     return np.max(done, axis=0).tolist() if len(done) else None
 
 
-def _run_chunk(xml, name, kwargs, t_final, seed, nthread, retire):
+def _run_chunk(xml, name, kwargs, t_final, seed, nthread, retire, engine="mujoco", device=None):
     from dataclasses import replace
 
     robot = robot_from_xml(xml, name=name)
     kwargs = dict(kwargs, disturbances=replace(kwargs["disturbances"], seed=seed))
-    result = simulate_batch(robot, t_final=t_final, nthread=nthread, retire=retire, **kwargs)
+    result = simulate_batch(robot, t_final=t_final, nthread=nthread, retire=retire, engine=engine, device=device,
+                            **kwargs)
     out = {key: getattr(result, key) for key in OUTCOMES}
     out["completed"] = result.meta["completed"]
     out["interrupted"] = result.interrupted  # read and dropped by map_chunks, never stored
@@ -311,12 +317,12 @@ def _was_interrupted(result) -> bool:
 
 
 def _rollout_task(shared, payload):
-    xml, name, t_final, seed, retire, nthread = shared
-    return _run_chunk(xml, name, payload, t_final, seed, nthread, retire)
+    xml, name, t_final, seed, retire, nthread, engine, device = shared
+    return _run_chunk(xml, name, payload, t_final, seed, nthread, retire, engine, device)
 
 
 def run_study(robot: Robot, rollouts: RolloutSet, t_final: float, *, seed=0, scheduler="inline", store=None,
-              chunk=CHUNK, retire=True, progress=False, desc="study") -> BatchResult:
+              chunk=CHUNK, retire=True, progress=False, desc="study", engine="mujoco", device=None) -> BatchResult:
     """All rollouts of a study, chunk by chunk, resuming from ``store`` (:func:`map_chunks`).
 
     Parameters
@@ -324,6 +330,10 @@ def run_study(robot: Robot, rollouts: RolloutSet, t_final: float, *, seed=0, sch
     scheduler : "inline", "local" or a Dask scheduler address such as ``tcp://host:8786``
     store : ChunkStore, optional
         Where finished chunks are kept (and found again).
+    engine, device : optional
+        The engine of every chunk (:func:`~paa_mj.sim.batch.simulate_batch`): ``mujoco`` (default) or ``warp``, on
+        the Warp ``device``; a study's key names a warp engine (:func:`engine_definition`), so that its chunks
+        are never mixed with MuJoCo's.
 
     Returns
     -------
@@ -332,6 +342,11 @@ def run_study(robot: Robot, rollouts: RolloutSet, t_final: float, *, seed=0, sch
         and the result ``interrupted``.
     """
     n = len(rollouts)
+    check_engine(engine, device)
+    if engine == "warp":
+        from ..sim.warp_device import load_warp
+
+        load_warp()  # here, before any chunk: a missing install is one line, not one per chunk
     if not (isinstance(chunk, (int, np.integer)) and not isinstance(chunk, bool) and chunk >= 1):
         raise PaaError(f"--chunk must be a whole number >= 1, got {chunk!r}")
     check_memory(n * 8.0 * 40, "study results", "the grid or the number of trials")
@@ -340,7 +355,7 @@ def run_study(robot: Robot, rollouts: RolloutSet, t_final: float, *, seed=0, sch
                     "the grid, the number of trials or --t-final")
     starts = list(range(0, n, chunk))
     payloads = [rollouts.chunk(start, min(start + chunk, n)) for start in starts]
-    shared = (robot.xml, robot.name, t_final, seed, retire, None if scheduler == "inline" else 1)
+    shared = (robot.xml, robot.name, t_final, seed, retire, None if scheduler == "inline" else 1, engine, device)
     finished, interrupted = map_chunks(_rollout_task, payloads, scheduler=scheduler, store=store, progress=progress,
                                        desc=f"{desc}, {n} rollouts", shared=shared, fits=_chunk_fits,
                                        is_complete=lambda result: bool(np.all(result["completed"])))

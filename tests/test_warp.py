@@ -1,0 +1,288 @@
+"""The engine on MuJoCo Warp (``paa_mj[gpu]``), checked on Warp's CPU device against MuJoCo's ``mj_step``.
+
+Skipped where ``warp`` and ``mujoco_warp`` are not installed, except the refusal without them, which is checked
+everywhere. MuJoCo Warp computes in float32, the CPU engine in float64: what is held here is what float32
+allows (measured on the CI machine, RK4 at 1 ms): one rollout of the physics alone agrees with ``mj_step`` to
+about 3e-6 rad over 200 steps, the closed loop under the paper's controller to about 5e-6 (the same switches,
+books and statuses), and the laws translated to Warp, run in float64, equal numba's to 1e-12.
+"""
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from paa_mj.errors import PaaError
+from paa_mj.sim.warp_device import warp_available
+
+needs_warp = pytest.mark.skipif(not warp_available(), reason="warp and mujoco_warp not installed (paa_mj[gpu])")
+DEVICE = "cpu"
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def test_without_warp_one_line_names_the_extra():
+    """With warp unimportable, --engine warp is one line on stderr naming the install, exit 2, no traceback."""
+    script = ("import sys; sys.modules['warp'] = None; sys.modules['mujoco_warp'] = None\n"
+              "from paa_mj.cli import main\n"
+              "sys.exit(main(['basin', '--engine', 'warp', '--grid', '2', '--t-final', '0.01']))")
+    # from the repository's root: the package under test, whatever the interpreter has installed
+    run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, cwd=ROOT)
+    assert run.returncode == 2, run.stderr
+    assert run.stderr.count("\n") == 1 and "pip install 'paa_mj[gpu]'" in run.stderr, run.stderr
+    assert "Traceback" not in run.stderr
+
+
+def test_device_option_needs_the_warp_engine(capsys):
+    from paa_mj.cli import main
+
+    assert main(["basin", "--device", "cpu", "--grid", "2", "--t-final", "0.01"]) == 2
+    assert capsys.readouterr().err == ("paa-mj: error: --device chooses the Warp device of --engine warp; drop it or"
+                                       " add --engine warp\n")
+
+
+def test_unknown_engine_is_refused(gymnast):
+    from paa_mj.sim import simulate_batch
+
+    with pytest.raises(PaaError, match="engine must be one of mujoco, warp"):
+        simulate_batch(gymnast, np.zeros((1, 6)), 0.01, engine="cuda")
+
+
+# --- on Warp's CPU device ------------------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def warp_modules():
+    if not warp_available():
+        pytest.skip("warp and mujoco_warp not installed (paa_mj[gpu])")
+    from paa_mj.sim.warp_device import load_warp
+
+    return load_warp()
+
+
+@pytest.fixture(scope="module")
+def folded(gymnast):
+    from paa_mj.task import Task
+
+    return Task.named("folded", gymnast)
+
+
+@needs_warp
+def test_physics_agrees_with_mj_step_over_200_steps(gymnast, warp_modules):
+    """mujoco_warp.step of 4 worlds against mj_step, RK4 at 1 ms, torques held: within 1e-5 (measured 3e-6)."""
+    import mujoco
+
+    from paa_mj.sim.warp_engine import device_model
+
+    wp, mjw = warp_modules
+    rng = np.random.default_rng(0)
+    q0, v0, u = rng.uniform(-1, 1, (4, 3)), rng.uniform(-1, 1, (4, 3)), rng.uniform(-20, 20, (4, 2))
+    with wp.ScopedDevice(DEVICE):
+        model = device_model(gymnast.model)
+        m, d = mjw.put_model(model), mjw.make_data(model, nworld=4)
+        d.qpos.assign(q0.astype(np.float32))
+        d.qvel.assign(v0.astype(np.float32))
+        d.ctrl.assign(u.astype(np.float32))
+        for _ in range(200):
+            mjw.step(m, d)
+        qw, vw = d.qpos.numpy(), d.qvel.numpy()
+    data = mujoco.MjData(gymnast.model)
+    errors = []
+    for i in range(4):
+        mujoco.mj_resetData(gymnast.model, data)
+        data.qpos[:], data.qvel[:], data.ctrl[:] = q0[i], v0[i], u[i]
+        for _ in range(200):
+            mujoco.mj_step(gymnast.model, data)
+        errors.append(max(np.abs(data.qpos - qw[i]).max(), np.abs(data.qvel - vw[i]).max()))
+    assert max(errors) < 1e-5, errors
+
+
+@needs_warp
+def test_translated_laws_equal_numba_in_float64(gymnast, folded, warp_modules):
+    """(40), (12), (67) and the switch (68), translated from the source numba compiles (paa_mj.sim.translate) and
+    run by Warp in float64: the same torques and modes as the compiled forms, to rounding."""
+    from paa_mj.control import make_controller
+    from paa_mj.sim.engine import evaluate, pack
+    from paa_mj.sim.step import call_controller
+    from paa_mj.sim.translate import device_function
+
+    wp, _ = warp_modules
+    rng = np.random.default_rng(1)
+    goal = np.r_[folded.goal, np.zeros(3)]
+    x = goal + rng.uniform(-1.0, 1.0, (64, 6)) * np.r_[1.5, 1.5, 1.5, 2.0, 2.0, 2.0]
+    x[:8] = goal + rng.uniform(-0.05, 0.05, (8, 6))  # inside (68): the balance law acts
+    for name in ("vcl", "vc", "lqr"):
+        form = make_controller(name, gymnast, task=folded).compiled()
+        expected, modes = evaluate(form, x[:, :3], x[:, 3:])
+        p = pack(form)
+        f64 = wp.float64
+        triple = [device_function(wp, k, real=f64) for k in (p.first, p.second, p.condition)]
+        law = device_function(wp, call_controller, bind=dict(zip(("first", "second", "condition"), triple)), real=f64)
+
+        @wp.kernel(module="unique", enable_backward=False)
+        def evaluate_all(xs: wp.array2d(dtype=wp.float64), params: wp.array(dtype=wp.float64),
+                         memory: wp.array2d(dtype=wp.float64), tau: wp.array2d(dtype=wp.float64),
+                         mode: wp.array(dtype=wp.int32)):
+            r = wp.tid()
+            mode[r] = law(xs[r], wp.float64(0.0), params, memory[r], tau[r])
+
+        with wp.ScopedDevice(DEVICE):
+            tau = wp.zeros((len(x), 2), dtype=wp.float64)
+            mode = wp.zeros(len(x), dtype=wp.int32)
+            wp.launch(evaluate_all, dim=len(x), inputs=[wp.array(x, dtype=wp.float64),
+                                                        wp.array(p.params, dtype=wp.float64),
+                                                        wp.array(np.tile(p.memory, (len(x), 1)), dtype=wp.float64),
+                                                        tau, mode])
+            got, got_modes = tau.numpy(), mode.numpy()
+        np.testing.assert_array_equal(got_modes, modes, err_msg=name)
+        np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-9, err_msg=name)
+
+
+def _grid_around_goal(task):
+    """16 starts around the folded goal: some inside (68) (the LQR balances, one exactly at the goal retires at once),
+    the others swinging under (40)."""
+    goal = np.r_[task.goal, np.zeros(3)]
+    Q1, D1 = np.meshgrid([-0.6, -0.25, 0.0, 0.35], [-1.2, -0.4, 0.0, 0.8], indexing="ij")
+    x0 = np.tile(goal, (16, 1))
+    x0[:, 0] += Q1.ravel()
+    x0[:, 3] += D1.ravel()
+    return x0
+
+
+@needs_warp
+def test_small_basin_has_the_outcomes_of_the_mujoco_engine(gymnast, folded, warp_modules):
+    """A 4 x 4 basin around the goal, 1.5 s of RK4 at 5 ms (300 steps) under vcl: the same outcome, switch step,
+    status and end step in every cell as the MuJoCo engine, final states within float32's drift (1e-5 relative and
+    absolute; measured at most 2.4e-5 rad/s at 5.4 rad/s, 4e-6 relative)."""
+    from paa_mj.sim import simulate_batch
+    from paa_mj.studies.basin import BALANCED, classify
+
+    x0 = _grid_around_goal(folded)
+    common = dict(task=folded, dt=0.005)
+    cpu = simulate_batch(gymnast, x0, 1.5, **common)
+    dev = simulate_batch(gymnast, x0, 1.5, engine="warp", device=DEVICE, **common)
+    outcome = classify(cpu, folded)
+    assert 0 < np.sum(outcome == BALANCED) < len(x0), outcome  # mixed: the comparison means something
+    assert np.any(cpu.status == 2)  # one retired (the start at the goal)
+    np.testing.assert_array_equal(classify(dev, folded), outcome)
+    np.testing.assert_array_equal(dev.status, cpu.status)
+    np.testing.assert_array_equal(dev.success, cpu.success)
+    np.testing.assert_array_equal(dev.switch_time, cpu.switch_time)
+    np.testing.assert_array_equal(dev.t_end, cpu.t_end)
+    np.testing.assert_array_equal(dev.t_region, cpu.t_region)
+    np.testing.assert_allclose(dev.final_state, cpu.final_state, rtol=1e-5, atol=1e-5)
+    np.testing.assert_allclose(dev.max_abs_tau, cpu.max_abs_tau, rtol=1e-4)
+    np.testing.assert_allclose(dev.int_tau2, cpu.int_tau2, rtol=1e-4)
+    assert dev.meta["engine"] == "warp" and dev.meta["device"] == DEVICE
+
+
+@needs_warp
+def test_disturbances_draw_the_same_noise_as_the_cpu_engine(gymnast, folded, warp_modules):
+    """Measurement and torque noise (the same counter-based draws), delay and pushes, 0.2 s at 1 ms (RK4): the same
+    switches and books, states within 2e-5."""
+    from paa_mj.sim import Disturbances
+    from paa_mj.sim.batch import build_plan, controllers_for
+    from paa_mj.sim import engine, warp_engine
+
+    x0 = _grid_around_goal(folded)[::2]
+    n = len(x0)
+    pushes = np.zeros((n, 1, 5))
+    pushes[::2, 0] = [0.05, 0.02, 30.0, 0.0, 0.0]
+    disturbances = Disturbances(noise_std=np.tile([0.01, 0.02], (n, 1)), torque_noise=np.r_[0.0, 1.0] .repeat(n // 2),
+                                delay_steps=np.arange(n) % 3, pushes=pushes, seed=4)
+    controllers = controllers_for(gymnast, "vcl", n, folded)
+    plan = build_plan(gymnast, folded, x0, 0.2, controllers, disturbances=disturbances)
+    cpu = engine.run(plan, controllers).state
+    dev = warp_engine.run(plan, controllers, device=DEVICE).state
+    for field in ("step", "status", "switch", "mode"):
+        np.testing.assert_array_equal(dev.rollouts[field], cpu.rollouts[field], err_msg=field)
+    np.testing.assert_array_equal(dev.book, cpu.book)
+    np.testing.assert_allclose(dev.last_state, cpu.last_state, rtol=0, atol=2e-5)
+
+
+@needs_warp
+def test_basin_command_on_the_warp_engine(tmp_path, warp_modules):
+    """``paa-mj basin --engine warp --device cpu``: the summary of the MuJoCo engine's run, and says its engine."""
+    def basin(*extra):
+        run = subprocess.run([sys.executable, "-m", "paa_mj.cli", "basin", "--grid", "2", "--t-final", "0.05",
+                              "--scheduler", "inline", "--json", *extra], capture_output=True, text=True,
+                             cwd=ROOT)
+        assert run.returncode == 0, run.stderr
+        return json.loads(run.stdout)
+
+    cpu, dev = basin(), basin("--engine", "warp", "--device", DEVICE)
+    assert dev.pop("engine") == "warp"
+    assert dev["outcomes"] == cpu["outcomes"] and dev["success"] == cpu["success"]
+    np.testing.assert_allclose(dev.pop("max_abs_tau"), cpu.pop("max_abs_tau"), rtol=1e-4)
+    assert dev == cpu
+
+
+@needs_warp
+def test_refusals_on_the_warp_engine(gymnast, folded, warp_modules):
+    from paa_mj.model import load_robot
+    from paa_mj.sim import simulate_batch
+
+    class Mine:
+        def __init__(self, robot):
+            pass
+
+        def torque(self, q, qd, t):
+            return np.zeros(q.shape[:-1] + (2,))
+
+    x0 = np.r_[folded.goal, np.zeros(3)][None]
+    with pytest.raises(PaaError, match=r"controller Mine has no law on the device .* use --engine mujoco"):
+        simulate_batch(gymnast, x0, 0.01, controller=Mine(gymnast), engine="warp", device=DEVICE)
+    chain = load_robot("chain4")
+    with pytest.raises(PaaError, match="has no law on the device"):  # (40) on a chain: the chain's law, not compiled
+        simulate_batch(chain, np.zeros((1, 8)), 0.01, engine="warp", device=DEVICE)
+    with pytest.raises(PaaError, match="records no trajectories"):
+        simulate_batch(gymnast, x0, 0.01, record=True, engine="warp", device=DEVICE)
+    with pytest.raises(PaaError, match="no Warp device 'cuda:7'"):
+        simulate_batch(gymnast, x0, 0.01, engine="warp", device="cuda:7")
+
+
+def test_translation_refuses_what_it_does_not_cover():
+    pytest.importorskip("warp")
+    from paa_mj.sim.translate import TranslationError, device_function
+    from paa_mj.sim.warp_device import load_warp
+
+    def uses_try(x):
+        try:
+            return x
+        except ValueError:
+            return x
+
+    wp, _ = load_warp()
+    with pytest.raises(TranslationError, match=r"cannot translate .*uses_try \(line \d+\) to Warp: try"):
+        device_function(wp, uses_try)
+
+
+@needs_warp
+def test_vector_env_on_warp_agrees_with_mujoco(warp_modules):
+    """GymnastVectorEnv(engine="warp"): the observations, rewards and information of the MuJoCo physics to float32
+    rounding over 5 steps of 10 ms (50 physics steps), the same terminations; a copy steps as the original."""
+    import copy
+
+    pytest.importorskip("gymnasium")
+    from paa_mj.envs.vector import GymnastVectorEnv
+
+    kw = dict(num_envs=3, episode="balance")
+    cpu, dev = GymnastVectorEnv(**kw), GymnastVectorEnv(engine="warp", device=DEVICE, **kw)
+    obs_cpu, _ = cpu.reset(seed=3)
+    obs_dev, _ = dev.reset(seed=3)
+    np.testing.assert_allclose(obs_dev, obs_cpu, atol=1e-6)
+    rng = np.random.default_rng(0)
+    for _ in range(5):
+        action = rng.uniform(-0.3, 0.3, (3, 2)).astype(np.float32)
+        a, b = cpu.step(action), dev.step(action)
+        np.testing.assert_allclose(b[0], a[0], atol=2e-5)
+        np.testing.assert_allclose(b[1], a[1], atol=2e-5)
+        np.testing.assert_array_equal(b[2], a[2])
+        np.testing.assert_array_equal(b[4]["time"], a[4]["time"])
+        np.testing.assert_allclose(b[4]["q"], a[4]["q"], atol=2e-5)
+    twin = copy.deepcopy(dev)
+    np.testing.assert_array_equal(twin.step(action)[0], dev.step(action)[0])
+    with pytest.raises(ValueError, match="engine 'warp' steps MuJoCo Warp: physics must be 'mujoco'"):
+        GymnastVectorEnv(engine="warp", physics="analytic", **kw)
+    with pytest.raises(ValueError, match="engine must be one of"):
+        GymnastVectorEnv(engine="jax", **kw)

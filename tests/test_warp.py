@@ -4,7 +4,9 @@ Skipped where ``warp`` and ``mujoco_warp`` are not installed, except the refusal
 everywhere. MuJoCo Warp computes in float32, the CPU engine in float64: what is held here is what float32
 allows (measured on the CI machine, RK4 at 1 ms): one rollout of the physics alone agrees with ``mj_step`` to
 about 3e-6 rad over 200 steps, the closed loop under the paper's controller to about 5e-6 (the same switches,
-books and statuses), and the laws translated to Warp, run in float64, equal numba's to 1e-12.
+books and statuses), and the laws translated to Warp, run in float64, equal numba's to 1e-12. The step's bookkeeping
+is paa_mj.sim.step's on both engines: the kernels call its translations and nothing else, and under every
+disturbance the records agree within float32's drift.
 """
 import json
 import subprocess
@@ -177,9 +179,39 @@ def test_small_basin_has_the_outcomes_of_the_mujoco_engine(gymnast, folded, warp
 
 
 @needs_warp
+def test_step_kernels_call_only_the_translations_of_step(warp_modules):
+    """The bookkeeping of a step is written once: the Warp engine's kernels call, as Warp functions, exactly the
+    translations of paa_mj.sim.step's (the law's switch, measure_into, command_into, account, verdict, apply_pushes,
+    add_effort_work, state_status) and no function of their own, so that the engines cannot drift apart."""
+    from paa_mj.control.energy import vcl_kernel
+    from paa_mj.control.lqr import lqr_kernel
+    from paa_mj.control.region import region_condition
+    from paa_mj.sim import step, warp_engine
+    from paa_mj.sim.translate import device_function
+
+    wp, _ = warp_modules
+    triple = (vcl_kernel, lqr_kernel, region_condition)
+    control, after = warp_engine._kernels(wp, triple, 3)
+
+    def translated(fn, bind=None):
+        return device_function(wp, fn, bind=bind, real=wp.float64, state_size=6)
+
+    law = translated(step.call_controller, dict(zip(("first", "second", "condition"), map(translated, triple))))
+    expected_control = {law} | {translated(fn) for fn in (step.measure_into, step.command_into, step.account,
+                                                          step.verdict, step.apply_pushes)}
+    expected_after = {translated(step.add_effort_work), translated(step.state_status)}
+    for kernel, expected in ((control, expected_control), (after, expected_after)):
+        called = {cell.cell_contents for cell in kernel.func.__closure__ or ()
+                  if isinstance(cell.cell_contents, type(law))}
+        assert called == expected, kernel.key
+
+
+@needs_warp
 def test_disturbances_draw_the_same_noise_as_the_cpu_engine(gymnast, folded, warp_modules):
     """Measurement and torque noise (the same counter-based draws), delay and pushes, 0.2 s at 1 ms (RK4): the same
-    switches and books, states within 2e-5."""
+    steps, statuses, switches, modes and books, states within 2e-5, and the sums kept by the step's shared
+    bookkeeping (peak torques, effort, work, smoothness, peak speed; measured within 5e-5 relative) within float32's
+    drift."""
     from paa_mj.sim import Disturbances
     from paa_mj.sim.batch import build_plan, controllers_for
     from paa_mj.sim import engine, warp_engine
@@ -198,6 +230,11 @@ def test_disturbances_draw_the_same_noise_as_the_cpu_engine(gymnast, folded, war
         np.testing.assert_array_equal(dev.rollouts[field], cpu.rollouts[field], err_msg=field)
     np.testing.assert_array_equal(dev.book, cpu.book)
     np.testing.assert_allclose(dev.last_state, cpu.last_state, rtol=0, atol=2e-5)
+    assert np.any(cpu.rollouts["switch"] >= 0) and np.any(cpu.rollouts["switch"] < 0)  # both modes were met
+    np.testing.assert_allclose(dev.peak, cpu.peak, rtol=2e-4)
+    np.testing.assert_allclose(dev.last_tau, cpu.last_tau, rtol=0, atol=5e-3)
+    for field in ("effort", "work", "smooth", "speed"):
+        np.testing.assert_allclose(dev.rollouts[field], cpu.rollouts[field], rtol=2e-4, err_msg=field)
 
 
 @needs_warp

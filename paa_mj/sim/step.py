@@ -13,8 +13,12 @@ Each step of a rollout:
    non-finite state, speeds above :data:`MAX_SPEED` or a MuJoCo warning stop the rollout as *diverged*,
    keeping the last good state (:func:`finish_step`).
 
-Every function reads the records of :mod:`paa_mj.sim.records`: ``run``, ``settings``, ``state``,
-``samples`` and one thread's ``physics``.
+Each equation of a step is written once, in a function of plain arrays and numbers: :func:`measure_into`,
+:func:`command_into`, :func:`account`, :func:`verdict`, :func:`add_effort_work` and :func:`state_status`. The
+engine's functions (:func:`measure`, :func:`actuate`, :func:`finish_step`, :func:`check_state`) unpack the
+records of :mod:`paa_mj.sim.records` (``run``, ``settings``, ``state``, ``samples`` and one thread's
+``physics``) and call them; the engine on MuJoCo Warp (:mod:`paa_mj.sim.warp_engine`) calls their translations
+to Warp (:mod:`paa_mj.sim.translate`), so that the two engines cannot keep different books.
 """
 from __future__ import annotations
 
@@ -46,19 +50,25 @@ _WARNINGS = np.array(WARNINGS)
 
 
 @njit(cache=True)
-def measure(r, step, physics, run, settings, out):
-    """The state the controller sees, with the rollout's measurement noise, into ``out`` (2n)."""
-    qpos, qvel = physics.qpos, physics.qvel
+def measure_into(qpos, qvel, noise_q, noise_qd, seed, rollout, step, out):
+    """The state the controller sees at ``step``: [qpos, qvel] (n each) plus Gaussian measurement noise of standard
+    deviations ``noise_q`` [rad] and ``noise_qd`` [rad/s], the draws of (``seed``, ``rollout``, ``step``), into
+    ``out`` (2n)."""
     n = qpos.size
-    setting = settings.rollouts[r]
-    nq, nqd = setting.noise_q, setting.noise_qd
     for i in range(n):
         out[i] = qpos[i]
         out[n + i] = qvel[i]
-    if nq > 0.0 or nqd > 0.0:
+    if noise_q > 0.0 or noise_qd > 0.0:
         for i in range(n):
-            out[i] += nq * gaussian(run.seed, setting.id, step, i)
-            out[n + i] += nqd * gaussian(run.seed, setting.id, step, n + i)
+            out[i] += noise_q * gaussian(seed, rollout, step, i)
+            out[n + i] += noise_qd * gaussian(seed, rollout, step, n + i)
+
+
+@njit(cache=True)
+def measure(r, step, physics, run, settings, out):
+    """:func:`measure_into` of rollout ``r``'s state, with its measurement noise."""
+    setting = settings.rollouts[r]
+    measure_into(physics.qpos, physics.qvel, setting.noise_q, setting.noise_qd, run.seed, setting.id, step, out)
 
 
 @njit(cache=True)
@@ -73,71 +83,99 @@ def _record(r, k, t, q, qd, tau, mode, samples):
 
 
 @njit(cache=True)
-def _command(r, step, tau_cmd, physics, run, settings, state):
-    """``ctrl`` from the controller's torque: delayed, noisy, saturated; returns whether the torque was finite."""
-    ctrl = physics.ctrl
+def command_into(step, tau_cmd, ctrl, delay, delay_line, torque_noise, seed, rollout, n, limits):
+    """``ctrl`` (n - 1) [N m] of ``step`` from the controller's torque ``tau_cmd``; returns whether that was finite.
+
+    A non-finite torque becomes zero (the rollout then stops, after its records); a ``delay`` > 0 [steps] passes
+    the torque through ``delay_line`` (delay + 1, n - 1), zero until the first one arrives; then Gaussian noise of
+    standard deviation ``torque_noise`` [N m] (draws 2n + j of (``seed``, ``rollout``, ``step``), n links) and
+    saturation at +-``limits``.
+    """
     nu = ctrl.size
-    n = physics.qpos.size
-    setting = settings.rollouts[r]
-    bad_torque = False
+    finite = True
     for j in range(nu):
         ctrl[j] = tau_cmd[j]
         if not math.isfinite(ctrl[j]):
-            bad_torque = True
-    if bad_torque:
+            finite = False
+    if not finite:
         ctrl[:] = 0.0
-    delay = setting.delay
     if delay > 0:
         slot = step % (delay + 1)
         back = (step - delay) % (delay + 1)
         for j in range(nu):
-            state.delay_line[r, slot, j] = ctrl[j]
-            ctrl[j] = 0.0 if step < delay else state.delay_line[r, back, j]
-    noise = setting.torque_noise
-    if noise > 0.0:
+            delay_line[slot, j] = ctrl[j]
+            ctrl[j] = 0.0 if step < delay else delay_line[back, j]
+    if torque_noise > 0.0:
         for j in range(nu):
-            ctrl[j] += noise * gaussian(run.seed, setting.id, step, 2 * n + j)
+            ctrl[j] += torque_noise * gaussian(seed, rollout, step, 2 * n + j)
     for j in range(nu):
-        limit = settings.limits[r, j]
-        ctrl[j] = min(max(ctrl[j], -limit), limit)
-    return not bad_torque
+        ctrl[j] = min(max(ctrl[j], -limits[j]), limits[j])
+    return finite
+
+
+@njit(cache=True)
+def account(step, mode, dt, task, qpos, qvel, ctrl, book, peak, last_tau, last_state, switch, smooth, speed):
+    """The records of ``step`` with torques ``ctrl`` held over it; returns the new (switch, smooth, speed).
+
+    ``switch``: the step of the first switch to mode 1 (-1: none yet); the task's ``book`` of success
+    (:func:`~paa_mj.task.book_update`); ``peak``: the peak :math:`|\\tau_j|` [N m]; ``smooth``: the sum of squared
+    torque changes per second [N^2 m^2 / s^2] (from step 1); ``speed``: the peak :math:`|\\dot q_i|` [rad/s];
+    ``last_state`` [q, qd] and ``last_tau``, the last good ones.
+    """
+    n, nu = qpos.size, ctrl.size
+    if mode == 1 and switch < 0:
+        switch = step
+    book_update(task, qpos, qvel, step, book)
+    change = 0.0
+    for j in range(nu):
+        peak[j] = max(peak[j], abs(ctrl[j]))
+        d = ctrl[j] - last_tau[j]
+        change += d * d
+    for i in range(n):
+        speed = max(speed, abs(qvel[i]))
+        last_state[i] = qpos[i]
+        last_state[n + i] = qvel[i]
+    if step > 0:
+        smooth += change / (dt * dt)
+    for j in range(nu):
+        last_tau[j] = ctrl[j]
+    return switch, smooth, speed
+
+
+@njit(cache=True)
+def verdict(step, n_steps, finite, retire, mode, level, t, push_end, cert, qpos, qvel, task):
+    """The rollout's status after the records of ``step`` (time ``t`` [s]): NONFINITE_TORQUE (``finite`` False),
+    RETIRED (``retire``, in mode 1 past its pushes, its :func:`~paa_mj.sim.retirement.modal_bound` at or below
+    ``level`` > 0), FINISHED (the last step) or RUNNING."""
+    if not finite:
+        return NONFINITE_TORQUE
+    if retire and mode == 1 and level > 0.0 and t > push_end:
+        # nested: the bound is the one costly term, computed only when the others allow retirement
+        if modal_bound(cert, qpos, qvel, task[P_GOAL:P_GOAL + qpos.size]) <= level:
+            return RETIRED
+    if step == n_steps:
+        return FINISHED
+    return RUNNING
 
 
 @njit(cache=True)
 def actuate(r, step, mode, tau_cmd, physics, run, settings, state, samples):
-    """Turn the controller's torque into ``ctrl``, account for it, record; returns True to stop here."""
-    finite = _command(r, step, tau_cmd, physics, run, settings, state)
+    """Turn the controller's torque into ``ctrl``, account for it, record; the rollout's status after the step's
+    records (:func:`verdict`)."""
+    setting = settings.rollouts[r]
     qpos, qvel, ctrl = physics.qpos, physics.qvel, physics.ctrl
-    n, nu = qpos.size, ctrl.size
+    finite = command_into(step, tau_cmd, ctrl, setting.delay, state.delay_line[r], setting.torque_noise, run.seed,
+                          setting.id, qpos.size, settings.limits[r])
     st = state.rollouts[r]
     st.mode = mode
-    if mode == 1 and st.switch < 0:
-        st.switch = step
-    book_update(run.task, qpos, qvel, step, state.book[r])
-    smooth = 0.0
-    for j in range(nu):
-        state.peak[r, j] = max(state.peak[r, j], abs(ctrl[j]))
-        smooth += (ctrl[j] - state.last_tau[r, j]) ** 2
-    for i in range(n):
-        st.speed = max(st.speed, abs(qvel[i]))
-        state.last_state[r, i] = qpos[i]
-        state.last_state[r, n + i] = qvel[i]
-    if step > 0:
-        st.smooth += smooth / (run.dt * run.dt)
-    for j in range(nu):
-        state.last_tau[r, j] = ctrl[j]
+    st.switch, st.smooth, st.speed = account(step, mode, run.dt, run.task, qpos, qvel, ctrl, state.book[r],
+                                             state.peak[r], state.last_tau[r], state.last_state[r], st.switch,
+                                             st.smooth, st.speed)
     if run.every > 0 and step % run.every == 0:
         _record(r, st.samples, step * run.dt, qpos, qvel, ctrl, mode, samples)
         st.samples += 1
-    if not finite:
-        st.status = NONFINITE_TORQUE
-        return True
-    level = settings.rollouts[r].retire_level
-    if run.retire and mode == 1 and level > 0.0 and step * run.dt > settings.rollouts[r].push_end and \
-            modal_bound(settings.cert[r], qpos, qvel, run.task[P_GOAL:P_GOAL + n]) <= level:
-        st.status = RETIRED
-        return True
-    return False
+    return verdict(step, run.n_steps, finite, run.retire, mode, setting.retire_level, step * run.dt,
+                   setting.push_end, settings.cert[r], qpos, qvel, run.task)
 
 
 @njit(cache=True)
@@ -167,40 +205,59 @@ def apply_pushes(r, t, pushes, qfrc):
 
 
 @njit(cache=True)
-def check_state(qpos, qvel, warnings):
-    """RUNNING, or why the state left the finite world."""
+def state_status(qpos, qvel):
+    """RUNNING, or why the state (n angles, n speeds) left the finite world: NONFINITE_STATE or RUNAWAY (a speed
+    above :data:`MAX_SPEED`)."""
+    status = RUNNING
     for i in range(qpos.size):
         if not (math.isfinite(qpos[i]) and math.isfinite(qvel[i])):
-            return NONFINITE_STATE
-    for i in range(qvel.size):
-        if abs(qvel[i]) > MAX_SPEED:
-            return RUNAWAY
+            status = NONFINITE_STATE
+    if status == RUNNING:
+        for i in range(qvel.size):
+            if abs(qvel[i]) > MAX_SPEED:
+                status = RUNAWAY
+    return status
+
+
+@njit(cache=True)
+def check_state(qpos, qvel, warnings):
+    """:func:`state_status`, else MUJOCO_WARNING when one of MuJoCo's instability warnings was counted."""
+    status = state_status(qpos, qvel)
+    if status != RUNNING:
+        return status
     for w in _WARNINGS:
         if warnings[w] > 0:
             return MUJOCO_WARNING
     return RUNNING
 
 
+@njit(cache=True)
+def add_effort_work(ctrl, qvel, dt, effort, work):
+    """The integrals after a step of ``dt`` [s] with ``ctrl`` (:math:`\\tau`) held: (``effort`` +
+    :math:`|\\tau|^2 dt` [N^2 m^2 s], ``work`` + :math:`|\\tau \\cdot \\dot q_a| dt` [J]), :math:`\\dot q_a` =
+    ``qvel[1:]`` after the step."""
+    e, p = 0.0, 0.0
+    for j in range(ctrl.size):
+        e += ctrl[j] * ctrl[j]
+        p += ctrl[j] * qvel[j + 1]
+    return effort + e * dt, work + abs(p) * dt
+
+
 @njit(nogil=True, cache=True)
 def finish_step(r, step, mode, tau_cmd, physics, run, settings, state, samples):
     """Everything of one step after the controller: actuate, record, step the physics; True when the rollout ends."""
     st = state.rollouts[r]
-    if actuate(r, step, mode, tau_cmd, physics, run, settings, state, samples):
-        _record_last(r, step, run, state, samples)
-        return True
-    if step == run.n_steps:
-        st.status = FINISHED
+    status = actuate(r, step, mode, tau_cmd, physics, run, settings, state, samples)
+    if status != RUNNING:
+        st.status = status
+        if status != FINISHED:
+            _record_last(r, step, run, state, samples)
         return True
     if settings.pushes.shape[1] > 0:
         apply_pushes(r, step * run.dt, settings.pushes, physics.qfrc)
     _mj_step(physics.model, physics.data)
     ctrl, qpos, qvel = physics.ctrl, physics.qpos, physics.qvel
-    effort, power = 0.0, 0.0
-    for j in range(ctrl.size):
-        effort += ctrl[j] * ctrl[j]
-        power += ctrl[j] * qvel[j + 1]
-    st.effort += effort * run.dt
-    st.work += abs(power) * run.dt
+    st.effort, st.work = add_effort_work(ctrl, qvel, run.dt, st.effort, st.work)
     status = check_state(qpos, qvel, physics.warnings)
     if status != RUNNING:
         st.status = status

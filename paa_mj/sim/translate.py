@@ -10,10 +10,14 @@ everything it calls, into a Warp function by rewriting its syntax tree, so that 
   constants of the modules become numbers of the device's float type (``real``, float32 by default);
 - float literals are made of that type and an integer literal beside a value takes the value's type
   (``2 * d1`` is ``type(d1)(2) * d1``): Warp, unlike numba, mixes no types in arithmetic;
-- a variable given a literal is declared as a variable (Warp reads ``s = 0.0`` as a constant a loop may not
-  change), ``a % b`` is Python's floored remainder (Warp's ``%`` is C's), ``x.size`` of a vector is
-  ``x.shape[0]``, ``a, b = f()`` into array elements goes through a temporary, ``x[:] = v`` is a loop and
-  ``np.empty(k)`` a local vector of the state's size (``2 n``, the one length the laws allocate);
+- ``a if c else b`` is Warp's, a literal branch of the other branch's type (``0.0 if k < d else x[k]`` is
+  ``type(x[k])(0.0) if k < d else x[k]``);
+- a variable given a literal or a module's constant is declared as a variable (Warp reads ``s = 0.0`` as a
+  constant a loop may not change), ``a % b`` is Python's floored remainder (Warp's ``%`` is C's), ``x.size`` of a
+  vector is ``x.shape[0]``, ``a, b = f()`` into array elements goes through a temporary, ``x[:] = v`` is a loop
+  and ``np.empty(k)`` a local vector of the state's size (``2 n``, the one length the laws allocate);
+- types are never converted implicitly: a function meant for arrays of several float types converts where they
+  meet, as the noise's ``np.float64(...)`` does (a no-op where numba's arrays are float64 already);
 - every function called is translated the same way; arguments named in ``bind`` are fixed to given Warp
   functions (the controller pair and switch of :func:`paa_mj.sim.step.call_controller`).
 
@@ -238,7 +242,10 @@ class _Rewriter(ast.NodeTransformer):
             return self.declared(ast.Constant(-value.operand.value if isinstance(value.op, ast.USub)
                                               else value.operand.value)) \
                 if isinstance(value.op, (ast.USub, ast.UAdd)) else self.visit(value)
-        return self.visit(value)
+        out = self.visit(value)
+        if isinstance(out, ast.Constant) and not isinstance(out.value, str):
+            return self.declared(out)  # a module's constant (``status = RUNNING``): a variable too
+        return out
 
     def fresh(self, what):
         self.counter += 1
@@ -316,6 +323,19 @@ class _Rewriter(ast.NodeTransformer):
             typed.append(self.typed_literal(items[k], items[k - 1]))
         node.left, node.comparators = typed[0], typed[1:]
         return node
+
+    def visit_IfExp(self, node):
+        """``a if c else b``, a literal branch of the other branch's type (Warp's branches share one type)."""
+        node.test = self.visit(node.test)
+        body, orelse = self.visit(node.body), self.visit(node.orelse)
+        node.body, node.orelse = self.branch_typed(body, orelse), self.branch_typed(orelse, body)
+        return node
+
+    def branch_typed(self, branch, other):
+        if self.is_literal(branch) and not self.is_literal(other):
+            value = branch.value if isinstance(branch, ast.Constant) else branch.args[0]
+            return ast.Call(ast.Call(ast.Name("type", ast.Load()), [other], []), [value], [])
+        return branch
 
     def visit_UnaryOp(self, node):
         operand = self.visit(node.operand)

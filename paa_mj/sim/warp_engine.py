@@ -3,17 +3,25 @@
 ``engine="warp"`` of :func:`~paa_mj.sim.batch.simulate_batch` (``--engine warp`` of the studies) runs a
 :class:`~paa_mj.sim.engine.Plan` here instead of :func:`paa_mj.sim.engine.run`, and returns the same
 :class:`~paa_mj.sim.engine.Outcome`, so that every outcome, summary and file of a study is computed as before.
-Each step of every world, on the device (a GPU, or Warp's CPU device):
+Each step of every world, on the device (a GPU, or Warp's CPU device), is :mod:`paa_mj.sim.step`'s: the
+kernels hold no equation of their own, they unpack the device arrays and call the translations to Warp
+(:mod:`paa_mj.sim.translate`) of the very functions the CPU engine compiles:
 
-1. a kernel evaluates the controller on the true state (its compiled form, :func:`~paa_mj.sim.step.call_controller`
-   with its two laws and the switch, translated from the same Python the CPU engine compiles:
-   :mod:`paa_mj.sim.translate`), saturates the torques at the rollout's limits into ``ctrl`` and keeps the
-   rollout's records as :func:`paa_mj.sim.step.actuate` does (switch, the task's book of success, peak and last
-   torques, smoothness, peak speed, the last good state), and stops a rollout that finished, retired
-   (:func:`~paa_mj.sim.retirement.modal_bound`, translated too) or asked for a non-finite torque;
+1. ``control`` measures the state (:func:`~paa_mj.sim.step.measure_into`: the same counter-based noise draws),
+   evaluates the controller (its compiled form, :func:`~paa_mj.sim.step.call_controller` with its two laws and
+   the switch), turns its torque into ``ctrl`` (:func:`~paa_mj.sim.step.command_into`: delay line, torque
+   noise, saturation), keeps the rollout's records (:func:`~paa_mj.sim.step.account`: switch, the task's book of
+   success, peak and last torques, smoothness, peak speed, the last good state) and stops a rollout that asked
+   for a non-finite torque, retired or finished (:func:`~paa_mj.sim.step.verdict`), as
+   :func:`paa_mj.sim.step.actuate` does; then the pushes (:func:`~paa_mj.sim.step.apply_pushes`);
 2. ``mujoco_warp.step`` advances every world (the robot's integrator and time step);
-3. a kernel adds the step's effort and work and stops a world whose state is not finite or runs away, back at
-   its last good state, as :func:`paa_mj.sim.step.finish_step` does.
+3. ``after`` adds the step's effort and work (:func:`~paa_mj.sim.step.add_effort_work`) and stops a world whose
+   state is not finite or runs away (:func:`~paa_mj.sim.step.state_status`), back at its last good state, as
+   :func:`paa_mj.sim.step.finish_step` does.
+
+The records are one row a rollout, float64 and int32 (:data:`COUNTS`, :data:`SUMS`); the controller runs in
+float64 too. Only MuJoCo Warp's own arrays are float32: the state is read from them after each step and
+``ctrl`` and the pushes written to them, in the kernels and nowhere else.
 
 On a GPU the steps are captured once in a CUDA graph and replayed; on the CPU device each kernel is launched
 from Python (about 2 ms a step of Euler, 10 ms of RK4 on this package's CI machine, whatever the number of
@@ -28,18 +36,17 @@ torque limits, disturbances (:class:`~paa_mj.sim.batch.Disturbances`: measuremen
 draws as the CPU engine's, delay, pushes) and controller parameters allowed), no recorded trajectories: anything
 else is refused in one line before any work.
 """
-from __future__ import annotations
-
+# No ``from __future__ import annotations``: the kernels' annotations are Warp's array types, made at run time
+# where the kernels are defined (:func:`_array_types`), and read by Warp as objects.
 import numpy as np
 
 from ..control.base import check_binding, controller_name
 from ..errors import PaaError
 from ..progress import progress as progress_bar
-from ..task import P_GOAL
 from . import engine
 from .records import new_state
-from .step import FINISHED, MAX_SPEED, NONFINITE_STATE, NONFINITE_TORQUE, RETIRED, RUNAWAY, RUNNING, \
-    STOPPED, call_controller
+from .step import RUNNING, STOPPED, account, add_effort_work, apply_pushes, call_controller, command_into, \
+    measure_into, state_status, verdict
 from .warp_device import device_name, load_warp
 
 __all__ = ["DEVICE_LAWS", "device_controllers", "run"]
@@ -124,209 +131,168 @@ def device_model(model):
 
 _KERNELS = {}
 
+#: The columns of the device's per-rollout counts (int32) and sums (float64): the fields of
+#: :data:`~paa_mj.sim.records.ROLLOUT` the kernels keep.
+COUNTS = ("step", "status", "switch", "mode")
+SUMS = ("effort", "work", "smooth", "speed")
+_STEP, _STATUS, _SWITCH, _MODE = range(4)
+_EFFORT, _WORK, _SMOOTH, _SPEED = range(4)
 
-def _kernels(wp, triple, n_links):
-    """The two step kernels for a controller law (``triple`` of compiled kernels) and a chain of ``n_links``."""
-    key = (id(wp), triple, n_links)
-    if key in _KERNELS:
-        return _KERNELS[key]
-    from ..task import book_update
-    from .noise import gaussian as noise_gaussian
-    from .retirement import modal_bound
-    from .step import apply_pushes
+
+def _device_functions(wp, triple, n_links):
+    """The step's functions on the device, translated from :mod:`paa_mj.sim.step` (float64, a state of 2
+    ``n_links``): the law (``triple`` of compiled kernels, switched by :func:`~paa_mj.sim.step.call_controller`),
+    then measure, command, account, verdict, pushes, effort and state, in the order the kernels call them."""
     from .translate import device_function
 
-    size = 2 * n_links
-    first, second, condition = (device_function(wp, k, state_size=size) for k in triple)
-    law = device_function(wp, call_controller, bind={"first": first, "second": second, "condition": condition},
-                          state_size=size)
-    book = device_function(wp, book_update, state_size=size)
-    bound = device_function(wp, modal_bound, state_size=size)
-    gaussian = device_function(wp, noise_gaussian, real=wp.float64, state_size=size)
-    push = device_function(wp, apply_pushes, state_size=size)
+    def translated(fn, bind=None):
+        return device_function(wp, fn, bind=bind, real=wp.float64, state_size=2 * n_links)
+
+    first, second, condition = (translated(k) for k in triple)
+    law = translated(call_controller, {"first": first, "second": second, "condition": condition})
+    return (law,) + tuple(translated(fn) for fn in (measure_into, command_into, account, verdict, apply_pushes,
+                                                    add_effort_work, state_status))
+
+
+def _kernels(wp, triple, n_links):
+    """The two step kernels for a controller law (``triple`` of compiled kernels) and a chain of ``n_links``:
+    ``control`` before ``mujoco_warp.step``, ``after`` it (module docstring)."""
+    key = (id(wp), triple, n_links)
+    if key not in _KERNELS:
+        functions = _device_functions(wp, triple, n_links)
+        _KERNELS[key] = (_control_kernel(wp, *functions[:6]), _after_kernel(wp, *functions[6:]))
+    return _KERNELS[key]
+
+
+def _array_types(wp):
+    """Warp's array types of the kernels' arguments: float32 2-d (MuJoCo Warp's), float64 2-d, float64 3-d, float64
+    1-d and int32 2-d."""
+    return (wp.array2d(dtype=wp.float32), wp.array2d(dtype=wp.float64), wp.array3d(dtype=wp.float64),
+            wp.array(dtype=wp.float64), wp.array2d(dtype=wp.int32))
+
+
+def _control_kernel(wp, law, measure, command, account, verdict, push):
+    """The kernel of a step up to the physics: :mod:`paa_mj.sim.step`'s functions on the float64 state ``q``,
+    ``qd`` as :func:`~paa_mj.sim.step.actuate` calls them; ``ctrl`` and the pushes written to MuJoCo Warp's float32
+    arrays."""
+    F32, F64, F64_3, V64, I32 = _array_types(wp)
 
     @wp.kernel(module="unique", enable_backward=False)
-    def control(qpos: wp.array2d(dtype=wp.float32), qvel: wp.array2d(dtype=wp.float32),
-                ctrl: wp.array2d(dtype=wp.float32), qfrc: wp.array2d(dtype=wp.float32),
-                params: wp.array2d(dtype=wp.float32), memory: wp.array2d(dtype=wp.float32),
-                seen: wp.array2d(dtype=wp.float32), tau: wp.array2d(dtype=wp.float32),
-                limits: wp.array2d(dtype=wp.float32), noise: wp.array2d(dtype=wp.float64),
-                delays: wp.array(dtype=wp.int32), ids: wp.array(dtype=wp.int64),
-                delay_line: wp.array3d(dtype=wp.float32), pushes: wp.array3d(dtype=wp.float32),
-                push_end: wp.array(dtype=wp.float64), task: wp.array(dtype=wp.float32),
-                cert: wp.array2d(dtype=wp.float32), level: wp.array(dtype=wp.float32),
-                counts: wp.array2d(dtype=wp.int32), sums: wp.array2d(dtype=wp.float64),
-                books: wp.array2d(dtype=wp.int32), peak: wp.array2d(dtype=wp.float32),
-                last_tau: wp.array2d(dtype=wp.float32), last_state: wp.array2d(dtype=wp.float32),
-                n_steps: wp.int32, dt: wp.float64, retire: wp.int32, seed: wp.int64):
+    def control(qpos: F32, qvel: F32, ctrl: F32, qfrc: F32, q: F64, qd: F64, seen: F64, tau: F64, u: F64,
+                force: F64, params: F64, memory: F64, limits: F64, noise: F64, delays: wp.array(dtype=wp.int32),
+                ids: wp.array(dtype=wp.int64), delay_line: F64_3, pushes: F64_3, push_end: V64, task: V64,
+                cert: F64, level: V64, counts: I32, sums: F64, books: I32, peak: F64, last_tau: F64,
+                last_state: F64, n_steps: wp.int32, dt: wp.float64, retire: wp.bool, seed: wp.int64):
         r = wp.tid()
         n = qpos.shape[1]
         nu = ctrl.shape[1]
-        if counts[r, 1] != 0:  # status: not running
+        if counts[r, _STATUS] != RUNNING:  # stopped: no torque (its state is put back after the physics)
             for j in range(nu):
                 ctrl[r, j] = wp.float32(0.0)
             return
-        step = counts[r, 0]
-        # measure: the state the controller sees, with the rollout's measurement noise
-        for i in range(n):
-            seen[r, i] = qpos[r, i]
-            seen[r, n + i] = qvel[r, i]
-        nq = noise[r, 0]
-        nqd = noise[r, 1]
-        if nq > wp.float64(0.0) or nqd > wp.float64(0.0):
-            for i in range(n):
-                seen[r, i] = wp.float32(wp.float64(seen[r, i]) + nq * gaussian(seed, ids[r], step, i))
-                seen[r, n + i] = wp.float32(wp.float64(seen[r, n + i]) + nqd * gaussian(seed, ids[r], step, n + i))
-        t = wp.float32(wp.float64(step) * dt)
+        step = counts[r, _STEP]
+        t = wp.float64(step) * dt
+        measure(q[r], qd[r], noise[r, 0], noise[r, 1], seed, ids[r], step, seen[r])
         mode = law(seen[r], t, params[r], memory[r], tau[r])
-        # _command: a non-finite torque -> all zero (and the rollout stops after its records); delay line; torque
-        # noise; saturation
-        finite = int(1)
+        finite = command(step, tau[r], u[r], delays[r], delay_line[r], noise[r, 2], seed, ids[r], n, limits[r])
         for j in range(nu):
-            ctrl[r, j] = tau[r, j]
-            if not wp.isfinite(tau[r, j]):
-                finite = 0
-        if finite == 0:
-            for j in range(nu):
-                ctrl[r, j] = wp.float32(0.0)
-        delay = delays[r]
-        if delay > 0:
-            slot = step % (delay + 1)
-            for j in range(nu):
-                delay_line[r, slot, j] = ctrl[r, j]
-                if step < delay:
-                    ctrl[r, j] = wp.float32(0.0)
-                else:
-                    ctrl[r, j] = delay_line[r, (step - delay) % (delay + 1), j]
-        if noise[r, 2] > wp.float64(0.0):
-            for j in range(nu):
-                ctrl[r, j] = wp.float32(wp.float64(ctrl[r, j]) + noise[r, 2] * gaussian(seed, ids[r], step, 2 * n + j))
-        for j in range(nu):
-            ctrl[r, j] = wp.min(wp.max(ctrl[r, j], -limits[r, j]), limits[r, j])
-        # actuate: the records of step
-        counts[r, 3] = mode
-        if mode == 1 and counts[r, 2] < 0:
-            counts[r, 2] = step
-        book(task, qpos[r], qvel[r], step, books[r])
-        smooth = wp.float64(0.0)
-        for j in range(nu):
-            peak[r, j] = wp.max(peak[r, j], wp.abs(ctrl[r, j]))
-            change = wp.float64(ctrl[r, j]) - wp.float64(last_tau[r, j])
-            smooth += change * change
-        speed = sums[r, 3]
-        for i in range(n):
-            speed = wp.max(speed, wp.float64(wp.abs(qvel[r, i])))
-            last_state[r, i] = qpos[r, i]
-            last_state[r, n + i] = qvel[r, i]
-        sums[r, 3] = speed
-        if step > 0:
-            sums[r, 2] = sums[r, 2] + smooth / (dt * dt)
-        for j in range(nu):
-            last_tau[r, j] = ctrl[r, j]
-        if finite == 0:
-            counts[r, 1] = NONFINITE_TORQUE
-            return
-        if retire != 0 and mode == 1 and level[r] > wp.float32(0.0) and wp.float64(step) * dt > push_end[r]:
-            if bound(cert[r], qpos[r], qvel[r], task[P_GOAL:P_GOAL + n]) <= level[r]:
-                counts[r, 1] = RETIRED
-                return
-        if step == n_steps:
-            counts[r, 1] = FINISHED
+            ctrl[r, j] = wp.float32(u[r, j])
+        counts[r, _MODE] = mode
+        switch, smooth, speed = account(step, mode, dt, task, q[r], qd[r], u[r], books[r], peak[r], last_tau[r],
+                                        last_state[r], counts[r, _SWITCH], sums[r, _SMOOTH], sums[r, _SPEED])
+        counts[r, _SWITCH] = switch
+        sums[r, _SMOOTH] = smooth
+        sums[r, _SPEED] = speed
+        status = verdict(step, n_steps, finite, retire, mode, level[r], t, push_end[r], cert[r], q[r], qd[r], task)
+        if status != RUNNING:
+            counts[r, _STATUS] = status
             return
         if pushes.shape[1] > 0:
-            push(r, wp.float32(wp.float64(step) * dt), pushes, qfrc[r])
+            push(r, t, pushes, force[r])
+            for i in range(n):
+                qfrc[r, i] = wp.float32(force[r, i])
+
+    return control
+
+
+def _after_kernel(wp, effort_work, state_status):
+    """The kernel of a step after the physics: MuJoCo Warp's float32 state read into the float64 ``q``, ``qd``,
+    then :func:`~paa_mj.sim.step.add_effort_work` and :func:`~paa_mj.sim.step.state_status` as
+    :func:`~paa_mj.sim.step.finish_step` calls them; a stopped world back at its last good state, where the CPU
+    engine leaves it."""
+    F32, F64, F64_3, V64, I32 = _array_types(wp)
 
     @wp.kernel(module="unique", enable_backward=False)
-    def after(qpos: wp.array2d(dtype=wp.float32), qvel: wp.array2d(dtype=wp.float32), ctrl: wp.array2d(dtype=wp.float32),
-              counts: wp.array2d(dtype=wp.int32), sums: wp.array2d(dtype=wp.float64), last_state: wp.array2d(dtype=wp.float32),
+    def after(qpos: F32, qvel: F32, q: F64, qd: F64, u: F64, counts: I32, sums: F64, last_state: F64,
               dt: wp.float64):
         r = wp.tid()
         n = qpos.shape[1]
-        nu = ctrl.shape[1]
-        if counts[r, 1] != 0:
-            # stopped (now or before): back at its last good state, where the CPU engine leaves it
+        if counts[r, _STATUS] == RUNNING:
             for i in range(n):
-                qpos[r, i] = last_state[r, i]
-                qvel[r, i] = last_state[r, n + i]
-            return
-        effort = wp.float64(0.0)
-        power = wp.float64(0.0)
-        for j in range(nu):
-            c = wp.float64(ctrl[r, j])
-            effort += c * c
-            power += c * wp.float64(qvel[r, j + 1])
-        sums[r, 0] = sums[r, 0] + effort * dt
-        sums[r, 1] = sums[r, 1] + wp.abs(power) * dt
-        status = int(0)
+                q[r, i] = wp.float64(qpos[r, i])
+                qd[r, i] = wp.float64(qvel[r, i])
+            effort, work = effort_work(u[r], qd[r], dt, sums[r, _EFFORT], sums[r, _WORK])
+            sums[r, _EFFORT] = effort
+            sums[r, _WORK] = work
+            status = state_status(q[r], qd[r])
+            if status == RUNNING:
+                counts[r, _STEP] = counts[r, _STEP] + 1
+                return
+            counts[r, _STATUS] = status
         for i in range(n):
-            if not (wp.isfinite(qpos[r, i]) and wp.isfinite(qvel[r, i])):
-                status = NONFINITE_STATE
-        if status == 0:
-            for i in range(n):
-                if wp.abs(qvel[r, i]) > wp.float32(MAX_SPEED):
-                    status = RUNAWAY
-        if status != 0:
-            counts[r, 1] = status
-            for i in range(n):
-                qpos[r, i] = last_state[r, i]
-                qvel[r, i] = last_state[r, n + i]
-            return
-        counts[r, 0] = counts[r, 0] + 1
+            qpos[r, i] = wp.float32(last_state[r, i])
+            qvel[r, i] = wp.float32(last_state[r, n + i])
 
-    _KERNELS[key] = (control, after)
-    return control, after
+    return after
 
 
 class _Worlds:
-    """The device arrays of one run: MuJoCo Warp's model and data, the controllers' parameters and the records."""
+    """The device arrays of one run: MuJoCo Warp's model and data (float32), the controllers' parameters and the
+    records, float64 and int32 (:data:`COUNTS`, :data:`SUMS`), in the layouts :mod:`paa_mj.sim.step`'s functions
+    read on the CPU (one row a rollout)."""
 
     def __init__(self, wp, mjw, plan, params, memory, device):
         n, links = len(plan), plan.n_links
-        f32 = wp.float32
         model = device_model(plan.models[0])
         self.model = mjw.put_model(model)
         self.data = mjw.make_data(model, nworld=n)
         self.data.qpos.assign(plan.x0[:, :links].astype(np.float32))
         self.data.qvel.assign(plan.x0[:, links:].astype(np.float32))
-        settings = plan.settings
+        settings, rollouts = plan.settings, plan.settings.rollouts
 
-        def put(array, dtype=f32):
+        def put(array, dtype=wp.float64):
             return wp.array(np.ascontiguousarray(array), dtype=dtype, device=device)
 
-        self.params = put(params)
-        self.memory = put(memory)
-        self.seen = wp.zeros((n, 2 * links), dtype=f32, device=device)
-        self.tau = wp.zeros((n, links - 1), dtype=f32, device=device)
-        self.limits = put(settings.limits)
-        rollouts = settings.rollouts
-        self.noise = put(np.stack([rollouts["noise_q"], rollouts["noise_qd"], rollouts["torque_noise"]], 1),
-                         wp.float64)
+        def zeros(*shape):
+            return wp.zeros(shape, dtype=wp.float64, device=device)
+
+        # the state in float64: the start itself (a start at the goal is at the goal, not at its float32 rounding),
+        # then MuJoCo Warp's after each step; measured; the law's torque; the command; the pushes' forces
+        self.q, self.qd, self.seen = put(plan.x0[:, :links]), put(plan.x0[:, links:]), zeros(n, 2 * links)
+        self.tau, self.u, self.force = zeros(n, links - 1), zeros(n, links - 1), zeros(n, links)
+        self.params, self.memory, self.limits = put(params), put(memory), put(settings.limits)
+        self.noise = put(np.stack([rollouts["noise_q"], rollouts["noise_qd"], rollouts["torque_noise"]], 1))
         self.delays = put(rollouts["delay"].astype(np.int32), wp.int32)
         self.ids = put(rollouts["id"].astype(np.int64), wp.int64)
-        self.delay_line = wp.zeros((n, int(np.max(rollouts["delay"], initial=0)) + 1, links - 1), dtype=f32,
-                                   device=device)
-        self.pushes = put(settings.pushes.astype(np.float32))
-        self.push_end = put(rollouts["push_end"], wp.float64)
-        self.task = put(plan.run.task)
-        self.cert = put(settings.cert)
-        self.level = put(settings.rollouts["retire_level"])
-        counts = np.zeros((n, 4), np.int32)
-        counts[:, 2] = -1  # no switch yet
+        self.delay_line = zeros(n, int(np.max(rollouts["delay"], initial=0)) + 1, links - 1)
+        self.pushes, self.push_end = put(settings.pushes), put(rollouts["push_end"])
+        self.task, self.cert, self.level = put(plan.run.task), put(settings.cert), put(rollouts["retire_level"])
+        counts = np.zeros((n, len(COUNTS)), np.int32)
+        counts[:, COUNTS.index("switch")] = -1  # no switch yet
         self.counts = put(counts, wp.int32)
-        self.sums = wp.zeros((n, 4), dtype=wp.float64, device=device)
+        self.sums = zeros(n, len(SUMS))
         self.books = put(np.full((n, 3), -1, np.int32), wp.int32)
-        self.peak = wp.zeros((n, links - 1), dtype=f32, device=device)
-        self.last_tau = wp.zeros((n, links - 1), dtype=f32, device=device)
-        self.last_state = put(plan.x0)
+        self.peak, self.last_tau, self.last_state = zeros(n, links - 1), zeros(n, links - 1), put(plan.x0)
 
     def state(self, plan, memory_size):
         """The engine's :class:`~paa_mj.sim.records.State` of the run, read back."""
         n, links = len(plan), plan.n_links
         state = new_state(n, links, memory_size, 0)
         counts, sums = self.counts.numpy(), self.sums.numpy()
-        rollouts = state.rollouts
-        rollouts["step"], rollouts["status"], rollouts["switch"], rollouts["mode"] = counts.T.astype(np.int64)
-        rollouts["effort"], rollouts["work"], rollouts["smooth"], rollouts["speed"] = sums.T
+        for k, field in enumerate(COUNTS):
+            state.rollouts[field] = counts[:, k]
+        for k, field in enumerate(SUMS):
+            state.rollouts[field] = sums[:, k]
         state.book[:] = self.books.numpy()
         state.peak[:] = self.peak.numpy()
         state.last_tau[:] = self.last_tau.numpy()
@@ -359,14 +325,14 @@ def run(plan: engine.Plan, controllers, *, device=None, progress=False, desc="ro
 def _advance(wp, mjw, plan, worlds, control, after, device, progress, desc):
     """Step every world to the end (or until all stopped); returns True if interrupted (Ctrl-C)."""
     n = len(plan)
-    w = worlds
     dt = float(plan.dt)
-    retire = 1 if plan.run.retire else 0
-    control_inputs = [w.data.qpos, w.data.qvel, w.data.ctrl, w.data.qfrc_applied, w.params, w.memory, w.seen, w.tau,
-                      w.limits, w.noise, w.delays, w.ids, w.delay_line, w.pushes, w.push_end, w.task, w.cert, w.level,
-                      w.counts, w.sums, w.books, w.peak, w.last_tau, w.last_state, int(plan.n_steps), dt, retire,
-                      int(plan.run.seed)]
-    after_inputs = [w.data.qpos, w.data.qvel, w.data.ctrl, w.counts, w.sums, w.last_state, dt]
+    w = worlds
+    d = w.data
+    control_inputs = [d.qpos, d.qvel, d.ctrl, d.qfrc_applied, w.q, w.qd, w.seen, w.tau, w.u, w.force, w.params,
+                      w.memory, w.limits, w.noise, w.delays, w.ids, w.delay_line, w.pushes, w.push_end, w.task,
+                      w.cert, w.level, w.counts, w.sums, w.books, w.peak, w.last_tau, w.last_state,
+                      int(plan.n_steps), dt, bool(plan.run.retire), int(plan.run.seed)]
+    after_inputs = [d.qpos, d.qvel, w.q, w.qd, w.u, w.counts, w.sums, w.last_state, dt]
 
     # launches recorded once: the arguments are packed once, not at every step
     control_cmd = wp.launch(control, dim=n, inputs=control_inputs, record_cmd=True)
@@ -406,8 +372,8 @@ def _advance(wp, mjw, plan, worlds, control, after, device, progress, desc):
                     one_step()
             done += segment
             counts = w.counts.numpy()
-            status = counts[:, 1]
-            steps = np.where(status == RUNNING, counts[:, 0], plan.n_steps)
+            status = counts[:, COUNTS.index("status")]
+            steps = np.where(status == RUNNING, counts[:, COUNTS.index("step")], plan.n_steps)
             now = round(float(np.sum(steps)) * dt, 6)
             if now > reported:
                 bar.update(now - reported)

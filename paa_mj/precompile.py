@@ -37,11 +37,13 @@ class _Damped:
 
 def _rollouts():
     from .model import load_robot
+    from .sim.analytic import simulate_analytic
     from .sim.batch import simulate_batch
     from .sim.rollout import simulate_mujoco
 
     gymnast = load_robot("gymnast")
     simulate_mujoco(gymnast, "vcl", t_final=_T)
+    simulate_analytic(gymnast, "vcl", t_final=_T)
     simulate_mujoco(gymnast, _Damped(gymnast), t_final=_T)
     simulate_batch(gymnast, np.zeros((2, 6)), t_final=_T)
 
@@ -65,6 +67,7 @@ def _environments():
     try:
         from .envs.single import GymnastEnv
         from .envs.spaces import observation
+        from .envs.stepper import finish_rows
         from .envs.vector import GymnastVectorEnv, physics_only
     except ImportError:  # Gymnasium is an extra: without it there is nothing to compile here
         return
@@ -77,6 +80,8 @@ def _environments():
             if physics == "mujoco" and isinstance(env, GymnastVectorEnv):
                 with mujoco_log_off():
                     physics_only(env.model._address, env._robots.physics.addresses, np.zeros((1, 2, 2)), 1)
+                # what the engine on MuJoCo Warp runs on the host after its worlds' step
+                finish_rows(env._robots.rules, env._robots.episodes, np.zeros(0, np.int64), np.zeros(2, np.int32))
             env.close()
     observation(np.zeros(3), np.zeros((2, 3)))  # the observation map of any states, broadcast
 

@@ -230,6 +230,8 @@ def test_bench_reports_ratios_without_timing_assertions():
         assert np.isfinite(r[key]) and r[key] > 0
     assert "basin_effective_ratio" in format_bench(r) and "python_step_vs_hand_loop" in format_bench(r)
     assert r["rollout_t_final"] == 2.0 and r["kd_min_certified"] and r["kd_min_boxes"] > 0
+    if "mujoco_batch_vs_engine_ratio" in r:  # MuJoCo with its batch API: the head to head, and the two agree
+        assert r["mujoco_batch_agreement"]["identical"] and "mujoco_batch_vs_engine_ratio" in format_bench(r)
 
 
 def test_compile_leaves_no_kernel_to_compile_later():

@@ -188,6 +188,15 @@ def _finish(rules, episodes, i, qpos, qvel, bad):
 
 
 @njit(cache=True)
+def finish_rows(rules, episodes, rows, bad):
+    """:func:`_finish` of each robot in ``rows`` (int64) after a step computed elsewhere (MuJoCo Warp's worlds),
+    ``bad`` (int32, one per robot) nonzero where its state left the finite world."""
+    for k in range(rows.size):
+        i = rows[k]
+        _finish(rules, episodes, i, episodes.q[i], episodes.qd[i], bad[i] != 0)
+
+
+@njit(cache=True)
 def start_episode(rules, episodes, i):
     """Robot ``i`` at the start of an episode (its state set): a fresh book, its observation and margin."""
     book_start(episodes.book[i])

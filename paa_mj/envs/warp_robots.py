@@ -8,20 +8,19 @@ steps of every world there, each followed by a kernel that keeps the task's book
 (:func:`~paa_mj.task.book_update`, translated from the same source: :mod:`paa_mj.sim.translate`) and stops a
 robot whose state is not finite or runs away (back at its last good state), then reads the states and books back
 and computes the observations, rewards and margins on the host with the compiled code of the CPU physics
-(:func:`~paa_mj.envs.stepper._finish`). MuJoCo Warp computes in float32: the observations agree with the
+(:func:`~paa_mj.envs.stepper.finish_rows`). MuJoCo Warp computes in float32: the observations agree with the
 ``mujoco`` physics to float32 rounding over a few steps, not bit for bit.
 """
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
 from ..sim.step import MAX_SPEED
 from ..sim.warp_device import device_name, load_warp
 from ..sim.warp_engine import device_model
-from ..task import BOOK, book_start, book_update, state_terms, switch_margin_of
+from ..task import BOOK, book_update
 from .spaces import _observe_rows
-from .stepper import DIVERGED_REWARD, Rules, Episodes, _finish
+from .stepper import DIVERGED_REWARD, Episodes, Rules, finish_rows, start_episode
 
 _KERNELS = {}
 
@@ -68,21 +67,6 @@ def _kernels(wp, n_links):
 
     _KERNELS[key] = (keep, check)
     return keep, check
-
-
-@njit(cache=True)
-def _finish_rows(rules, episodes, rows, bad):
-    for k in range(rows.size):
-        i = rows[k]
-        _finish(rules, episodes, i, episodes.q[i], episodes.qd[i], bad[i] != 0)
-
-
-@njit(cache=True)
-def _start(rules, episodes, i):
-    book_start(episodes.book[i])
-    book_update(rules.task, episodes.q[i], episodes.qd[i], 0, episodes.book[i])
-    _, _, angle_max, speed_max, _, _ = state_terms(rules.task, episodes.q[i], episodes.qd[i])
-    episodes.margin[i] = switch_margin_of(rules.task, angle_max, speed_max)
 
 
 class WarpRobots:
@@ -132,7 +116,7 @@ class WarpRobots:
         e.qd[i] = np.float32(x0[links:])
         e.tau[i] = 0.0
         e.phys_step[i], e.diverged[i] = 0, False
-        _start(self.rules, e, i)
+        start_episode(self.rules, e, i)
         _observe_rows(e.q[i:i + 1], e.qd[i:i + 1], e.obs[i:i + 1])
 
     def advance(self, rows):
@@ -161,7 +145,7 @@ class WarpRobots:
             e.phys_step[:] = self._steps.numpy()
             e.book[:] = self._books.numpy()
             bad = self._bad.numpy()
-        _finish_rows(self.rules, e, np.ascontiguousarray(rows, dtype=np.int64), bad)
+        finish_rows(self.rules, e, np.ascontiguousarray(rows, dtype=np.int64), bad)
 
     def step(self, rows, tau, log=True):
         """One environment step of ``rows`` with the torques ``tau`` (len(rows), n - 1) [N m]."""

@@ -11,7 +11,8 @@ Each step of a rollout:
    (:mod:`paa_mj.sim.retirement`);
 4. optional pushes (generalized forces on the joints) are applied and ``mj_step`` advances the physics; a
    non-finite state, speeds above :data:`MAX_SPEED` or a MuJoCo warning stop the rollout as *diverged*,
-   keeping the last good state (:func:`finish_step`).
+   keeping the last good state (:func:`finish_step`: :func:`before_physics`, ``mj_step``, :func:`after_physics`;
+   :mod:`paa_mj.sim.mujoco_batch` calls the two around ``mujoco.batch``'s step instead).
 
 Each equation of a step is written once, in a function of plain arrays and numbers: :func:`measure_into`,
 :func:`command_into`, :func:`account`, :func:`verdict`, :func:`add_effort_work` and :func:`state_status`. The
@@ -244,8 +245,8 @@ def add_effort_work(ctrl, qvel, dt, effort, work):
 
 
 @njit(nogil=True, cache=True)
-def finish_step(r, step, mode, tau_cmd, physics, run, settings, state, samples):
-    """Everything of one step after the controller: actuate, record, step the physics; True when the rollout ends."""
+def before_physics(r, step, mode, tau_cmd, physics, run, settings, state, samples):
+    """A step's work before the physics: actuate, record, the pushes into ``qfrc``; True when the rollout ends here."""
     st = state.rollouts[r]
     status = actuate(r, step, mode, tau_cmd, physics, run, settings, state, samples)
     if status != RUNNING:
@@ -255,7 +256,14 @@ def finish_step(r, step, mode, tau_cmd, physics, run, settings, state, samples):
         return True
     if settings.pushes.shape[1] > 0:
         apply_pushes(r, step * run.dt, settings.pushes, physics.qfrc)
-    _mj_step(physics.model, physics.data)
+    return False
+
+
+@njit(nogil=True, cache=True)
+def after_physics(r, step, physics, run, state, samples):
+    """A step's work after ``mj_step``: the integrals of effort and work, the state's checks (a diverged rollout
+    keeps its last good state); True when the rollout ends."""
+    st = state.rollouts[r]
     ctrl, qpos, qvel = physics.ctrl, physics.qpos, physics.qvel
     st.effort, st.work = add_effort_work(ctrl, qvel, run.dt, st.effort, st.work)
     status = check_state(qpos, qvel, physics.warnings)
@@ -269,6 +277,16 @@ def finish_step(r, step, mode, tau_cmd, physics, run, settings, state, samples):
         return True
     st.step = step + 1
     return False
+
+
+@njit(nogil=True, cache=True)
+def finish_step(r, step, mode, tau_cmd, physics, run, settings, state, samples):
+    """Everything of one step after the controller: :func:`before_physics`, ``mj_step``, :func:`after_physics`;
+    True when the rollout ends."""
+    if before_physics(r, step, mode, tau_cmd, physics, run, settings, state, samples):
+        return True
+    _mj_step(physics.model, physics.data)
+    return after_physics(r, step, physics, run, state, samples)
 
 
 @njit(nogil=True, cache=True)
@@ -289,6 +307,12 @@ def python_step(step, mode, tau_cmd, r, physics, run, settings, state, samples, 
 def start_rollout(r, physics, x0, state, memory0):
     """Reset the data to x0 and the rollout's state to its start."""
     _mj_reset(physics.model, physics.data)
+    begin_rollout(r, physics, x0, state, memory0)
+
+
+@njit(nogil=True, cache=True)
+def begin_rollout(r, physics, x0, state, memory0):
+    """The rollout's state at its start, and x0 into the (reset) data."""
     qpos, qvel = physics.qpos, physics.qvel
     n = qpos.size
     for i in range(n):

@@ -4,6 +4,11 @@
 * single: a closed-loop MuJoCo rollout of the compiled ``vcl`` (controller + step + recording), per step;
 * python: the same with the controller called through ``torque`` from Python every step;
 * batch: :func:`paa_mj.sim.batch.simulate_batch` of random states, all cores, no early stop, per state-step;
+* mujoco.batch: the batch's work (its plan, ``mujoco_batch_seconds`` long) through the engine and through MuJoCo's
+  batch API (:mod:`paa_mj.sim.mujoco_batch`), measured in turns: ``mujoco_batch_vs_engine_ratio`` (time of
+  ``mujoco.batch`` / time of the engine, all cores, wall clock), ``mujoco_batch_vs_engine_ratio_1thread`` (the same
+  on one thread, CPU time) and ``mujoco_batch_agreement`` (whether the two outcomes are identical bit for bit, the
+  largest difference of their final states, whether every rollout's outcome is the same);
 * basin: the 16 x 16 (q1, q2) basin of Table 1 over 30 s through the batch engine (rollouts retire on
   their own), its time divided by 256 x 30000 bare steps (``basin_effective_ratio``);
 * analytic: the ``solve_ivp`` reference of the 30 s Table 1 run against the MuJoCo rollout;
@@ -34,7 +39,8 @@ from ..control.registry import make_controller
 from ..model.robot import load_robot
 from ..task import Task, as_task
 from ..sim.analytic import simulate_analytic
-from ..sim.batch import simulate_batch
+from ..sim import engine, mujoco_batch
+from ..sim.batch import build_plan, simulate_batch
 from ..sim.rollout import simulate_mujoco
 
 
@@ -202,16 +208,48 @@ def _bare_step_cost(robot, steps, repeats):
     return _best_of(bare, repeats) / steps
 
 
+def mujoco_batch_rows(robot, task, controller, x0, seconds, repeats) -> dict:
+    """The engine and ``mujoco.batch`` head to head on one plan (``x0``, ``seconds`` long, no early stop): the
+    bench's ``mujoco_batch_*`` rows (empty without MuJoCo's batch API).
+
+    Measured in turns (engine, batch, engine, batch, ...), so that other work on the machine weighs on both alike:
+    on all cores by the wall clock, on one thread by CPU time; each the best of ``repeats``.
+    """
+    if not mujoco_batch.available():
+        return {}
+    controllers = [controller] * len(x0)
+    plan = build_plan(robot, task, x0, seconds, controllers, retire=False)
+    runs = {"engine": engine.run, "mujoco_batch": mujoco_batch.run}
+    outcomes = {name: fn(plan, controllers) for name, fn in runs.items()}  # compiled parts loaded first
+    cases = {(name, nthread): (fn, nthread) for nthread in (None, 1) for name, fn in runs.items()}
+    best = dict.fromkeys(cases, np.inf)
+    for _ in range(repeats):
+        for key, (fn, nthread) in cases.items():
+            clock = time.perf_counter if nthread is None else time.process_time
+            start = clock()
+            fn(plan, controllers, nthread=nthread)
+            best[key] = min(best[key], clock() - start)
+    state_steps = len(plan) * plan.n_steps
+    return {"mujoco_batch_rollouts": len(plan), "mujoco_batch_t_final": plan.n_steps * plan.dt,
+            "mujoco_batch_state_step_us": best["mujoco_batch", None] / state_steps * 1e6,
+            "mujoco_batch_engine_state_step_us": best["engine", None] / state_steps * 1e6,
+            "mujoco_batch_vs_engine_ratio": best["mujoco_batch", None] / best["engine", None],
+            "mujoco_batch_vs_engine_ratio_1thread": best["mujoco_batch", 1] / best["engine", 1],
+            "mujoco_batch_agreement": mujoco_batch.agreement(outcomes["engine"], outcomes["mujoco_batch"])}
+
+
 def run_bench(batch_size=1024, batch_seconds=2.0, repeats=3, basin_grid=16, basin_seconds=30.0, progress=False,
               vector_envs=64, vector_steps=50, robot="gymnast", task=None, rollout_seconds=30.0,
-              python_seconds=2.0, bare_steps=20000, realaigym=True, kd_links=7):
+              python_seconds=2.0, bare_steps=20000, realaigym=True, kd_links=7,
+              mujoco_batch_seconds=0.5):
     """Measure every cost of the module docstring; each is the best of ``repeats`` runs (the basin: of 2).
 
     ``rollout_seconds`` [s] is the length of the single MuJoCo and analytic rollouts (``mujoco_30s_seconds``,
     ``analytic_30s_seconds``: 30 s unless asked otherwise, ``rollout_t_final`` in the result), ``python_seconds``
     [s] that of the Python controllers' runs, ``bare_steps`` the number of bare ``mj_step`` calls timed;
     ``realaigym``: also time one whole robustness v2 of RealAIGym's (``realaigym_robustness_v2_cpu_s``);
-    ``kd_links``: the links of the chain whose kD_min (41) is timed.
+    ``kd_links``: the links of the chain whose kD_min (41) is timed; ``mujoco_batch_seconds`` [s]: the length of the
+    batch's rollouts in the ``mujoco.batch`` head to head.
 
     ``robot`` (a name or MJCF path) and ``task`` (a Task or a goal's name, default the folded one) choose the
     robot and task measured; the vector environment is the gymnast's, measured for it alone.
@@ -226,16 +264,8 @@ def run_bench(batch_size=1024, batch_seconds=2.0, repeats=3, basin_grid=16, basi
     start = task.start
     ctrl = make_controller("vcl", robot, task=task)
     t_single = rollout_seconds
-    simulate_mujoco(robot, ctrl, start, 0.01, task=task)  # compile (or load) the kernels first
     bare_step = _bare_step_cost(robot, bare_steps, repeats)
-    single = _best_of(lambda: simulate_mujoco(robot, ctrl, start, t_single, task=task), repeats)
-    single_step = single / round(t_single / dt)
-    t_python = python_seconds
-    simulate_mujoco(robot, _Uncompiled(ctrl), start, 0.01, task=task)  # its compiled parts too, before the clock
-    python_step = _best_of(lambda: simulate_mujoco(robot, _Uncompiled(ctrl), start, t_python, task=task), 1) \
-        / round(t_python / dt)
-
-    hand_step, engine_step = python_loop_costs(robot, seconds=python_seconds, repeats=repeats)
+    rollouts = _single_rollout_rows(robot, task, ctrl, t_single, python_seconds, bare_step, repeats)
 
     rng = np.random.default_rng(0)
     x0 = np.zeros((batch_size, 2 * n))
@@ -244,6 +274,7 @@ def run_bench(batch_size=1024, batch_seconds=2.0, repeats=3, basin_grid=16, basi
     batch = _best_of(lambda: simulate_batch(robot, x0, batch_seconds, task=task, controller=ctrl, retire=False,
                                             progress=progress), repeats)
     batch_state_step = batch / (batch_size * round(batch_seconds / dt))
+    head_to_head = mujoco_batch_rows(robot, task, ctrl, x0, mujoco_batch_seconds, repeats)
 
     basin_seconds_taken = _best_of(lambda: basin(robot, (0, 1), basin_grid, basin_seconds, task=task,
                                                  progress=progress, scheduler="inline"), min(repeats, 2))
@@ -261,28 +292,40 @@ def run_bench(batch_size=1024, batch_seconds=2.0, repeats=3, basin_grid=16, basi
         "machine_cores": os.cpu_count(),
         "mujoco_version": mujoco.__version__,
         "bare_mj_step_us": bare_step * 1e6,
-        "single_step_us": single_step * 1e6,
-        "single_step_ratio": single_step / bare_step,
-        "python_controller_step_us": python_step * 1e6,
-        "python_step_ratio": python_step / bare_step,
-        "python_pd_hand_loop_us": hand_step * 1e6,
-        "python_pd_engine_us": engine_step * 1e6,
-        "python_step_vs_hand_loop": engine_step / hand_step,
+        **rollouts,
         "batch_size": batch_size,
         "batch_state_step_us": batch_state_step * 1e6,
         "batch_step_ratio": batch_state_step / bare_step,
+        **head_to_head,
         "basin_grid": basin_grid,
         "basin_t_final": basin_seconds,
         "basin_seconds": basin_seconds_taken,
         "basin_effective_ratio": basin_seconds_taken / (basin_cell_steps * bare_step),
         "rollout_t_final": t_single,
         "analytic_30s_seconds": analytic,
-        "mujoco_30s_seconds": single,
-        "analytic_to_mujoco_ratio": analytic / single,
+        "analytic_to_mujoco_ratio": analytic / rollouts["mujoco_30s_seconds"],
         **vector,
         **protocols,
         **bound,
     }
+
+
+def _single_rollout_rows(robot, task, ctrl, t_single, python_seconds, bare_step, repeats) -> dict:
+    """One rollout's step under the compiled controller and under its Python form, against the bare ``mj_step``
+    (``bare_step`` [s]), and the Python controllers' hand loop against the engine's."""
+    dt = robot.model.opt.timestep
+    start = task.start
+    simulate_mujoco(robot, ctrl, start, 0.01, task=task)  # compile (or load) the kernels first
+    single = _best_of(lambda: simulate_mujoco(robot, ctrl, start, t_single, task=task), repeats)
+    single_step = single / round(t_single / dt)
+    simulate_mujoco(robot, _Uncompiled(ctrl), start, 0.01, task=task)  # its compiled parts too, before the clock
+    python_step = _best_of(lambda: simulate_mujoco(robot, _Uncompiled(ctrl), start, python_seconds, task=task), 1) \
+        / round(python_seconds / dt)
+    hand_step, engine_step = python_loop_costs(robot, seconds=python_seconds, repeats=repeats)
+    return {"single_step_us": single_step * 1e6, "single_step_ratio": single_step / bare_step,
+            "python_controller_step_us": python_step * 1e6, "python_step_ratio": python_step / bare_step,
+            "python_pd_hand_loop_us": hand_step * 1e6, "python_pd_engine_us": engine_step * 1e6,
+            "python_step_vs_hand_loop": engine_step / hand_step, "mujoco_30s_seconds": single}
 
 
 def _kd_min_rows(n_links) -> dict:
@@ -351,6 +394,13 @@ def format_bench(r) -> str:
         f"  a PD law in Python: engine {r['python_pd_engine_us']:.2f}, hand-written mj_step loop"
         f" {r['python_pd_hand_loop_us']:.2f} us CPU/step  python_step_vs_hand_loop = {r['python_step_vs_hand_loop']:.2f}",
         f"  batch of {r['batch_size']}, all cores         {r['batch_state_step_us']:8.2f} us/state-step  batch_step_ratio = {r['batch_step_ratio']:.2f}",
+    ] + ([
+        f"  the batch's plan ({r['mujoco_batch_rollouts']} x {r['mujoco_batch_t_final']:g} s) through mujoco.batch:"
+        f" mujoco_batch_vs_engine_ratio = {r['mujoco_batch_vs_engine_ratio']:.2f} (all cores),"
+        f" {r['mujoco_batch_vs_engine_ratio_1thread']:.2f} (one thread, CPU);"
+        f" {'identical bit for bit' if r['mujoco_batch_agreement']['identical'] else 'NOT identical'}"
+        f" (final states differ by {r['mujoco_batch_agreement']['max_abs_final_state_diff']:.3g})"
+    ] if "mujoco_batch_vs_engine_ratio" in r else []) + [
         f"  basin {r['basin_grid']} x {r['basin_grid']}, {r['basin_t_final']:g} s             {r['basin_seconds']:8.2f} s              basin_effective_ratio = {r['basin_effective_ratio']:.2f}",
         f"  {r['rollout_t_final']:g} s Table 1 run: solve_ivp {r['analytic_30s_seconds']:.2f} s, MuJoCo {r['mujoco_30s_seconds']:.2f} s"
         f" (ratio {r['analytic_to_mujoco_ratio']:.1f})",

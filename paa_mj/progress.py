@@ -4,13 +4,17 @@ On a terminal a bar redraws in place (tqdm). Redirected to a file or a pipe, the
 same bar is written as whole lines, the first after :data:`LOG_DELAY` seconds
 (work that is done by then, or fails, adds none), then one every
 :data:`LOG_INTERVAL` seconds at most and one at the end, each with the count,
-the rate and the time left, so a log shows where a long command is and is never
-silent for long.
+the rate and the time left, so a log shows where a long command is. A command's :func:`watchdog` adds a
+line whenever nothing has been said for :data:`SILENCE` seconds (a step with no
+count of its own: compiling the kernels, a solve), so a log is never silent for
+long.
 """
 from __future__ import annotations
 
+import contextlib
 import math
 import sys
+import threading
 import time
 
 from tqdm import tqdm
@@ -19,6 +23,15 @@ from tqdm import tqdm
 LOG_INTERVAL = 10.0
 #: A log's first progress line comes after this many seconds (work that ends sooner, or fails at once, adds none).
 LOG_DELAY = 2.0
+#: Seconds without a line after which a command's :func:`watchdog` writes one.
+SILENCE = 20.0
+
+#: When a progress line was last written, and what it said (read by :func:`watchdog`).
+_last = {"time": time.monotonic(), "what": ""}
+
+
+def _said(what: str):
+    _last["time"], _last["what"] = time.monotonic(), what
 
 
 class _LogBar:
@@ -50,10 +63,12 @@ class _LogBar:
         self.desc = desc
 
     def _line(self, now):
-        text = tqdm.format_meter(self.n, self.total, now - self.start, ncols=0, prefix=self.desc or "",
+        n = round(self.n, 9) if isinstance(self.n, float) else self.n  # no 165.81100000000004 s simulated
+        text = tqdm.format_meter(n, self.total, now - self.start, ncols=0, prefix=self.desc or "",
                                  unit=self.unit, initial=self.initial, ascii=True)
         self.stream.write(text.strip() + "\n")
         self.stream.flush()
+        _said(text.strip())
         self.last, self.shown, self.shown_n = now, True, self.n
 
     def close(self):
@@ -98,3 +113,40 @@ def stage(message: str, enabled: bool = True):
     """One line on stderr naming what starts now (a step without a count of its own)."""
     if enabled:
         print(message, file=sys.stderr, flush=True)
+        _said(message)
+
+
+@contextlib.contextmanager
+def watchdog(command: str, enabled: bool = True, silence: float = SILENCE, stream=None):
+    """While the block runs, a line on ``stream`` (stderr) whenever no progress line has been written for
+    ``silence`` seconds: how long the command has run and the last thing said, so that a log is never silent for
+    long, whatever the step (compiling the kernels, a solve, a wait on workers).
+
+    Nothing on a terminal, where tqdm's bars redraw in place, or when ``enabled`` is False.
+    """
+    stream = sys.stderr if stream is None else stream
+    if not enabled or stream is None or (hasattr(stream, "isatty") and stream.isatty()):
+        yield
+        return
+    start = time.monotonic()
+    _said("")
+    stop = threading.Event()
+
+    def watch():
+        while not stop.wait(min(1.0, silence / 4)):
+            now = time.monotonic()
+            if now - _last["time"] >= silence:
+                what = _last["what"] if len(_last["what"]) <= 100 else _last["what"][:97] + "..."
+                with contextlib.suppress(OSError, ValueError):  # a closed stderr: nothing to tell
+                    stream.write(f"{command}: still working, {now - start:.0f} s in"
+                                 + (f" (last: {what})" if what else "") + "\n")
+                    stream.flush()
+                _last["time"] = now
+
+    thread = threading.Thread(target=watch, name="paa-mj watchdog", daemon=True)
+    thread.start()
+    try:
+        yield
+    finally:
+        stop.set()
+        thread.join(timeout=5.0)

@@ -221,7 +221,7 @@ def test_a_controller_that_prints_on_dask_workers_leaves_json_alone(tmp_path):
     (tmp_path / "loud.py").write_text("GAIN = 0.05\n" + PD.replace("def torque(self, q, qd, t):",
                                                                   "def torque(self, q, qd, t):\n        print('hello')"))
     proc = cli("basin", "--controller", f"{tmp_path}/loud.py:PD", "--grid", "2", "--t-final", "0.05",
-               "--scheduler", "local", "--json", cwd=tmp_path)
+               "--chunk", "2", "--scheduler", "local", "--json", cwd=tmp_path)  # two chunks: on workers
     assert proc.returncode == 0, proc.stderr
     assert json.loads(proc.stdout)["cells"] == 4
     assert "hello" in proc.stderr

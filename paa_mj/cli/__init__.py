@@ -93,6 +93,17 @@ def _load_libraries():
         raise PaaError(f"cannot load MuJoCo or numba: {type(err).__name__}: {' '.join(str(err).split())}") from None
 
 
+def _first_use() -> str | None:
+    """A line saying that this run compiles the kernels it needs, where none is kept yet (a fresh install)."""
+    from ..provenance import numba_cache_folder
+
+    folder = numba_cache_folder()
+    if next(folder.rglob("*.nbi"), None) is not None:
+        return None
+    return (f"paa-mj: no compiled kernels kept in {folder} yet: this command compiles those it needs first (once"
+            " per install or update; paa-mj compile compiles them all beforehand)")
+
+
 def _drop_stdout():
     """Standard output to /dev/null, so that nothing more is written where writing failed."""
     with contextlib.suppress(OSError):
@@ -111,6 +122,7 @@ def main(argv=None):
         _check_environment()
         _load_libraries()
         from ..mujoco_log import mujoco_log_off
+        from ..progress import stage, watchdog
 
         with warnings.catch_warnings(), mujoco_log_off():
             warnings.showwarning = _show_warning
@@ -118,7 +130,11 @@ def main(argv=None):
 
             warnings.simplefilter("always", TheoryWarning)
             warnings.simplefilter("always", GainsNote)  # said once per robot and goal by the note itself
-            with json_only_on_stdout() if getattr(args, "json", False) else contextlib.nullcontext():
+            quiet = getattr(args, "json", False)
+            with json_only_on_stdout() if quiet else contextlib.nullcontext(), \
+                    watchdog(f"paa-mj {args.command}", enabled=not quiet):
+                first = None if quiet else _first_use()
+                stage(first or "", enabled=first is not None)
                 code = args.func(args)
             sys.stdout.flush()  # a write that fails (a full disk) fails here, where it is reported
             return code

@@ -24,6 +24,7 @@ from ..errors import PaaError
 from ..limits import check_memory, check_seed, check_steps
 from ..model.params import RobotParams
 from ..model.robot import Robot
+from ..progress import progress as progress_bar
 from ..task import B_ENTERED, B_LAST_FAR, Task, as_task
 from . import engine
 from .engine import DIVERGED, FINISHED, RETIRED, RUNNING, STATUS_TEXT, STOPPED, run as run_engine
@@ -166,22 +167,25 @@ class BatchResult:
         return {n: getattr(self, n) for n in OUTCOMES}
 
 
-def controllers_for(robot: Robot, controller, n, task: Task) -> list:
+def controllers_for(robot: Robot, controller, n, task: Task, progress: bool = False) -> list:
     """One controller object per rollout from a name, a spec, a controller or a list of those (names, and specs
-    without a task, are built for ``task``)."""
+    without a task, are built for ``task``), each distinct one built once (``progress``: counted on stderr, as
+    building one may plan a kip)."""
     items = controller if isinstance(controller, (list, tuple)) else [controller] * n
     if len(items) != n:
         raise PaaError(f"need one controller per rollout ({n}), got {len(items)}")
-    built, out = {}, []
-    for item in items:
-        key = item if isinstance(item, (str, ControllerSpec)) else id(item)
-        if key not in built:
-            spec = ControllerSpec(item, task=task) if isinstance(item, str) else item
-            if isinstance(spec, ControllerSpec) and spec.task is None:
-                spec = spec.for_task(task)
-            built[key] = spec.build(robot) if isinstance(spec, ControllerSpec) else spec
-        out.append(built[key])
-    return out
+    keys = [item if isinstance(item, (str, ControllerSpec)) else id(item) for item in items]
+    distinct = {}
+    for key, item in zip(keys, items):
+        distinct.setdefault(key, item)  # each key's first item, in the order of first use
+    built = {}
+    for key in progress_bar(list(distinct), desc="building the controllers", unit="controller",
+                            enabled=progress and len(distinct) > 1):
+        spec = ControllerSpec(distinct[key], task=task) if isinstance(distinct[key], str) else distinct[key]
+        if isinstance(spec, ControllerSpec) and spec.task is None:
+            spec = spec.for_task(task)
+        built[key] = spec.build(robot) if isinstance(spec, ControllerSpec) else spec
+    return [built[key] for key in keys]
 
 
 def build_plan(robot: Robot, task: Task, x0, t_final, controllers, *, dt=None, integrator=None, plants=None,
@@ -332,7 +336,7 @@ def simulate_batch(robot: Robot, x0: ArrayLike, t_final: float | None = None, *,
     t_final = task.horizon if t_final is None else t_final
     x0 = check_initial_states(x0, robot.params.n_links)
     n = len(x0)
-    controllers = controllers_for(robot, controller, n, task)
+    controllers = controllers_for(robot, controller, n, task, progress)
     base_dt = float(mujoco_model_for(robot, dt, integrator).opt.timestep)
     every = sample_interval(sample_dt, base_dt, t_final) if record else 0
     plan = build_plan(robot, task, x0, t_final, controllers, dt=dt, integrator=integrator, plants=plants,

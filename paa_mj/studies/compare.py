@@ -172,6 +172,9 @@ def compare(robot: Robot, controllers=DEFAULT_CONTROLLERS, torque_limit=None, tr
     task = as_task(task, robot)
     sizes = _sizes(quick, trials, t_final, grid, task)
     names = _names(controllers)
+    if torque_limit is None:
+        stage("compare: vcl's kip from the task's start, whose peak torques are the leaderboard's torque limit",
+              progress)
     limit = _limit(robot, task, torque_limit)
     specs = _specs(robot, names, limit, task, progress)
     sweeps = {factor: sweep_levels(factor, quick) for factor in SWEEPS}

@@ -236,13 +236,13 @@ def peak_torques(max_abs_tau, completed):
     return np.max(done, axis=0).tolist() if len(done) else None
 
 
-def _run_chunk(xml, name, kwargs, t_final, seed, nthread, retire, engine="mujoco", device=None):
+def _run_chunk(xml, name, kwargs, t_final, seed, nthread, retire, engine="mujoco", device=None, progress=False):
     from dataclasses import replace
 
     robot = robot_from_xml(xml, name=name)
     kwargs = dict(kwargs, disturbances=replace(kwargs["disturbances"], seed=seed))
     result = simulate_batch(robot, t_final=t_final, nthread=nthread, retire=retire, engine=engine, device=device,
-                            **kwargs)
+                            progress=progress, **kwargs)
     out = {key: getattr(result, key) for key in OUTCOMES}
     out["completed"] = result.meta["completed"]
     out["interrupted"] = result.interrupted  # read and dropped by map_chunks, never stored
@@ -317,8 +317,8 @@ def _was_interrupted(result) -> bool:
 
 
 def _rollout_task(shared, payload):
-    xml, name, t_final, seed, retire, nthread, engine, device = shared
-    return _run_chunk(xml, name, payload, t_final, seed, nthread, retire, engine, device)
+    xml, name, t_final, seed, retire, nthread, engine, device, progress = shared
+    return _run_chunk(xml, name, payload, t_final, seed, nthread, retire, engine, device, progress)
 
 
 def run_study(robot: Robot, rollouts: RolloutSet, t_final: float, *, seed=0, scheduler="inline", store=None,
@@ -355,7 +355,11 @@ def run_study(robot: Robot, rollouts: RolloutSet, t_final: float, *, seed=0, sch
                     "the grid, the number of trials or --t-final")
     starts = list(range(0, n, chunk))
     payloads = [rollouts.chunk(start, min(start + chunk, n)) for start in starts]
-    shared = (robot.xml, robot.name, t_final, seed, retire, None if scheduler == "inline" else 1, engine, device)
+    if scheduler == "local" and len(payloads) == 1:  # one chunk: a cluster would only add its start-up
+        scheduler = "inline"
+    inline = scheduler == "inline"  # here, on all cores, the chunk's own progress shown; on Dask, one core each
+    shared = (robot.xml, robot.name, t_final, seed, retire, None if inline else 1, engine, device,
+              bool(progress and inline))
     finished, interrupted = map_chunks(_rollout_task, payloads, scheduler=scheduler, store=store, progress=progress,
                                        desc=f"{desc}, {n} rollouts", shared=shared, fits=_chunk_fits,
                                        is_complete=lambda result: bool(np.all(result["completed"])))

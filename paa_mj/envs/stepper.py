@@ -212,11 +212,20 @@ def success_now(episodes, window, out):
         out[i] = book_succeeded(episodes.book[i], episodes.phys_step[i], not episodes.diverged[i], False, window)
 
 
-class Robots:
-    """N copies of one robot's state and their episode counters, stepped by :func:`advance` (module docstring)."""
+class EpisodeRecords:
+    """What every set of robots of the vector environment shares: the episodes' records (``episodes``, ``rules``)
+    and the start of an episode once a robot's state is set."""
 
-    def __init__(self, model, n, frame_skip, kind, torque_limits, task, physics="mujoco", analytic=None):
-        self.model, self.physics_name, self.task = model, physics, task
+    @property
+    def q(self):
+        return self.episodes.q
+
+    @property
+    def qd(self):
+        return self.episodes.qd
+
+    def _new_episodes(self, model, n, kind, torque_limits, task):
+        """``rules``, ``episodes`` (n robots, all zero, no book) and the success window of ``task``."""
         links = task.n_links
         self.rules = Rules(task.params, np.ascontiguousarray(torque_limits, dtype=float), int(kind),
                            DIVERGED_REWARD[kind])
@@ -224,6 +233,36 @@ class Robots:
                                  np.zeros((n, links)), np.zeros((n, links)), np.zeros((n, links - 1)),
                                  np.zeros((n, 3 * links), np.float32), np.zeros(n), np.zeros(n))
         self.window = task.window_steps(model.opt.timestep)
+
+    def _begin(self, i):
+        """Robot ``i``'s episode from its state (set): step 0, a fresh book, its margin and observation."""
+        e = self.episodes
+        e.phys_step[i], e.diverged[i] = 0, False
+        start_episode(self.rules, e, i)
+        _observe_rows(e.q[i:i + 1], e.qd[i:i + 1], e.obs[i:i + 1])
+
+    def restore(self, snapshot: dict):
+        """The episodes' records back to a snapshot's, in place."""
+        for name, value in self.episodes._asdict().items():
+            value[...] = snapshot[name]
+
+    def time(self):
+        """Simulated time since reset [s], as the engines give it to controllers (steps x time step)."""
+        return self.episodes.phys_step * self.model.opt.timestep
+
+    def success(self):
+        """Each episode's success so far, as if it ended now (:func:`success_now`)."""
+        out = np.empty(len(self.episodes.q), bool)
+        success_now(self.episodes, self.window, out)
+        return out
+
+
+class Robots(EpisodeRecords):
+    """N copies of one robot's state and their episode counters, stepped by :func:`advance` (module docstring)."""
+
+    def __init__(self, model, n, frame_skip, kind, torque_limits, task, physics="mujoco", analytic=None):
+        self.model, self.physics_name, self.task = model, physics, task
+        self._new_episodes(model, n, kind, torque_limits, task)
         if physics == "mujoco":
             self.datas = [mujoco.MjData(model) for _ in range(n)]
             # MuJoCo keeps each array of an mjData where it was allocated: the addresses hold while the data lives
@@ -240,14 +279,6 @@ class Robots:
                                    self._no_warnings[i:].ctypes.data] for i in range(n)], dtype=np.intp)
             self.physics = Physics(0, addresses, 1, rk4_constants(analytic, model.opt.timestep), int(frame_skip))
 
-    @property
-    def q(self):
-        return self.episodes.q
-
-    @property
-    def qd(self):
-        return self.episodes.qd
-
     def reset(self, i, x0):
         """Robot ``i`` to the state ``x0`` (2n,), at rest in time."""
         links = self.task.n_links
@@ -262,9 +293,7 @@ class Robots:
         else:
             e.q[i], e.qd[i] = x0[:links], x0[links:]
             e.tau[i] = 0.0
-        e.phys_step[i], e.diverged[i] = 0, False
-        start_episode(self.rules, e, i)
-        _observe_rows(e.q[i:i + 1], e.qd[i:i + 1], e.obs[i:i + 1])
+        self._begin(i)
 
     def step(self, rows, tau, log=True):
         """One environment step of ``rows`` (int array) with the torques ``tau`` (len(rows), n - 1) [N m].
@@ -293,18 +322,8 @@ class Robots:
     def restore(self, snapshot: dict):
         """Back to a :meth:`snapshot` of robots of the same robot and number, in place (the compiled step holds the
         addresses of these arrays and of this physics)."""
-        for name, value in self.episodes._asdict().items():
-            value[...] = snapshot[name]
+        super().restore(snapshot)
         if self.datas is not None:
             for state, data in zip(snapshot["mujoco"], self.datas):
                 mujoco.mj_setState(self.model, data, state, mujoco.mjtState.mjSTATE_INTEGRATION)
 
-    def time(self):
-        """Simulated time since reset [s], as the engines give it to controllers (steps x time step)."""
-        return self.episodes.phys_step * self.model.opt.timestep
-
-    def success(self):
-        """Each episode's success so far, as if it ended now (:func:`success_now`)."""
-        out = np.empty(len(self.episodes.q), bool)
-        success_now(self.episodes, self.window, out)
-        return out

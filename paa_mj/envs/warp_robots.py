@@ -19,8 +19,7 @@ from ..sim.step import MAX_SPEED
 from ..sim.warp_device import device_name, load_warp
 from ..sim.warp_engine import device_model
 from ..task import BOOK, book_update
-from .spaces import _observe_rows
-from .stepper import DIVERGED_REWARD, Episodes, Rules, finish_rows, start_episode
+from .stepper import EpisodeRecords, finish_rows
 
 _KERNELS = {}
 
@@ -69,7 +68,7 @@ def _kernels(wp, n_links):
     return keep, check
 
 
-class WarpRobots:
+class WarpRobots(EpisodeRecords):
     """N copies of one robot on MuJoCo Warp, with the interface of :class:`~paa_mj.envs.stepper.Robots`."""
 
     physics_name = "warp"
@@ -81,12 +80,7 @@ class WarpRobots:
         self.device = device_name(wp, device)
         self.model, self.task, self.frame_skip = model, task, int(frame_skip)
         links = task.n_links
-        self.rules = Rules(task.params, np.ascontiguousarray(torque_limits, dtype=float), int(kind),
-                           DIVERGED_REWARD[kind])
-        self.episodes = Episodes(np.zeros(n, np.int64), np.full((n, len(BOOK)), -1, np.int64), np.zeros(n, bool),
-                                 np.zeros((n, links)), np.zeros((n, links)), np.zeros((n, links - 1)),
-                                 np.zeros((n, 3 * links), np.float32), np.zeros(n), np.zeros(n))
-        self.window = task.window_steps(model.opt.timestep)
+        self._new_episodes(model, n, kind, torque_limits, task)
         with wp.ScopedDevice(self.device):
             self._keep, self._check = _kernels(wp, links)
             copy = device_model(model)
@@ -99,14 +93,6 @@ class WarpRobots:
             self._books = wp.zeros((n, len(BOOK)), dtype=wp.int32)
             self._task = wp.array(np.asarray(task.params, np.float32), dtype=wp.float32)
 
-    @property
-    def q(self):
-        return self.episodes.q
-
-    @property
-    def qd(self):
-        return self.episodes.qd
-
     def reset(self, i, x0):
         """Robot ``i`` to the state ``x0`` (2n,), at rest in time (sent to the device with the next step)."""
         links = self.task.n_links
@@ -115,9 +101,7 @@ class WarpRobots:
         e.q[i] = np.float32(x0[:links])
         e.qd[i] = np.float32(x0[links:])
         e.tau[i] = 0.0
-        e.phys_step[i], e.diverged[i] = 0, False
-        start_episode(self.rules, e, i)
-        _observe_rows(e.q[i:i + 1], e.qd[i:i + 1], e.obs[i:i + 1])
+        self._begin(i)
 
     def advance(self, rows):
         """One environment step of ``rows`` (int array): ``episodes.tau`` held over ``frame_skip`` physics steps of
@@ -156,16 +140,3 @@ class WarpRobots:
         """The robots' state (the host's arrays hold all of it between steps)."""
         return {name: np.array(value) for name, value in self.episodes._asdict().items()}
 
-    def restore(self, snapshot: dict):
-        for name, value in self.episodes._asdict().items():
-            value[...] = snapshot[name]
-
-    def time(self):
-        return self.episodes.phys_step * self.model.opt.timestep
-
-    def success(self):
-        from .stepper import success_now
-
-        out = np.empty(len(self.episodes.q), bool)
-        success_now(self.episodes, self.window, out)
-        return out

@@ -82,7 +82,15 @@ def _mass_matrix_with(A, armature, q, M, phi):
     for i in range(n):
         for j in range(n):
             M[i, j] = A[i, j] * math.cos(phi[i] - phi[j])
-    for i in range(n - 2, -1, -1):  # T^T X T: suffix sums over rows, then over columns
+    relative_coordinates_into(M, armature)
+
+
+@njit(cache=True)
+def relative_coordinates_into(M, armature):
+    """X (n, n) in absolute angles to T^T X T + diag(armature) in the joint angles, in place [kg m^2]: T is the
+    lower triangle of ones (phi = T q), so T^T X T is suffix sums over rows, then over columns."""
+    n = M.shape[0]
+    for i in range(n - 2, -1, -1):
         for j in range(n):
             M[i, j] += M[i + 1, j]
     for j in range(n - 2, -1, -1):

@@ -43,6 +43,7 @@ import math
 import numpy as np
 from numba import njit
 
+from ..model.chain import relative_coordinates_into
 from .second_order import lambda_model, mu_model, product_bound
 
 #: Relative widening of every bound for the rounding of the floating-point arithmetic that computes it.
@@ -76,14 +77,7 @@ def _centre(A, arm, x, phi, cs, sn, M, S):
             sn[i, k] = math.sin(phi[i] - phi[k])
             sn[k, i] = -sn[i, k]
             M[i, k] = M[k, i] = A[i, k] * cs[i, k]
-    for i in range(n - 2, -1, -1):  # T^T (A o C) T: suffix sums over rows, then over columns
-        for k in range(n):
-            M[i, k] += M[i + 1, k]
-    for k in range(n - 2, -1, -1):
-        for i in range(n):
-            M[i, k] += M[i, k + 1]
-    for i in range(n):
-        M[i, i] += arm[i]
+    relative_coordinates_into(M, arm)  # T^T (A o C) T + diag(arm)
     for j in range(n - 1):
         for l in range(n - 1):
             S[j, l] = M[j + 1, l + 1] - M[j + 1, 0] * M[0, l + 1] / M[0, 0]

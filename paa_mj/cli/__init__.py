@@ -134,7 +134,8 @@ def main(argv=None):
             with json_only_on_stdout() if quiet else contextlib.nullcontext(), \
                     watchdog(f"paa-mj {args.command}", enabled=not quiet):
                 first = None if quiet else _first_use()
-                stage(first or "", enabled=first is not None)
+                if first:
+                    stage(first)
                 code = args.func(args)
             sys.stdout.flush()  # a write that fails (a full disk) fails here, where it is reported
             return code

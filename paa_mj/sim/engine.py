@@ -155,7 +155,7 @@ class Outcome:
     meta: dict = field(default_factory=dict)
 
 
-class _Arrays:
+class RunArrays:
     """The mutable records of one run: each rollout's state and its samples."""
 
     def __init__(self, plan: Plan, memory_size: int):
@@ -167,10 +167,53 @@ class _Arrays:
     def start(self, plan, r, physics, memory0):
         start_rollout(r, physics, plan.x0, self.state, memory0)
 
+    def outcome(self, plan: Plan, interrupted: bool) -> Outcome:
+        """The run's :class:`Outcome` (:func:`stopped_outcome`), with the samples where the plan records."""
+        samples = None
+        if plan.run.every:
+            samples = {**self.samples._asdict(), "count": self.state.rollouts["samples"].copy()}
+        return stopped_outcome(self.state, samples, interrupted)
 
-def _form_of(controller):
-    compiled = getattr(controller, "compiled", None)
-    return compiled() if callable(compiled) else None
+
+def stopped_outcome(state, samples, interrupted: bool, meta=None) -> Outcome:
+    """A run's :class:`Outcome`: a rollout still running at its end is marked stopped, and the run interrupted."""
+    running = state.rollouts["status"] == RUNNING
+    state.rollouts["status"][running] = STOPPED
+    return Outcome(state, samples, interrupted=interrupted or bool(running.any()), meta=dict(meta or {}))
+
+
+def check_count(plan: Plan, controllers):
+    """One controller per rollout of ``plan``, or a one-line error."""
+    if len(controllers) != len(plan):
+        raise PaaError(f"need one controller per rollout ({len(plan)}), got {len(controllers)}")
+
+
+def packed_controllers(plan: Plan, controllers):
+    """Each distinct controller (by identity) checked against the plan's robot and task and packed once.
+
+    Returns
+    -------
+    forms : dict
+        :class:`Packed` (None for a controller with no compiled form) by ``id`` of the controller.
+    keys : list
+        Each rollout's key into ``forms``.
+    """
+    check_count(plan, controllers)
+    forms, keys = {}, []
+    for controller in controllers:
+        key = id(controller)
+        if key not in forms:
+            check_binding(controller, plan.robot, plan.task)
+            compiled = getattr(controller, "compiled", None)
+            form = compiled() if callable(compiled) else None
+            forms[key] = None if form is None else pack(form)
+        keys.append(key)
+    return forms, keys
+
+
+def memory_size(forms: dict) -> int:
+    """The controllers' memory every rollout's records hold: the largest packed one's, at least 1."""
+    return max([f.memory.size for f in forms.values() if f is not None] + [1])
 
 
 def run(plan: Plan, controllers, nthread=None, progress=False, desc="rollouts") -> Outcome:
@@ -182,21 +225,14 @@ def run(plan: Plan, controllers, nthread=None, progress=False, desc="rollouts") 
     segment and returns what finished, with ``interrupted`` set.
     """
     n = len(plan)
-    if len(controllers) != n:
-        raise PaaError(f"need one controller per rollout ({n}), got {len(controllers)}")
-    forms, compiled_rows, python_groups = {}, [], {}
-    for r, controller in enumerate(controllers):
-        key = id(controller)
-        if key not in forms:
-            check_binding(controller, plan.robot, plan.task)
-            form = _form_of(controller)
-            forms[key] = None if form is None else pack(form)
+    forms, keys = packed_controllers(plan, controllers)
+    compiled_rows, python_groups = [], {}
+    for r, key in enumerate(keys):
         if forms[key] is not None:
             compiled_rows.append(r)
         else:
             python_groups.setdefault(key, []).append(r)
-    memory_size = max([f.memory.size for f in forms.values() if f is not None] + [1])
-    arrays = _Arrays(plan, memory_size)
+    arrays = RunArrays(plan, memory_size(forms))
     interrupted = False
     # Counted in simulated seconds, so that one long rollout shows its progress too.
     bar = _SimulatedTime(progress_bar(total=round(n * plan.n_steps * plan.dt, 6), unit="s simulated", desc=desc,
@@ -211,13 +247,7 @@ def run(plan: Plan, controllers, nthread=None, progress=False, desc="rollouts") 
                 interrupted = _run_python(plan, controllers[rows[0]], rows, arrays, bar)
     finally:
         bar.close()
-    rollouts = arrays.state.rollouts
-    running = rollouts["status"] == RUNNING
-    rollouts["status"][running] = STOPPED
-    samples = None
-    if plan.run.every:
-        samples = {**arrays.samples._asdict(), "count": rollouts["samples"].copy()}
-    return Outcome(arrays.state, samples, interrupted=interrupted or bool(running.any()))
+    return arrays.outcome(plan, interrupted)
 
 
 class _SimulatedTime:

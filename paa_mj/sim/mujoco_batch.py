@@ -22,11 +22,11 @@ import mujoco
 import numpy as np
 from numba import njit, types
 
-from ..control.base import KERNEL_TYPE, check_binding
+from ..control.base import KERNEL_TYPE
 from ..errors import PaaError
 from ..mujoco_log import mujoco_log_off
-from .engine import RUNNING, STOPPED, Outcome, Plan, pack
-from .records import RUN_T, SAMPLES_T, SETTINGS_T, STATE_T, Physics, new_samples, new_state
+from .engine import RUNNING, Outcome, Plan, RunArrays, memory_size, packed_controllers
+from .records import RUN_T, SAMPLES_T, SETTINGS_T, STATE_T, Physics
 from .step import after_physics, before_physics, begin_rollout, call_controller, measure
 
 __all__ = ["available", "run", "agreement"]
@@ -104,21 +104,15 @@ def _offsets(batch, n_links) -> np.ndarray:
     return np.array(start + [n_links, n_links - 1], np.int64)
 
 
-def _groups(plan, controllers):
-    """(packed form, its rollouts) for each distinct controller; a :class:`PaaError` for one without a compiled
-    form (this path runs compiled controllers only)."""
+def _groups(forms, keys):
+    """(packed form, its rollouts) for each distinct controller of :func:`~paa_mj.sim.engine.packed_controllers`; a
+    :class:`PaaError` for one without a compiled form (this path runs compiled controllers only)."""
     groups = {}
-    for r, controller in enumerate(controllers):
-        key = id(controller)
-        if key not in groups:
-            check_binding(controller, plan.robot, plan.task)
-            compiled = getattr(controller, "compiled", None)
-            form = compiled() if callable(compiled) else None
-            if form is None:
-                raise PaaError(f"mujoco.batch runs compiled controllers only; rollout {r}'s has no compiled form")
-            groups[key] = (pack(form), [])
-        groups[key][1].append(r)
-    return [(packed, np.array(rows, np.int64)) for packed, rows in groups.values()]
+    for r, key in enumerate(keys):
+        if forms[key] is None:
+            raise PaaError(f"mujoco.batch runs compiled controllers only; rollout {r}'s has no compiled form")
+        groups.setdefault(key, []).append(r)
+    return [(forms[key], np.array(rows, np.int64)) for key, rows in groups.items()]
 
 
 def _batch_of(plan, nthread):
@@ -153,15 +147,13 @@ def run(plan: Plan, controllers, nthread=None) -> Outcome:
         Each rollout's records and samples, as the engine's; ``interrupted`` after Ctrl-C.
     """
     n = len(plan)
-    if len(controllers) != n:
-        raise PaaError(f"need one controller per rollout ({n}), got {len(controllers)}")
-    groups = _groups(plan, controllers)
+    forms, keys = packed_controllers(plan, controllers)
+    groups = _groups(forms, keys)
     batch = _batch_of(plan, nthread)
-    run_, links = plan.run, plan.n_links
-    max_delay = int(np.max(plan.settings.rollouts["delay"], initial=0))
-    state = new_state(n, links, max(p.memory.size for p, _ in groups), max_delay)
-    samples = new_samples(n, links, run_.n_steps // run_.every + 2 if run_.every else 0)
-    rows, at, warnings = batch.state, _offsets(batch, links), batch.warning
+    run_ = plan.run
+    arrays = RunArrays(plan, memory_size(forms))
+    state, samples = arrays.state, arrays.samples
+    rows, at, warnings = batch.state, _offsets(batch, plan.n_links), batch.warning
     for packed, group in groups:
         _begin(group, rows, at, warnings, plan.x0, state, packed.memory)
     go = np.zeros(n, np.int8)
@@ -181,12 +173,7 @@ def run(plan: Plan, controllers, nthread=None) -> Outcome:
         interrupted = True
     except mujoco.batch.SimulationError as error:
         raise PaaError(f"MuJoCo's batch failed: {error}") from None
-    running = state.rollouts["status"] == RUNNING
-    state.rollouts["status"][running] = STOPPED
-    out = None
-    if run_.every:
-        out = {**samples._asdict(), "count": state.rollouts["samples"].copy()}
-    return Outcome(state, out, interrupted=interrupted or bool(running.any()))
+    return arrays.outcome(plan, interrupted)
 
 
 def _equal(x, y) -> bool:

@@ -40,12 +40,12 @@ else is refused in one line before any work.
 # where the kernels are defined (:func:`_array_types`), and read by Warp as objects.
 import numpy as np
 
-from ..control.base import check_binding, controller_name
+from ..control.base import controller_name
 from ..errors import PaaError
 from ..progress import progress as progress_bar
 from . import engine
 from .records import new_state
-from .step import RUNNING, STOPPED, account, add_effort_work, apply_pushes, call_controller, command_into, \
+from .step import RUNNING, account, add_effort_work, apply_pushes, call_controller, command_into, \
     measure_into, state_status, verdict
 from .warp_device import device_name, load_warp
 
@@ -80,26 +80,18 @@ def device_controllers(plan: engine.Plan, controllers):
     """Each rollout's packed compiled form, checked to have a device law and to share its kernels with the others:
     (the kernels (first, second, condition), params (N, P), memory (N, S)); one-line refusals otherwise."""
     laws = _device_laws()
-    packed, kernels = {}, None
-    for controller in controllers:
-        key = id(controller)
-        if key in packed:
-            continue
-        check_binding(controller, plan.robot, plan.task)
-        compiled = getattr(controller, "compiled", None)
-        form = compiled() if callable(compiled) else None
-        if form is None:
-            raise PaaError(_REFUSAL.format(name=controller_name(controller)))
-        p = engine.pack(form)
-        triple = (p.first, p.second, p.condition)
-        if any(k not in laws for k in triple):
-            raise PaaError(_REFUSAL.format(name=controller_name(controller)))
+    forms, keys = engine.packed_controllers(plan, controllers)
+    kernels = None
+    for key in dict.fromkeys(keys):
+        p = forms[key]
+        triple = None if p is None else (p.first, p.second, p.condition)
+        if triple is None or any(k not in laws for k in triple):
+            raise PaaError(_REFUSAL.format(name=controller_name(controllers[keys.index(key)])))
         if kernels is not None and triple != kernels:
             raise PaaError("the warp engine runs one controller law for every rollout of a batch (gains and models"
                            " may differ): split the batch, or use --engine mujoco")
         kernels = triple
-        packed[key] = p
-    rows = [packed[id(c)] for c in controllers]
+    rows = [forms[key] for key in keys]
     width = max(p.params.size for p in rows)
     memory = max(p.memory.size for p in rows)
     params = np.zeros((len(rows), width))
@@ -304,9 +296,7 @@ class _Worlds:
 def run(plan: engine.Plan, controllers, *, device=None, progress=False, desc="rollouts") -> engine.Outcome:
     """Run every rollout of ``plan`` on MuJoCo Warp (module docstring); the same :class:`~paa_mj.sim.engine.Outcome`
     as :func:`paa_mj.sim.engine.run`. ``device``: a Warp device name (default: :func:`device_name`'s)."""
-    n = len(plan)
-    if len(controllers) != n:
-        raise PaaError(f"need one controller per rollout ({n}), got {len(controllers)}")
+    engine.check_count(plan, controllers)
     _check_plan(plan)
     triple, params, memory = device_controllers(plan, controllers)
     wp, mjw = load_warp()
@@ -316,10 +306,7 @@ def run(plan: engine.Plan, controllers, *, device=None, progress=False, desc="ro
         worlds = _Worlds(wp, mjw, plan, params, memory, device)
         interrupted = _advance(wp, mjw, plan, worlds, control, after, device, progress, desc)
         state = worlds.state(plan, memory.shape[1])
-    running = state.rollouts["status"] == RUNNING
-    state.rollouts["status"][running] = STOPPED
-    return engine.Outcome(state, None, interrupted=interrupted or bool(running.any()),
-                          meta={"engine": "warp", "device": device})
+    return engine.stopped_outcome(state, None, interrupted, meta={"engine": "warp", "device": device})
 
 
 def _advance(wp, mjw, plan, worlds, control, after, device, progress, desc):

@@ -43,6 +43,7 @@ from gymnasium.vector.utils import batch_space
 from numba import njit
 
 from ..mujoco_log import mujoco_log_off
+from ..sim.batch import ENGINES  # MuJoCo on the CPU (physics mujoco or analytic), or MuJoCo Warp
 from ..sim.mujoco_lib import mj_step as _mj_step
 from ..task import book_succeeded
 from .single import GymnastEnv, perturbed
@@ -51,9 +52,6 @@ from .stepper import _CTRL, _DATA, Robots, _float64_at, advance
 
 #: The most sub-environments of one vector environment.
 MAX_ENVS = 1_000_000
-#: The engines of the physics: MuJoCo on the CPU (``physics`` "mujoco" or "analytic"), or MuJoCo Warp on a device
-#: (:mod:`paa_mj.envs.warp_robots`, ``pip install "paa_mj[gpu]"``).
-ENGINES = ("mujoco", "warp")
 _MODES = {mode.value: mode for mode in AutoresetMode}
 
 

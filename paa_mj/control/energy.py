@@ -46,7 +46,7 @@ from ..model.vcl import Psi, psi, theta
 from ..task import Task
 from ..theory.linear import theorem1_covers
 from .base import Binding, CompiledForm, Controller, kernel
-from .gains import check_chain_gains, check_gains
+from .gains import check_gains_for
 
 _KD, _KP, _KV = len(eq.CONSTANTS), len(eq.CONSTANTS) + 1, len(eq.CONSTANTS) + 2
 
@@ -324,10 +324,8 @@ class EnergyVCLController(Controller):
         covered = theorem1_covers(model, self.task)
         self._law = _PaperLaw(model, self.kD, self.kP, self.kV, self.uses_vcl) if covered else \
             _ChainLaw(model, self.kD, self.kP, self.kV, self.uses_vcl, self.task)
-        if check and covered:
-            check_gains(model, self.kD, self.kP, self.kV, stacklevel=4)
-        elif check:  # Theorem 1's bounds (59), (60) are proved for the paper's case only; (41) holds by definition
-            check_chain_gains(model, self.kD, self.kP, self.kV, self.task)
+        if check:  # Theorem 1's bounds (59), (60) are proved for the paper's case only; (41) holds by definition
+            check_gains_for(model, self.kD, self.kP, self.kV, self.task, stacklevel=4)
 
     @property
     def E_r(self) -> float:

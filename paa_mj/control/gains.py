@@ -130,7 +130,7 @@ def check_gain_range(kD, kP, kV):
             raise PaaError(f"gain {name} = {value:g} is above {MAX_GAIN:g}, 1e8 times the paper's gains")
 
 
-def check_gains(model: AnalyticModel, kD, kP, kV, stacklevel=3):
+def check_gains(model: AnalyticModel, kD, kP, kV, stacklevel=3, task: Task | None = None):
     """Validate gains of (40) (or (12)) against the theory for ``model``.
 
     Raises
@@ -155,7 +155,8 @@ def check_gains(model: AnalyticModel, kD, kP, kV, stacklevel=3):
     kd, e1, e2 = thresholds(model)
     if kD <= kd.value:
         raise PaaError(f"gain kD = {kD:g} is not above kD_min = {kd.value:.6g} of (41): controller (40) can become"
-                       f" singular; the family rule's gains would do: {gains_text(family_gains(model, Task.named('folded', model)))}")
+                       " singular; the family rule's gains would do:"
+                       f" {gains_text(family_gains(model, Task.named('folded', model) if task is None else task))}")
     messages = []
     if model.E_r <= 0:
         messages.append(f"E_r = {model.E_r:.6g} J <= 0: the method of the paper does not apply (9)")
@@ -202,7 +203,7 @@ def check_gains_for(model: AnalyticModel, kD, kP, kV, task: Task, stacklevel=3):
     """:func:`check_gains` (Theorem 1's bounds) where Theorem 1 covers the robot and task, :func:`check_chain_gains`
     (the singularity bound (41) by its definition) for every other robot or goal."""
     if theorem1_covers(model, task):
-        return check_gains(model, kD, kP, kV, stacklevel=stacklevel + 1)
+        return check_gains(model, kD, kP, kV, stacklevel=stacklevel + 1, task=task)
     check_chain_gains(model, kD, kP, kV, task)
     return []
 

@@ -107,3 +107,17 @@ def test_simulated_atlas_says_how_each_kip_ended(capsys, tmp_path):
 def test_atlas_bad_input(capsys, args, fragment):
     code, _, err = run(capsys, "atlas", *args)
     assert code == 2 and fragment in err and len(err.strip().splitlines()) == 1
+
+
+def test_large_maps_are_one_image_in_their_svg(tmp_path):
+    """A map of more cells than RASTER_CELLS is one image in its SVG (a 1024 x 1024 basin would otherwise write
+    a path per cell: minutes and hundreds of megabytes); a smaller one keeps a path per cell."""
+    from paa_mj.outputs.plots import RASTER_CELLS, cell_map, new_figure, save_figure
+
+    for side, stem in ((int(RASTER_CELLS**0.5) + 1, "large"), (8, "small")):
+        fig, ax = new_figure()
+        cell_map(ax, np.arange(side), np.arange(side), np.random.default_rng(0).random((side, side)))
+        save_figure(fig, tmp_path, stem)
+    large, small = ((tmp_path / f"{stem}.svg").read_text() for stem in ("large", "small"))
+    assert large.count("<image") == 1 and large.count("<path") < 100
+    assert small.count("<image") == 0 and small.count("<path") >= 64

@@ -127,8 +127,10 @@ def main(argv=None):
         with warnings.catch_warnings(), mujoco_log_off():
             warnings.showwarning = _show_warning
             from ..control.gains import GainsNote, TheoryWarning
+            from ..sim.retirement import SamplingWarning
 
             warnings.simplefilter("always", TheoryWarning)
+            warnings.simplefilter("always", SamplingWarning)  # said once per robot, goal, step and gain by itself
             warnings.simplefilter("always", GainsNote)  # said once per robot and goal by the note itself
             quiet = getattr(args, "json", False)
             with json_only_on_stdout() if quiet else contextlib.nullcontext(), \

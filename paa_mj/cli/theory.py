@@ -116,13 +116,38 @@ def cmd_make_model(args):
     rule_text = ""
     if gains is None:
         gains, rule_text = _rule_gains(params)
-    title = " ".join(t for t in (args.title or "Parameters given by the user.", rule_text) if t)
-    xml = mjcf_from_params(params, name=args.name, title=title, gains=gains, torque_limits=limits)
+    timestep, step_text = _time_step(params, args.timestep)
+    title = " ".join(t for t in (args.title or "Parameters given by the user.", rule_text, step_text) if t)
+    xml = mjcf_from_params(params, name=args.name, title=title, gains=gains, torque_limits=limits, timestep=timestep)
     params_from_model(compile_mjcf(xml, "generated model"), source="generated model")
     chosen = "; stored gains kD = {kD:.6g}, kP = {kP:.6g}, kV = {kV:.6g}".format(**gains)
     write_text(args.out, xml)
     print(f"wrote {args.out}{chosen}" + (f" ({rule_text})" if rule_text else ""))
+    if step_text:
+        print(step_text)
     return 0
+
+
+def _time_step(params, given):
+    """The model's time step [s]: ``given``, else the largest of 1 ms / 2^k at which the balance LQR (67) of both
+    goals (the paper's weights) is stable when sampled; and a line for the header and the terminal (empty when
+    given)."""
+    from ..model.dynamics import AnalyticModel
+    from ..task import Task
+    from ..theory.linear import balance_time_step
+
+    if given is not None:
+        return given, ""
+    model = AnalyticModel.from_params(params)
+    try:
+        step = balance_time_step(model, [Task.named(goal, model) for goal in ("folded", "stretched")])
+    except PaaError as err:  # no LQR at a goal: nothing to choose the step by
+        return 1e-3, f"Time step 1 ms (the LQR (67) could not choose one: {err})."
+    if step is None:
+        return 1e-3, ("Time step 1 ms: the balance LQR (67) with the paper's weights is stable when sampled at no"
+                      " step down to 1/256 ms; give its runs --lqr-weights Q R.")
+    return step, (f"Time step {step * 1e3:g} ms, the largest of 1 ms / 2^k at which the balance LQR (67) of both"
+                  " goals is stable when sampled.")
 
 
 def _rule_gains(params):
@@ -186,6 +211,9 @@ def register(sub, parser_class):
     p.add_argument("--gravity", type=positive, default=9.81, metavar="G", help="gravity [m/s^2] (default 9.81)")
     p.add_argument("--torque-limit", type=positive, nargs="+", metavar="T",
                    help="each motor's torque limit [N m] (its ctrlrange), N-1 values or one for all (default: none)")
+    p.add_argument("--timestep", type=positive, default=None, metavar="DT",
+                   help="the model's time step [s] (default: the largest of 1 ms / 2^k at which the balance LQR (67)"
+                        " of both goals is stable when sampled, stated in the file's header)")
     p.add_argument("--name", default="custom", help="the model's name")
     p.add_argument("--title", default="", help="one line for the file's header comment")
     p.add_argument("--out", type=file_path, required=True, metavar="FILE.xml", help="MJCF file to write")

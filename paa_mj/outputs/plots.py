@@ -32,6 +32,17 @@ MARKERS = ["o", "s", "^", "D", "v", "P", "X"]
 OUTCOME_COLOURS = ["#009E73", "#E69F00", "#CC79A7", "#999999", "#D55E00"]
 
 
+#: Maps of more cells than this are drawn as one image in their SVG (as in their PNG), not a path per cell: a
+#: 1024 x 1024 basin would otherwise take minutes and hundreds of megabytes to write.
+RASTER_CELLS = 128 * 128
+
+
+def cell_map(ax, xs, ys, values, **kwargs):
+    """``ax.pcolormesh`` of ``values`` on the cell centres ``xs``, ``ys`` (the mesh, for a colour bar)."""
+    return ax.pcolormesh(xs, ys, values, shading="nearest", rasterized=np.size(xs) * np.size(ys) > RASTER_CELLS,
+                         **kwargs)
+
+
 def new_figure(*args, **kwargs):
     """``plt.subplots`` in the package's style."""
     with plt.rc_context(STYLE):
@@ -193,13 +204,13 @@ def basin_figure(summary, arrays):
     fig, (left, right) = new_figure(1, 2, figsize=(11, 4.6), constrained_layout=True)
     cmap = ListedColormap(OUTCOME_COLOURS).with_extremes(bad="white")
     norm = BoundaryNorm(np.arange(-0.5, len(OUTCOME_NAMES) + 0.5), cmap.N)
-    left.pcolormesh(xs, ys, np.ma.masked_less(outcome, 0).T, cmap=cmap, norm=norm, shading="nearest")
+    cell_map(left, xs, ys, np.ma.masked_less(outcome, 0).T, cmap=cmap, norm=norm)
     counts = summary.get("outcomes", {})
     handles = [plt.Rectangle((0, 0), 1, 1, color=c) for c in OUTCOME_COLOURS]
     left.legend(handles, [f"{n} ({counts.get(n, 0)})" for n in OUTCOME_NAMES], loc="upper center",
                 bbox_to_anchor=(0.5, -0.14), ncol=2, fontsize=7, frameon=False)
     cmap2 = matplotlib.colormaps["viridis"].with_extremes(bad="0.85")
-    mesh = right.pcolormesh(xs, ys, np.ma.masked_invalid(switch).T, cmap=cmap2, shading="nearest")
+    mesh = cell_map(right, xs, ys, np.ma.masked_invalid(switch).T, cmap=cmap2)
     fig.colorbar(mesh, ax=right, label="first switch to the balance controller [s] (grey: never)")
     a, b = summary["axes"]
     unit = lambda name: "[rad]" if name.startswith("q") else "[rad/s]"  # noqa: E731
@@ -388,11 +399,11 @@ def atlas_theory_figure(summary, arrays):
     for ax, (key, title, cmap, signed) in zip(axes.ravel(), panels):
         values = arrays[key].reshape(shape).astype(float)
         if arrays[key].dtype == bool:
-            mesh = ax.pcolormesh(f1, f2, values.T, cmap=cmap, vmin=-0.2, vmax=1.2, shading="nearest")
+            mesh = cell_map(ax, f1, f2, values.T, cmap=cmap, vmin=-0.2, vmax=1.2)
         elif signed:
             finite = values[np.isfinite(values)]
             span = float(np.max(np.abs(finite))) if finite.size else 1.0
-            mesh = ax.pcolormesh(f1, f2, values.T, cmap=cmap, vmin=-span, vmax=span, shading="nearest")
+            mesh = cell_map(ax, f1, f2, values.T, cmap=cmap, vmin=-span, vmax=span)
         else:
             from matplotlib.colors import LogNorm
 
@@ -400,7 +411,7 @@ def atlas_theory_figure(summary, arrays):
             norm = None
             if positive.size and positive.max() > positive.min():
                 norm = LogNorm(max(positive.min(), positive.max() * 1e-4), positive.max(), clip=True)
-            mesh = ax.pcolormesh(f1, f2, np.where(values > 0, values, np.nan).T, cmap=cmap, norm=norm, shading="nearest")
+            mesh = cell_map(ax, f1, f2, np.where(values > 0, values, np.nan).T, cmap=cmap, norm=norm)
         fig.colorbar(mesh, ax=ax, shrink=0.85)
         _atlas_axes(ax, summary, arrays)
         ax.set_title(title)
@@ -422,8 +433,8 @@ def atlas_outcome_figure(summary, arrays):
     fig, (left, right) = new_figure(1, 2, figsize=(12, 5), constrained_layout=True)
     colours = OUTCOME_COLOURS
     cmap = ListedColormap(colours).with_extremes(bad="white")
-    left.pcolormesh(f1, f2, np.ma.masked_less(outcome, 0).T, cmap=cmap,
-                    norm=BoundaryNorm(np.arange(-0.5, len(OUTCOMES) + 0.5), cmap.N), shading="nearest")
+    cell_map(left, f1, f2, np.ma.masked_less(outcome, 0).T, cmap=cmap,
+                    norm=BoundaryNorm(np.arange(-0.5, len(OUTCOMES) + 0.5), cmap.N))
     counts = summary["counts"]
     left.legend([plt.Rectangle((0, 0), 1, 1, color=c) for c in colours],
                 [f"{name} ({counts.get(name, 0)})" for name in OUTCOMES], loc="upper center",
@@ -432,7 +443,7 @@ def atlas_outcome_figure(summary, arrays):
     left.set_title("the kip from (65)" if summary.get("goal", "folded") == "folded" else
                    "the swing-up to the stretched goal")
     share = arrays["balanced_starts"].reshape(shape)
-    mesh = right.pcolormesh(f1, f2, 100 * share.T, cmap="viridis", vmin=0, vmax=100, shading="nearest")
+    mesh = cell_map(right, f1, f2, 100 * share.T, cmap="viridis", vmin=0, vmax=100)
     fig.colorbar(mesh, ax=right, label="balanced from random starts [%]")
     _atlas_axes(right, summary, arrays)
     right.set_title(f"{summary['starts']} random starts per robot")

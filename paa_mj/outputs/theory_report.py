@@ -14,7 +14,7 @@ from ..control.closed_loop import duu_eigenvalues
 from ..model.dynamics import AnalyticModel
 from ..task import Task
 from ..theory.conditions import constraint_54, frozen_acrobot_controllable, thresholds
-from ..theory.linear import goal_controllability, lqr_gain, sampled_spectral_radius
+from ..theory.linear import goal_controllability, lqr_gain, sampled_balance
 
 
 @dataclass
@@ -44,6 +44,9 @@ class TheoryReport:
     #: Spectral radius of the LQR (67) loop sampled with zero-order hold at ``dt`` (< 1: stable), and ``dt`` [s].
     lqr_sampled_radius: float | None = None
     dt: float | None = None
+    #: The largest of ``dt``/2^k [s] at which that sampled loop is stable (``dt`` itself where it is; None: none
+    #: down to ``dt``/256).
+    lqr_stable_dt: float | None = None
     goal: str = "folded"
     #: How kD_min was found, and its certificate: kD_min <= kD_min_upper, by the branch and bound of
     #: :mod:`paa_mj.theory.kd_search`; certified when (upper - kD_min) / kD_min <= kD_min_tolerance.
@@ -57,7 +60,7 @@ class TheoryReport:
         """The report as JSON data; the sampled LQR's keys only where a time step was given."""
         data = asdict(self)
         if self.dt is None:
-            del data["lqr_sampled_radius"], data["dt"]
+            del data["lqr_sampled_radius"], data["dt"], data["lqr_stable_dt"]
         return data
 
 
@@ -91,7 +94,7 @@ def theory_report(am: AnalyticModel, kD, kP, kV, dt=None) -> TheoryReport:
         frozen_acrobot_ud_controllable=frozen_ok,
         udd_controllable=ctrb.controllable, udd_controllability=asdict(ctrb),
         lqr_K=K.tolist(), gains={"kD": kD, "kP": kP, "kV": kV},
-        lqr_sampled_radius=_sampled_radius(am, K, dt, task, ctrb.controllable), dt=dt,
+        **_sampled(am, K, dt, task, ctrb.controllable), dt=dt,
         duu_eigenvalues=[[float(e.real), float(e.imag)] for e in eig],
         duu_charpoly=[float(c) for c in poly],
         duu_unstable=bool(np.max(eig.real) > 0),
@@ -113,10 +116,12 @@ def _certify(am, kd, task):
             "kD_min_gap": gap}
 
 
-def _sampled_radius(am, K, dt, task, controllable):
+def _sampled(am, K, dt, task, controllable):
+    """The LQR (67) loop sampled at ``dt``: its spectral radius and the largest stable dt/2^k (None without dt)."""
     if dt is None or not controllable:
-        return None
-    return float(sampled_spectral_radius(am, K, dt, task))
+        return {"lqr_sampled_radius": None, "lqr_stable_dt": None}
+    balance = sampled_balance(am, K, dt, task)
+    return {"lqr_sampled_radius": float(balance["radius"]), "lqr_stable_dt": balance["stable_dt"]}
 
 
 def chain_theory_report(am: AnalyticModel, kD, kP, kV, task: Task, dt=None, kd_budget_cpu_s=None) -> dict:
@@ -150,7 +155,7 @@ def chain_theory_report(am: AnalyticModel, kD, kP, kV, task: Task, dt=None, kd_b
         "goal_controllable": ctrb.controllable, "goal_controllability": asdict(ctrb), "ctrb_rank": rank,
         "state_dimension": int(A.shape[0]),
         "lqr_K": K.tolist(),
-        "lqr_sampled_radius": _sampled_radius(am, K, dt, task, ctrb.controllable), "dt": dt,
+        **_sampled(am, K, dt, task, ctrb.controllable), "dt": dt,
         "merged_acrobot_ud_controllable": merged_ok, "deltabar_min": db_min, "deltabar_max": db_max,
         "gains": {"kD": kD, "kP": kP, "kV": kV},
         "theorem1": f"not covered: Theorem 1 and the bounds (54), (59), (60) are proved for the paper's 3-link gymnast"
@@ -204,7 +209,9 @@ def _sampled_line(r):
     radius = r.get("lqr_sampled_radius")
     if radius is None:
         return []
-    verdict = "stable" if radius < 1 else "UNSTABLE: these weights do not balance at this time step"
+    stable = r.get("lqr_stable_dt")
+    verdict = "stable" if radius < 1 else "UNSTABLE: these weights do not balance at this time step; " + (
+        f"stable from dt = {stable * 1e3:g} ms" if stable is not None else "at no step down to 1/256 of it")
     return [f"  LQR sampled at dt = {r['dt'] * 1e3:g} ms  spectral radius {radius:.6g} ({verdict})"]
 
 

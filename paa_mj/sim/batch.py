@@ -31,7 +31,7 @@ from .engine import DIVERGED, FINISHED, RETIRED, RUNNING, STATUS_TEXT, STOPPED, 
 from .inputs import check_initial_states, check_robot, per_rollout, sample_interval, steps_for
 from .integrators import mujoco_model_for
 from .records import SETTING, Run, Settings
-from .retirement import certificate_size, retirement_certificate
+from .retirement import certificate_size, retirement_certificate, warn_unstable_sampling
 
 #: Per-rollout outcome arrays of a :class:`BatchResult`, in the order they are saved.
 OUTCOMES = ("x0", "switch_time", "balanced", "final_state", "E_minus_Er_final", "V_final", "max_abs_tau", "diverged",
@@ -203,6 +203,7 @@ def build_plan(robot: Robot, task: Task, x0, t_final, controllers, *, dt=None, i
                 "--t-final or the number of rollouts, or raise --dt")
     if every:
         check_memory(n * (n_steps // every + 2) * 80.0, "recorded samples", "--t-final or raise --sample-dt")
+    warn_unstable_sampling(robot.analytic, controllers, dt, task, robot.name)
     models, model_index, plant_robots = _plants(robot, base, plants, n)
     limits = per_rollout(torque_limit, n, links - 1, "torque limit", np.inf)
     if np.any(~(limits > 0)):
@@ -211,18 +212,24 @@ def build_plan(robot: Robot, task: Task, x0, t_final, controllers, *, dt=None, i
         raise PaaError(f"disturbances must be a Disturbances (or None), got {type(disturbances).__name__}")
     settings = disturbances.settings(n, links, np.minimum(limits, robot.torque_limits))
     disturbed = disturbances.disturbed(settings)
-    certificates = {}
-    for r in range(n):
-        form = getattr(controllers[r], "compiled", lambda: None)() if retire else None
+    # one certificate per distinct (plant, controller): a study's million rollouts share a handful
+    for (plant, _), rows in _groups(model_index, controllers).items():
+        form = getattr(controllers[rows[0]], "compiled", lambda: None)() if retire else None
         gain = None if form is None else form.balance_gain
-        key = (model_index[r], id(controllers[r]))
-        if key not in certificates:
-            certificates[key] = retirement_certificate(plant_robots[model_index[r]].analytic, gain, dt, task)
-        if not disturbed[r]:
-            settings.cert[r], settings.rollouts["retire_level"][r] = certificates[key]
+        certificate, level = retirement_certificate(plant_robots[plant].analytic, gain, dt, task)
+        rows = rows[~disturbed[rows]]
+        settings.cert[rows], settings.rollouts["retire_level"][rows] = certificate, level
     run = Run(dt, n_steps, int(every), bool(retire), int(disturbances.seed), task.params)
     return engine.Plan(robot=robot, task=task, models=models, model_index=model_index, x0=x0, settings=settings,
                        run=run)
+
+
+def _groups(plant_index, controllers) -> dict:
+    """The rollouts (indices) of each distinct (plant index, controller object), in the order of first use."""
+    groups = {}
+    for r, key in enumerate(zip(np.asarray(plant_index).tolist(), map(id, controllers))):
+        groups.setdefault(key, []).append(r)
+    return {key: np.asarray(rows, np.int64) for key, rows in groups.items()}
 
 
 def _plants(robot, base, plants, n):
@@ -264,10 +271,11 @@ def outcome_arrays(plan: engine.Plan, outcome: engine.Outcome, controllers, plan
     region = np.where(entered >= 0, entered * dt, np.nan)
     t_balanced = np.where(balanced, (state.book[:, B_LAST_FAR] + 1) * dt, np.nan)
     e_err, V = np.empty(len(final)), np.empty(len(final))
-    for r, (am, ctrl) in enumerate(zip(plant_analytics, controllers)):
-        q, qd = final[r, :links], final[r, links:]
-        e_err[r] = am.energy(q, qd) - task.goal_energy(am)
-        V[r] = _lyapunov(ctrl, am, q, qd)
+    for (_, _), rows in _groups(plan.model_index, controllers).items():
+        am = plant_analytics[rows[0]]
+        q, qd = final[rows, :links], final[rows, links:]
+        e_err[rows] = am.energy(q, qd) - task.goal_energy(am)
+        V[rows] = _lyapunov(controllers[rows[0]], am, q, qd)
     return {
         "x0": plan.x0.copy(), "switch_time": switch, "balanced": balanced, "final_state": final,
         "E_minus_Er_final": e_err, "V_final": V, "max_abs_tau": state.peak.copy(), "diverged": diverged,

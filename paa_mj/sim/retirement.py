@@ -77,3 +77,43 @@ def modal_bound(cert, qpos, qvel, goal):
             total += amplitude[m] * cert[2 * square + size * i + m]
         bound = max(bound, total)
     return bound
+
+
+class SamplingWarning(UserWarning):
+    """A controller's balance gain is unstable when held over the simulation's time step; the run goes on."""
+
+
+_WARNED: set = set()
+
+
+def sampling_advice(balance: dict) -> str:
+    """What to do about a balance unstable when sampled (:func:`~paa_mj.theory.linear.sampled_balance`), briefly."""
+    if balance["stable_dt"] is None:
+        return "at no time step down to 1/256 of this one: weigh the torques more (--lqr-weights Q R)"
+    return (f"stable from dt = {balance['stable_dt'] * 1e3:g} ms: a step that short (the model's timestep, or"
+            " simulate's --dt) or --lqr-weights Q R")
+
+
+def warn_unstable_sampling(plant, controllers, dt, task, robot_name="the robot"):
+    """A :class:`SamplingWarning` for each distinct balance gain among ``controllers`` that is unstable when held
+    over ``dt`` [s] on ``plant`` (its analytic model), once per robot, goal, step and gain: such a run cannot
+    balance, whatever its swing-up does."""
+    for controller in {id(c): c for c in controllers}.values():
+        compiled = getattr(controller, "compiled", None)
+        form = compiled() if callable(compiled) else None
+        K = None if form is None else form.balance_gain
+        if K is None:
+            continue
+        key = (plant.key(), task.name, float(dt), np.asarray(K, float).tobytes())
+        if key in _WARNED:
+            continue
+        _WARNED.add(key)
+        from ..theory.linear import sampled_balance
+
+        balance = sampled_balance(plant, K, dt, task)
+        if balance["radius"] >= 1.0:
+            import warnings
+
+            warnings.warn(f"the balance LQR (67) of {robot_name} at the {task.name} goal is unstable when sampled at"
+                          f" dt = {dt * 1e3:g} ms (spectral radius {balance['radius']:.4g} >= 1), so no run of it can"
+                          f" balance; it is {sampling_advice(balance)}", SamplingWarning, stacklevel=3)

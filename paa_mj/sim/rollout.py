@@ -15,6 +15,7 @@ from ..control.base import controller_name
 from ..errors import SimulationDiverged
 from ..model.robot import Robot
 from ..task import Task, as_task
+from ..theory.linear import sampled_balance
 from . import engine
 from .batch import NO_DISTURBANCES, Disturbances, _lyapunov, build_plan, controllers_for, outcome_arrays
 from .inputs import check_initial_state, check_robot, sample_interval
@@ -98,6 +99,9 @@ def simulate_mujoco(robot: Robot, controller="vcl", x0: ArrayLike | None = None,
                       robot_xml=robot.xml)
     when = float(out["t_end"][0])
     traj.meta["success"] = bool(out["success"][0])
+    form = getattr(controllers[0], "compiled", lambda: None)()
+    if form is not None and form.balance_gain is not None:
+        traj.meta["balance_sampling"] = sampled_balance(robot.analytic, form.balance_gain, dt, task)
     # the engine's peak over every step, not only over the recorded samples
     traj.meta["max_abs_tau"] = out["max_abs_tau"][0].tolist()
     if status in engine.DIVERGED:

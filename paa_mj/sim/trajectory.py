@@ -13,6 +13,7 @@ from ..io import json_writer, npz_writer, write_set
 from ..model.params import MAX_LINKS
 from ..provenance import text_sha256
 from ..task import Task
+from .retirement import sampling_advice
 
 FIELDS = ("t", "q", "qd", "tau", "E_minus_Er", "V", "mode")
 
@@ -84,6 +85,9 @@ class Trajectory:
         status = self.meta.get("status", "")
         switched = "" if self.switch_time is None else f" after switching to (67) at t = {self.switch_time:.4f} s"
         saturated = self._saturation()
+        unstable = self._unstable_balance()
+        if status.startswith("diverged") and unstable:
+            return f"{status}{switched}{saturated}{unstable}"
         if status.startswith("diverged"):
             return (f"{status}{switched}{saturated}; try gains with a larger margin over kD_min (41) (paa-mj theory"
                     " shows the family rule's), a smaller --dt or --switch roa")
@@ -96,8 +100,18 @@ class Trajectory:
                         " --t-final or other gains (paa-mj gain-search compares rules of gains)")
             return (f"entered region (68) at t = {float(self.t[np.argmax(inside)]):.4f} s but never handed over to"
                     f" (67){saturated}")
+        if unstable:
+            return f"not balanced at the {self.goal} goal at the end{switched}{saturated}{unstable}"
         return (f"not balanced at the {self.goal} goal at the end{switched}{saturated}; try --switch roa (a certified"
                 " hand-over) or a longer --t-final")
+
+    def _unstable_balance(self) -> str:
+        """Where the run switched to a balance that is unstable when sampled at its step: that, and what to do."""
+        balance = self.meta.get("balance_sampling")
+        if self.switch_time is None or not balance or balance["radius"] < 1.0:
+            return ""
+        return (f"; its balance (67) is unstable when sampled at dt = {self.meta['dt'] * 1e3:g} ms (spectral radius"
+                f" {balance['radius']:.4g}), {sampling_advice(balance)}")
 
     def _saturation(self) -> str:
         limit = self.meta.get("torque_limit")

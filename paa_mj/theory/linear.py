@@ -127,6 +127,37 @@ def sampled_spectral_radius(am: AnalyticModel, K, dt, task: Task) -> float:
     return float(np.max(np.abs(np.linalg.eigvals(phi)))) if np.all(np.isfinite(phi)) else float("inf")
 
 
+def stable_sampling_step(am: AnalyticModel, K, dt, task: Task, halvings=8) -> float | None:
+    """The largest of ``dt``, ``dt``/2, ..., ``dt``/2^``halvings`` [s] at which the balance tau = -K x is stable
+    when sampled (:func:`sampled_spectral_radius` below 1), or None if it is at none of them.
+
+    A continuous-time LQR (67) is stable, but its gain held over a step of zero-order hold is stable only for steps
+    short against the loop's fastest mode: a long chain's, or a light link's, can need well under 1 ms.
+    """
+    step = float(dt)
+    for _ in range(halvings + 1):
+        if sampled_spectral_radius(am, K, step, task) < 1.0:
+            return step
+        step /= 2.0
+    return None
+
+
+def sampled_balance(am: AnalyticModel, K, dt, task: Task) -> dict:
+    """The balance tau = -K x at the task's goal sampled at ``dt`` [s]: ``radius``, the spectral radius of its loop
+    (below 1: stable), and ``stable_dt``, the largest of ``dt``/2^k (k = 0..8) at which it is stable (None if
+    none)."""
+    radius = sampled_spectral_radius(am, K, dt, task)
+    return {"radius": radius, "stable_dt": dt if radius < 1.0 else stable_sampling_step(am, K, dt / 2, task, 7)}
+
+
+def balance_time_step(am: AnalyticModel, tasks, dt=1e-3, halvings=8, Q=None, R=None) -> float | None:
+    """The largest of ``dt``/2^k (k = 0..``halvings``) [s] at which the LQR (67) of every task in ``tasks`` is
+    stable when sampled (:func:`stable_sampling_step` of each; a step that halves a stable one again is taken as
+    stable, as it is for every chain here), or None if one of them is stable at none."""
+    steps = [stable_sampling_step(am, lqr_gain(am, task, Q, R), dt, task, halvings) for task in tasks]
+    return None if None in steps else min(steps)
+
+
 def theorem1_covers(am: AnalyticModel, task: Task) -> bool:
     """Whether Theorem 1 (and the paper's closed forms of (40)) covers the robot and task: the paper's gymnast
     shape (three links, no damping, no armature) and its folded goal UDD (8). The one test of it."""

@@ -1,0 +1,206 @@
+"""The GPU figures of ``--engine warp``: basins of 30 s kips on a GPU, the CPU engine on the same work, and the
+vector environment's steps per second.
+
+    python scripts/gpu_figures.py --out DIR [--budget SECONDS] [--device cuda:0]
+
+Needs a CUDA device and the extra ``gpu`` (``pip install "paa_mj[gpu]"``). Every basin is the command a user
+runs (``paa-mj basin ... --json``) in its own process, timed from outside (wall clock and the child's CPU
+seconds): imports, kernel loading, the run and the files written. In order:
+
+1. a tiny basin on each engine that compiles its kernels into the caches (their times are stated as ``compile``);
+2. the 64 x 64 basin of the paper's gymnast (folded goal, ``vcl``, 30 s) on the CPU engine (every core) and on
+   the GPU: the ratio of their wall-clock times, and how far they agree cell by cell (outcome, switch time,
+   final state: MuJoCo Warp is float32);
+3. the 256 x 256 basin on the GPU;
+4. the 1024 x 1024 basin over ``--short`` seconds where the budget left allows it (judged as if the GPU were
+   already full at 256 x 256), and over 30 s where it still does: every world is stepped to the end on the
+   GPU (a stopped world's steps cost the same), so the time of a 30 s basin is at most the short one's scaled
+   by the ratio of their steps (stated as a projection when the 30 s run is skipped);
+5. the vector environment (``engine="warp"`` against ``engine="mujoco"`` with a thread per core) with random
+   actions: environment steps per second at 4096 and 65536 sub-environments.
+
+Each stage writes ``gpu_figures.json`` in ``--out`` again (beside each basin's folder), so that what ran is kept if a later stage is cut
+short; a stage whose estimate does not fit in what is left of ``--budget`` is skipped and says so.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import resource
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+
+def child_seconds():
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+def basin(out, name, grid, t_final, engine, device, chunk, timeout=None):
+    """One ``paa-mj basin`` in its own process: (summary, wall [s], CPU [s], folder); stopped after ``timeout`` s."""
+    folder = out / name
+    cmd = [sys.executable, "-m", "paa_mj.cli", "basin", "--grid", str(grid), "--t-final", str(t_final),
+           "--engine", engine, "--chunk", str(chunk), "--out", str(folder), "--fresh", "--json",
+           "--scheduler", "inline"]
+    if engine == "warp":
+        cmd += ["--device", device]
+    start, cpu = time.perf_counter(), child_seconds()
+    done = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, timeout=timeout)
+    wall, cpu = time.perf_counter() - start, child_seconds() - cpu
+    if done.returncode:
+        raise RuntimeError(f"{' '.join(cmd[2:])}: exit {done.returncode}: {done.stderr[-1500:]}")
+    summary = json.loads(done.stdout.strip().splitlines()[-1])
+    print(f"  {name}: {wall:.1f} s wall, {cpu:.1f} CPU-s, success {summary['success']:.4f}", flush=True)
+    return summary, wall, cpu, folder
+
+
+def agreement(cpu_folder, gpu_folder):
+    """How the two engines' basins agree, cell by cell."""
+    a, b = np.load(cpu_folder / "basin.npz"), np.load(gpu_folder / "basin.npz")
+    same = a["outcome"] == b["outcome"]
+    both = np.isfinite(a["switch_time"]) & np.isfinite(b["switch_time"])
+    ended = ~a["diverged"] & ~b["diverged"]
+    state = np.abs(a["final_state"] - b["final_state"])[ended & same]
+    return {"cells": int(same.size), "same_outcome": int(same.sum()),
+            "same_success": int((a["success"] == b["success"]).sum()),
+            "switch_time_max_abs_diff_s": float(np.max(np.abs(a["switch_time"] - b["switch_time"])[both]))
+            if both.any() else None,
+            "final_state_max_abs_diff_same_outcome": float(state.max()) if state.size else None,
+            "final_state_median_abs_diff_same_outcome": float(np.median(state)) if state.size else None}
+
+
+def vector_rate(n_envs, engine, device, steps=100):
+    """Environment steps per second of the vector environment with random actions (after 5 warm-up steps)."""
+    from paa_mj.envs.vector import GymnastVectorEnv
+
+    kwargs = {"engine": engine}
+    if engine == "warp":
+        kwargs["device"] = device
+    else:
+        kwargs["num_threads"] = os.cpu_count()
+    env = GymnastVectorEnv(num_envs=n_envs, **kwargs)
+    env.reset(seed=0)
+    env.action_space.seed(0)
+    actions = [env.action_space.sample() for _ in range(8)]
+    for k in range(5):
+        env.step(actions[k % 8])
+    start = time.perf_counter()
+    for k in range(steps):
+        env.step(actions[k % 8])
+    wall = time.perf_counter() - start
+    env.close()
+    return n_envs * steps / wall
+
+
+def gpu_name():
+    try:
+        return subprocess.run(["nvidia-smi", "--query-gpu=name,memory.total,driver_version", "--format=csv,noheader"],
+                              capture_output=True, text=True).stdout.strip()
+    except OSError:
+        return None
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--out", type=Path, required=True)
+    parser.add_argument("--budget", type=float, default=540.0, help="seconds for every stage together")
+    parser.add_argument("--device", default="cuda:0")
+    parser.add_argument("--short", type=float, default=3.0, help="duration of the short largest basin [s]")
+    parser.add_argument("--t-final", type=float, default=30.0, help="duration of every other basin [s]")
+    parser.add_argument("--grids", default="64,256,1024", help="the three grids: both engines, GPU, largest")
+    parser.add_argument("--envs", default="4096,65536", help="vector environment sizes")
+    args = parser.parse_args()
+    began = time.perf_counter()
+    args.out.mkdir(parents=True, exist_ok=True)
+    import mujoco
+    import warp
+
+    figures = {"machine": {"gpu": gpu_name(), "cpus": os.cpu_count(), "python": platform.python_version(),
+                           "mujoco": mujoco.__version__, "warp": warp.config.version},
+               "command": " ".join(sys.argv), "skipped": []}
+
+    def save():
+        path = args.out / "gpu_figures.json"
+        path.with_suffix(".tmp").write_text(json.dumps(figures, indent=1) + "\n")
+        path.with_suffix(".tmp").replace(path)
+
+    def left():
+        return args.budget - (time.perf_counter() - began)
+
+    print("compile", flush=True)
+    _, wall, cpu, _ = basin(args.out, "compile", 2, 0.2, "warp", args.device, 4)
+    _, wall_cpu, cpu_cpu, _ = basin(args.out, "compile_cpu", 2, 0.2, "mujoco", None, 4)
+    figures["compile"] = {"warp": {"wall_s": wall, "cpu_s": cpu}, "cpu_engine": {"wall_s": wall_cpu, "cpu_s": cpu_cpu}}
+    save()
+
+    small, middle, large = (int(g) for g in args.grids.split(","))
+    t = args.t_final
+    print(f"{small} x {small}, {t} s: CPU engine and GPU", flush=True)
+    summary_cpu, wall_cpu, cpu_cpu, folder_cpu = basin(args.out, "cpu_small", small, t, "mujoco", None, small**2)
+    summary_gpu, wall_gpu, cpu_gpu, folder_gpu = basin(args.out, "gpu_small", small, t, "warp", args.device, small**2)
+    figures["basin_small"] = {"grid": small, "cpu": {"wall_s": wall_cpu, "cpu_s": cpu_cpu, "success": summary_cpu["success"]},
+                          "gpu": {"wall_s": wall_gpu, "cpu_s": cpu_gpu, "success": summary_gpu["success"]},
+                          "cpu_over_gpu_wall": wall_cpu / wall_gpu,
+                          "agreement": agreement(folder_cpu, folder_gpu)}
+    save()
+
+    print(f"{middle} x {middle}, {t} s: GPU", flush=True)
+    summary, wall, cpu, _ = basin(args.out, "gpu_middle", middle, t, "warp", args.device, middle**2)
+    scale = (middle / small) ** 2  # the CPU engine's cost grows with the starts
+    figures["basin_middle"] = {"grid": middle, "gpu": {"wall_s": wall, "cpu_s": cpu, "success": summary["success"]},
+                               "cpu_engine_scaled_cpu_s": cpu_cpu * scale, "cpu_engine_scaled_wall_s": wall_cpu * scale}
+    save()
+
+    # if the GPU were already full at the middle grid, the large one would cost this
+    linear = figures["basin_middle"]["gpu"]["wall_s"] * (large / middle) ** 2 * args.short / t
+    projected = None
+    if left() > linear + 60:
+        print(f"{large} x {large}, {args.short} s: GPU", flush=True)
+        try:
+            _, wall_short, cpu, _ = basin(args.out, "gpu_large_short", large, args.short, "warp", args.device,
+                                          large**2, timeout=left() - 30)
+        except subprocess.TimeoutExpired:
+            figures["skipped"].append(f"{large} x {large} over {args.short} s: cut after {left():.0f} s left")
+        else:
+            # conservative: the fixed costs (imports, the plan, the files) are scaled with the steps too
+            projected = wall_short * t / args.short
+            figures["basin_large"] = {"grid": large, "short": {"t_final": args.short, "wall_s": wall_short,
+                                                               "cpu_s": cpu}, "projected_wall_s": projected}
+    else:
+        figures["skipped"].append(f"{large} x {large} over {args.short} s: {linear:.0f} s if the GPU scaled"
+                                  f" linearly from {middle} x {middle}, {left():.0f} s left")
+    save()
+
+    print("vector environment", flush=True)
+    rates = {}
+    for n in (int(e) for e in args.envs.split(",")):
+        if left() < 60:
+            figures["skipped"].append(f"vector environment at {n}: {left():.0f} s left")
+            break
+        rates[n] = {"warp": vector_rate(n, "warp", args.device), "mujoco": vector_rate(n, "mujoco", None)}
+        print(f"  {n}: {rates[n]}", flush=True)
+        figures["vector_env_steps_per_s"] = rates
+        save()
+
+    if projected is not None and left() > projected * 1.2 + 30:
+        print(f"{large} x {large}, {t} s: GPU", flush=True)
+        summary, wall, cpu, _ = basin(args.out, "gpu_large", large, t, "warp", args.device, large**2)
+        figures["basin_large"]["full"] = {"wall_s": wall, "cpu_s": cpu, "success": summary["success"]}
+    elif projected is not None:
+        figures["skipped"].append(f"{large} x {large} over {t} s: projected {projected:.0f} s, {left():.0f} s left")
+    figures["total_wall_s"] = time.perf_counter() - began
+    save()
+    print(json.dumps(figures, indent=1))
+
+
+if __name__ == "__main__":
+    main()

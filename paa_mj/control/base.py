@@ -108,6 +108,14 @@ class SwitchedForm:
         return self.second.balance_gain
 
 
+def balance_gain_of(controller):
+    """The gain K of the controller's balance tau = -K x (its compiled form's, (67) for the built-in ones), or None
+    for a controller without a compiled form or a balance."""
+    compiled = getattr(controller, "compiled", None)
+    form = compiled() if callable(compiled) else None
+    return None if form is None else form.balance_gain
+
+
 @dataclass(frozen=True)
 class Binding:
     """What a built controller is for: a robot (its links and a digest of its parameters) and a task.

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..control.base import check_binding, controller_name
+from ..control.base import balance_gain_of, check_binding, controller_name
 from ..control.registry import ControllerSpec
 from ..errors import PaaError
 from ..limits import check_memory, check_seed, check_steps
@@ -214,8 +214,7 @@ def build_plan(robot: Robot, task: Task, x0, t_final, controllers, *, dt=None, i
     disturbed = disturbances.disturbed(settings)
     # one certificate per distinct (plant, controller): a study's million rollouts share a handful
     for (plant, _), rows in _groups(model_index, controllers).items():
-        form = getattr(controllers[rows[0]], "compiled", lambda: None)() if retire else None
-        gain = None if form is None else form.balance_gain
+        gain = balance_gain_of(controllers[rows[0]]) if retire else None
         certificate, level = retirement_certificate(plant_robots[plant].analytic, gain, dt, task)
         rows = rows[~disturbed[rows]]
         settings.cert[rows], settings.rollouts["retire_level"][rows] = certificate, level

@@ -17,6 +17,7 @@ import math
 import numpy as np
 from numba import njit
 
+from ..control.base import balance_gain_of
 from ..model.states import wrap
 
 #: A rollout retires when its modal bound is below this fraction of BALANCE_TOL.
@@ -99,9 +100,7 @@ def warn_unstable_sampling(plant, controllers, dt, task, robot_name="the robot")
     over ``dt`` [s] on ``plant`` (its analytic model), once per robot, goal, step and gain: such a run cannot
     balance, whatever its swing-up does."""
     for controller in {id(c): c for c in controllers}.values():
-        compiled = getattr(controller, "compiled", None)
-        form = compiled() if callable(compiled) else None
-        K = None if form is None else form.balance_gain
+        K = balance_gain_of(controller)
         if K is None:
             continue
         key = (plant.key(), task.name, float(dt), np.asarray(K, float).tobytes())

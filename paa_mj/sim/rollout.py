@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..control.base import controller_name
+from ..control.base import balance_gain_of, controller_name
 from ..errors import SimulationDiverged
 from ..model.robot import Robot
 from ..task import Task, as_task
@@ -99,9 +99,9 @@ def simulate_mujoco(robot: Robot, controller="vcl", x0: ArrayLike | None = None,
                       robot_xml=robot.xml)
     when = float(out["t_end"][0])
     traj.meta["success"] = bool(out["success"][0])
-    form = getattr(controllers[0], "compiled", lambda: None)()
-    if form is not None and form.balance_gain is not None:
-        traj.meta["balance_sampling"] = sampled_balance(robot.analytic, form.balance_gain, dt, task)
+    gain = balance_gain_of(controllers[0])
+    if gain is not None:
+        traj.meta["balance_sampling"] = sampled_balance(robot.analytic, gain, dt, task)
     # the engine's peak over every step, not only over the recorded samples
     traj.meta["max_abs_tau"] = out["max_abs_tau"][0].tolist()
     if status in engine.DIVERGED:

@@ -109,6 +109,103 @@ def gpu_name():
         return None
 
 
+class Figures:
+    """The stages (module docstring), each adding to one JSON object written after it."""
+
+    def __init__(self, args):
+        import mujoco
+        import warp
+
+        self.args, self.began = args, time.perf_counter()
+        self.small, self.middle, self.large = (int(g) for g in args.grids.split(","))
+        self.projected = None  # the large basin's time over t_final, from its short run
+        self.data = {"machine": {"gpu": gpu_name(), "cpus": os.cpu_count(), "python": platform.python_version(),
+                                 "mujoco": mujoco.__version__, "warp": warp.config.version},
+                     "command": " ".join(sys.argv), "skipped": []}
+
+    def save(self):
+        path = self.args.out / "gpu_figures.json"
+        path.with_suffix(".tmp").write_text(json.dumps(self.data, indent=1) + "\n")
+        path.with_suffix(".tmp").replace(path)
+
+    def left(self):
+        return self.args.budget - (time.perf_counter() - self.began)
+
+    def basin(self, name, grid, t_final, engine, **kwargs):
+        device = self.args.device if engine == "warp" else None
+        return basin(self.args.out, name, grid, t_final, engine, device, max(grid**2, 4), **kwargs)
+
+    def compile(self):
+        print("compile", flush=True)
+        timings = {}
+        for engine in ("warp", "mujoco"):
+            _, wall, cpu, _ = self.basin(f"compile_{engine}", 2, 0.2, engine)
+            timings[engine] = {"wall_s": wall, "cpu_s": cpu}
+        self.data["compile"] = timings
+
+    def both_engines(self):
+        grid, t = self.small, self.args.t_final
+        print(f"{grid} x {grid}, {t} s: CPU engine and GPU", flush=True)
+        runs = {engine: self.basin(f"{engine}_small", grid, t, engine) for engine in ("mujoco", "warp")}
+        self.cpu_run = runs["mujoco"]
+        self.data["basin_small"] = {
+            "grid": grid, **{engine: {"wall_s": wall, "cpu_s": cpu, "success": summary["success"]}
+                             for engine, (summary, wall, cpu, _) in runs.items()},
+            "cpu_over_gpu_wall": runs["mujoco"][1] / runs["warp"][1],
+            "agreement": agreement(runs["mujoco"][3], runs["warp"][3])}
+
+    def gpu_middle(self):
+        grid, t = self.middle, self.args.t_final
+        print(f"{grid} x {grid}, {t} s: GPU", flush=True)
+        summary, wall, cpu, _ = self.basin("warp_middle", grid, t, "warp")
+        scale = (grid / self.small) ** 2  # the CPU engine's cost grows with the starts
+        self.data["basin_middle"] = {"grid": grid, "gpu": {"wall_s": wall, "cpu_s": cpu, "success": summary["success"]},
+                                     "cpu_engine_scaled_cpu_s": self.cpu_run[2] * scale,
+                                     "cpu_engine_scaled_wall_s": self.cpu_run[1] * scale}
+
+    def gpu_large_short(self):
+        grid, short, t = self.large, self.args.short, self.args.t_final
+        # if the GPU were already full at the middle grid, the large one would cost this
+        linear = self.data["basin_middle"]["gpu"]["wall_s"] * (grid / self.middle) ** 2 * short / t
+        if self.left() < linear + 60:
+            self.data["skipped"].append(f"{grid} x {grid} over {short} s: {linear:.0f} s if the GPU scaled"
+                                        f" linearly from {self.middle} x {self.middle}, {self.left():.0f} s left")
+            return
+        print(f"{grid} x {grid}, {short} s: GPU", flush=True)
+        try:
+            _, wall, cpu, _ = self.basin("warp_large_short", grid, short, "warp", timeout=self.left() - 30)
+        except subprocess.TimeoutExpired:
+            self.data["skipped"].append(f"{grid} x {grid} over {short} s: cut with {self.left():.0f} s left")
+            return
+        # conservative: the fixed costs (imports, the plan, the files) are scaled with the steps too
+        self.projected = wall * t / short
+        self.data["basin_large"] = {"grid": grid, "short": {"t_final": short, "wall_s": wall, "cpu_s": cpu},
+                                    "projected_wall_s": self.projected}
+
+    def vector(self):
+        print("vector environment", flush=True)
+        rates = self.data.setdefault("vector_env_steps_per_s", {})
+        for n in (int(e) for e in self.args.envs.split(",")):
+            if self.left() < 60:
+                self.data["skipped"].append(f"vector environment at {n}: {self.left():.0f} s left")
+                return
+            rates[n] = {"warp": vector_rate(n, "warp", self.args.device), "mujoco": vector_rate(n, "mujoco", None)}
+            print(f"  {n}: {rates[n]}", flush=True)
+            self.save()
+
+    def gpu_large(self):
+        grid, t = self.large, self.args.t_final
+        if self.projected is None:
+            return
+        if self.left() < self.projected * 1.2 + 30:
+            self.data["skipped"].append(f"{grid} x {grid} over {t} s: projected {self.projected:.0f} s,"
+                                        f" {self.left():.0f} s left")
+            return
+        print(f"{grid} x {grid}, {t} s: GPU", flush=True)
+        summary, wall, cpu, _ = self.basin("warp_large", grid, t, "warp")
+        self.data["basin_large"]["full"] = {"wall_s": wall, "cpu_s": cpu, "success": summary["success"]}
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--out", type=Path, required=True)
@@ -119,87 +216,15 @@ def main():
     parser.add_argument("--grids", default="64,256,1024", help="the three grids: both engines, GPU, largest")
     parser.add_argument("--envs", default="4096,65536", help="vector environment sizes")
     args = parser.parse_args()
-    began = time.perf_counter()
     args.out.mkdir(parents=True, exist_ok=True)
-    import mujoco
-    import warp
-
-    figures = {"machine": {"gpu": gpu_name(), "cpus": os.cpu_count(), "python": platform.python_version(),
-                           "mujoco": mujoco.__version__, "warp": warp.config.version},
-               "command": " ".join(sys.argv), "skipped": []}
-
-    def save():
-        path = args.out / "gpu_figures.json"
-        path.with_suffix(".tmp").write_text(json.dumps(figures, indent=1) + "\n")
-        path.with_suffix(".tmp").replace(path)
-
-    def left():
-        return args.budget - (time.perf_counter() - began)
-
-    print("compile", flush=True)
-    _, wall, cpu, _ = basin(args.out, "compile", 2, 0.2, "warp", args.device, 4)
-    _, wall_cpu, cpu_cpu, _ = basin(args.out, "compile_cpu", 2, 0.2, "mujoco", None, 4)
-    figures["compile"] = {"warp": {"wall_s": wall, "cpu_s": cpu}, "cpu_engine": {"wall_s": wall_cpu, "cpu_s": cpu_cpu}}
-    save()
-
-    small, middle, large = (int(g) for g in args.grids.split(","))
-    t = args.t_final
-    print(f"{small} x {small}, {t} s: CPU engine and GPU", flush=True)
-    summary_cpu, wall_cpu, cpu_cpu, folder_cpu = basin(args.out, "cpu_small", small, t, "mujoco", None, small**2)
-    summary_gpu, wall_gpu, cpu_gpu, folder_gpu = basin(args.out, "gpu_small", small, t, "warp", args.device, small**2)
-    figures["basin_small"] = {"grid": small, "cpu": {"wall_s": wall_cpu, "cpu_s": cpu_cpu, "success": summary_cpu["success"]},
-                          "gpu": {"wall_s": wall_gpu, "cpu_s": cpu_gpu, "success": summary_gpu["success"]},
-                          "cpu_over_gpu_wall": wall_cpu / wall_gpu,
-                          "agreement": agreement(folder_cpu, folder_gpu)}
-    save()
-
-    print(f"{middle} x {middle}, {t} s: GPU", flush=True)
-    summary, wall, cpu, _ = basin(args.out, "gpu_middle", middle, t, "warp", args.device, middle**2)
-    scale = (middle / small) ** 2  # the CPU engine's cost grows with the starts
-    figures["basin_middle"] = {"grid": middle, "gpu": {"wall_s": wall, "cpu_s": cpu, "success": summary["success"]},
-                               "cpu_engine_scaled_cpu_s": cpu_cpu * scale, "cpu_engine_scaled_wall_s": wall_cpu * scale}
-    save()
-
-    # if the GPU were already full at the middle grid, the large one would cost this
-    linear = figures["basin_middle"]["gpu"]["wall_s"] * (large / middle) ** 2 * args.short / t
-    projected = None
-    if left() > linear + 60:
-        print(f"{large} x {large}, {args.short} s: GPU", flush=True)
-        try:
-            _, wall_short, cpu, _ = basin(args.out, "gpu_large_short", large, args.short, "warp", args.device,
-                                          large**2, timeout=left() - 30)
-        except subprocess.TimeoutExpired:
-            figures["skipped"].append(f"{large} x {large} over {args.short} s: cut after {left():.0f} s left")
-        else:
-            # conservative: the fixed costs (imports, the plan, the files) are scaled with the steps too
-            projected = wall_short * t / args.short
-            figures["basin_large"] = {"grid": large, "short": {"t_final": args.short, "wall_s": wall_short,
-                                                               "cpu_s": cpu}, "projected_wall_s": projected}
-    else:
-        figures["skipped"].append(f"{large} x {large} over {args.short} s: {linear:.0f} s if the GPU scaled"
-                                  f" linearly from {middle} x {middle}, {left():.0f} s left")
-    save()
-
-    print("vector environment", flush=True)
-    rates = {}
-    for n in (int(e) for e in args.envs.split(",")):
-        if left() < 60:
-            figures["skipped"].append(f"vector environment at {n}: {left():.0f} s left")
-            break
-        rates[n] = {"warp": vector_rate(n, "warp", args.device), "mujoco": vector_rate(n, "mujoco", None)}
-        print(f"  {n}: {rates[n]}", flush=True)
-        figures["vector_env_steps_per_s"] = rates
-        save()
-
-    if projected is not None and left() > projected * 1.2 + 30:
-        print(f"{large} x {large}, {t} s: GPU", flush=True)
-        summary, wall, cpu, _ = basin(args.out, "gpu_large", large, t, "warp", args.device, large**2)
-        figures["basin_large"]["full"] = {"wall_s": wall, "cpu_s": cpu, "success": summary["success"]}
-    elif projected is not None:
-        figures["skipped"].append(f"{large} x {large} over {t} s: projected {projected:.0f} s, {left():.0f} s left")
-    figures["total_wall_s"] = time.perf_counter() - began
-    save()
-    print(json.dumps(figures, indent=1))
+    figures = Figures(args)
+    for stage in (figures.compile, figures.both_engines, figures.gpu_middle, figures.gpu_large_short, figures.vector,
+                  figures.gpu_large):
+        stage()
+        figures.save()
+    figures.data["total_wall_s"] = time.perf_counter() - figures.began
+    figures.save()
+    print(json.dumps(figures.data, indent=1))
 
 
 if __name__ == "__main__":

@@ -194,10 +194,8 @@ class RolloutSet:
     def definition(self) -> dict:
         """What identifies these rollouts (for the chunk store's key)."""
         plants = None if self.plants is None else [None if p is None else p.as_dict() for p in self.plants]
-        described = {}  # each distinct spec object described once: a study's rollouts share a few
-        for spec in self.controllers:
-            if id(spec) not in described:
-                described[id(spec)] = _spec_dict(spec)
+        # each distinct spec object described once: a study's rollouts share a few
+        described = {key: _spec_dict(spec) for key, spec in {id(s): s for s in self.controllers}.items()}
         return {"x0": self.x0, "controllers": [described[id(s)] for s in self.controllers], "plants": plants,
                 "torque_limit": np.where(np.isinf(self.torque_limit), -1.0, self.torque_limit),
                 "noise_std": self.noise_std, "torque_noise": self.torque_noise, "delay_steps": self.delay_steps,

@@ -434,7 +434,7 @@ def atlas_outcome_figure(summary, arrays):
     colours = OUTCOME_COLOURS
     cmap = ListedColormap(colours).with_extremes(bad="white")
     cell_map(left, f1, f2, np.ma.masked_less(outcome, 0).T, cmap=cmap,
-                    norm=BoundaryNorm(np.arange(-0.5, len(OUTCOMES) + 0.5), cmap.N))
+             norm=BoundaryNorm(np.arange(-0.5, len(OUTCOMES) + 0.5), cmap.N))
     counts = summary["counts"]
     left.legend([plt.Rectangle((0, 0), 1, 1, color=c) for c in colours],
                 [f"{name} ({counts.get(name, 0)})" for name in OUTCOMES], loc="upper center",

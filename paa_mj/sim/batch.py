@@ -270,7 +270,7 @@ def outcome_arrays(plan: engine.Plan, outcome: engine.Outcome, controllers, plan
     region = np.where(entered >= 0, entered * dt, np.nan)
     t_balanced = np.where(balanced, (state.book[:, B_LAST_FAR] + 1) * dt, np.nan)
     e_err, V = np.empty(len(final)), np.empty(len(final))
-    for (_, _), rows in _groups(plan.model_index, controllers).items():
+    for rows in _groups(plan.model_index, controllers).values():
         am = plant_analytics[rows[0]]
         q, qd = final[rows, :links], final[rows, links:]
         e_err[rows] = am.energy(q, qd) - task.goal_energy(am)

@@ -13,12 +13,14 @@ unstable sampled loop.
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 from numba import njit
 
 from ..control.base import balance_gain_of
 from ..model.states import wrap
+from ..theory.linear import sampled_balance, sampled_closed_loop
 
 #: A rollout retires when its modal bound is below this fraction of BALANCE_TOL.
 RETIRE_FRACTION = 0.9
@@ -37,8 +39,6 @@ def retirement_certificate(plant, K, dt, task):
     the task's goal and sampled with zero-order hold at ``dt``; ``level`` =
     :data:`RETIRE_FRACTION` x the task's ``balance_tol``.
     """
-    from ..theory.linear import sampled_closed_loop
-
     none = np.zeros(certificate_size(plant.n_links)), 0.0
     if K is None:
         return none
@@ -107,12 +107,8 @@ def warn_unstable_sampling(plant, controllers, dt, task, robot_name="the robot")
         if key in _WARNED:
             continue
         _WARNED.add(key)
-        from ..theory.linear import sampled_balance
-
         balance = sampled_balance(plant, K, dt, task)
         if balance["radius"] >= 1.0:
-            import warnings
-
             warnings.warn(f"the balance LQR (67) of {robot_name} at the {task.name} goal is unstable when sampled at"
                           f" dt = {dt * 1e3:g} ms (spectral radius {balance['radius']:.4g} >= 1), so no run of it can"
                           f" balance; it is {sampling_advice(balance)}", SamplingWarning, stacklevel=3)

@@ -85,12 +85,12 @@ class Trajectory:
         status = self.meta.get("status", "")
         switched = "" if self.switch_time is None else f" after switching to (67) at t = {self.switch_time:.4f} s"
         saturated = self._saturation()
+        # a balance that cannot hold at this step is the reason, and its remedy replaces the generic ones
         unstable = self._unstable_balance()
-        if status.startswith("diverged") and unstable:
-            return f"{status}{switched}{saturated}{unstable}"
         if status.startswith("diverged"):
-            return (f"{status}{switched}{saturated}; try gains with a larger margin over kD_min (41) (paa-mj theory"
-                    " shows the family rule's), a smaller --dt or --switch roa")
+            return f"{status}{switched}{saturated}" + (unstable or "; try gains with a larger margin over kD_min (41)"
+                                                       " (paa-mj theory shows the family rule's), a smaller --dt or"
+                                                       " --switch roa")
         if self.meta.get("success", self.balanced()):
             return f"reached the {self.goal} goal and held it (the task's success){switched}{saturated}"
         if self.switch_time is None:
@@ -100,10 +100,8 @@ class Trajectory:
                         " --t-final or other gains (paa-mj gain-search compares rules of gains)")
             return (f"entered region (68) at t = {float(self.t[np.argmax(inside)]):.4f} s but never handed over to"
                     f" (67){saturated}")
-        if unstable:
-            return f"not balanced at the {self.goal} goal at the end{switched}{saturated}{unstable}"
-        return (f"not balanced at the {self.goal} goal at the end{switched}{saturated}; try --switch roa (a certified"
-                " hand-over) or a longer --t-final")
+        return f"not balanced at the {self.goal} goal at the end{switched}{saturated}" + (
+            unstable or "; try --switch roa (a certified hand-over) or a longer --t-final")
 
     def _unstable_balance(self) -> str:
         """Where the run switched to a balance that is unstable when sampled at its step: that, and what to do."""

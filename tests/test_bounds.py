@@ -88,7 +88,7 @@ def test_the_inertia_wheel_pendulum_has_its_closed_form():
         assert kd.value == pytest.approx(2 * b1 * a1 * a2 / (a1 + a2), rel=1e-12) and kd.certified
 
 
-def test_a_spent_budget_gives_a_certified_bracket_and_the_gains_above_it(monkeypatch):
+def test_a_spent_budget_gives_a_certified_bracket_and_the_gains_above_it(monkeypatch, tmp_path):
     """Past its budget the search stops with value <= kD_min <= upper: kD above upper is accepted, between the two
     refused with the bracket, at or below value refused as singular."""
     from paa_mj.control.gains import check_chain_gains
@@ -96,6 +96,7 @@ def test_a_spent_budget_gives_a_certified_bracket_and_the_gains_above_it(monkeyp
     from paa_mj.theory import kd_search
 
     monkeypatch.setattr(kd_search, "BUDGET_CPU_S", 1.0)  # a certificate takes about 15
+    monkeypatch.setattr(kd_search, "certificate_dir", lambda: tmp_path)  # none kept by an earlier command
     am = AnalyticModel.from_params(RobotParams.uniform_rods(np.ones(8), np.ones(8)))
     task = Task.named("folded", am)
     kd = chain_kd_min(am, task, progress=False)
@@ -106,6 +107,28 @@ def test_a_spent_budget_gives_a_certified_bracket_and_the_gains_above_it(monkeyp
         check_chain_gains(am, 0.5 * (kd.value + kd.upper), 1.0, 1.0, task)
     with pytest.raises(PaaError, match=r"is not above kD_min = .* of \(41\)"):
         check_chain_gains(am, kd.value, 1.0, 1.0, task)
+
+
+def test_a_certificate_is_kept_for_later_commands_and_one_that_is_wrong_is_not_used(monkeypatch, tmp_path):
+    import json
+
+    from paa_mj.theory import conditions, kd_search
+
+    monkeypatch.setattr(kd_search, "certificate_dir", lambda: tmp_path)
+    monkeypatch.setattr(conditions, "_KD_MIN_CACHE", {})
+    am = _model(5, 8)
+    task = Task.named("stretched", am)
+    first = chain_kd_min(am, task, progress=False)
+    kept, = tmp_path.glob("*.json")
+    assert first.certified and first.boxes > 0
+    searches, search = [], kd_search.kd_min_search
+    monkeypatch.setattr(kd_search, "kd_min_search", lambda *a, **k: searches.append(1) or search(*a, **k))
+    conditions._KD_MIN_CACHE.clear()  # a later command: nothing in memory
+    assert chain_kd_min(am, task, progress=False) == first and not searches
+    fields = json.loads(kept.read_text())
+    kept.write_text(json.dumps({**fields, "value": 1.01 * fields["value"], "upper": 1.01 * fields["upper"]}))
+    conditions._KD_MIN_CACHE.clear()
+    assert chain_kd_min(am, task, progress=False) == first and searches == [1]  # f at argmax is not that value
 
 
 def test_a_hopeless_certificate_is_not_searched_and_says_what_it_would_take():

@@ -78,6 +78,20 @@ def test_make_model_writes_the_rule_into_the_header_and_its_robot_runs(tmp_path)
     assert "Gains of the family rule" in header and "stretched goal kD = " in header
     proc = cli("simulate", "--robot", str(out), "--goal", "stretched", "--t-final", "0.2", "--json")
     assert proc.returncode == 0 and "paa-mj: note: gains of the family rule" in proc.stderr
+    proc = cli("simulate", "--robot", str(out), "--t-final", "0.2")  # the stored gains, stated as the rule's
+    assert proc.returncode == 0, proc.stderr
+    line = next(line for line in proc.stdout.splitlines() if line.strip().startswith("gains"))
+    assert f"kD = {rule['kD']:.6g}" in line and "the model's stored gains, the family rule's for the folded goal" in line
+
+
+def test_the_origin_of_a_run_s_gains_is_named():
+    gymnast = load_robot("gymnast")
+    folded, stretched = Task.named("folded", gymnast), Task.named("stretched", gymnast)
+    model, stored = gymnast.analytic, gymnast.gains
+    assert G.gains_origin(model, folded, stored, stored) == "the model's stored gains"
+    assert G.gains_origin(model, stretched, stored, G.family_gains(model, stretched)).startswith(
+        "the family rule's for the stretched goal: kD = 1.05 kD_min (41)")
+    assert G.gains_origin(model, folded, stored, {**stored, "kV": 2 * stored["kV"]}) == "as given"
 
 
 def test_the_search_scores_rules_by_the_robots_they_balance():

@@ -301,6 +301,12 @@ def test_every_controller_of_a_leaderboard_meets_the_same_torque_noise(capsys):
                  "--t-final", "0.3", "--torque-limit", "80", "--scheduler", "inline", "--json"]) == 0
     board = json.loads(capsys.readouterr().out)
     assert board["torque_noise_scale"] == 80.0 and set(board["controllers"]) == {"passive", "lqr"}
+    from paa_mj.outputs.results import leaderboard_markdown
+
+    # a board printed without --out points to no files; the one written beside them does
+    assert leaderboard_markdown(board, written=False).rstrip().endswith("Nothing was written: give --out DIR for"
+                                                                         " leaderboard.json, the charts and the runs.")
+    assert "Every number is in `leaderboard.json`" in leaderboard_markdown(board)
 
 
 def test_chunks_of_an_older_version_do_not_pile_up(tmp_path, capsys):

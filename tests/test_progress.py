@@ -42,6 +42,25 @@ def test_a_progress_line_resets_the_watchdog():
     assert log.getvalue() == ""
 
 
+def test_a_json_run_keeps_stdout_for_its_object_and_still_fills_its_silences_on_stderr(monkeypatch, capsys):
+    import contextlib
+    import json
+
+    from paa_mj.cli import main
+
+    log, real = io.StringIO(), progress.watchdog
+
+    @contextlib.contextmanager
+    def quick(command, enabled=True, **kwargs):
+        with real(command, enabled=enabled, silence=0.05, stream=log):
+            yield
+
+    monkeypatch.setattr(progress, "watchdog", quick)
+    assert main(["theory", "--robot", "acrobot", "--goal", "stretched", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["goal"] == "stretched"
+    assert log.getvalue().startswith("paa-mj theory: still working")
+
+
 def test_a_study_of_one_chunk_runs_here_even_when_a_local_cluster_is_asked(gymnast, monkeypatch):
     import paa_mj.studies.runner as runner
 

@@ -41,6 +41,31 @@ def test_min_time_is_faster_and_min_effort_is_cheaper(gymnast):
     np.testing.assert_array_equal(again.u, fast.u)  # from the cache
 
 
+def test_a_believed_model_plans_from_the_plant_s_kip(gymnast, monkeypatch):
+    """A controller believing a perturbed model (the model-error factor) starts its solve from the plant's own kip:
+    a feasible kip of the believed model, cached apart from the same problem solved from the straight line."""
+    import paa_mj.control.trajopt as trajopt
+    from paa_mj.control.registry import ControllerSpec
+
+    believed = gymnast.params.scaled(1.05, 0.95)
+    starts, solve = [], trajopt._solve
+    monkeypatch.setattr(trajopt, "_solve", lambda *args: starts.append(args[-1]) or solve(*args))
+    spec = ControllerSpec("trajopt-effort", believed=believed, options=(("limit", (470.0, 217.0)),
+                                                                      ("intervals", 30)), check=False)
+    spec.build(gymnast)
+    plant_kip, believed_start = starts
+    assert plant_kip is None and believed_start is not None  # the plant's kip from the line, then the believed one
+    assert believed_start.x.shape == (31, 6)
+    from paa_mj.model.dynamics import AnalyticModel
+
+    model = AnalyticModel.from_params(believed)
+    warm = solve_kip(model, [0.9 * 470.0, 0.9 * 217.0], "min-effort", duration=3.0, intervals=30,
+                     start=believed_start)
+    assert len(starts) == 2 and warm.defects(model) < 1e-6  # the spec's solve, from the cache
+    solve_kip(model, [0.9 * 470.0, 0.9 * 217.0], "min-effort", duration=3.0, intervals=30)
+    assert len(starts) == 3 and starts[-1] is None  # from the line: another entry of the cache
+
+
 def test_the_minimum_time_grows_as_the_torque_bounds_shrink_and_is_not_a_bound(gymnast):
     """The min-time kip is limited by the torques, not by the time range of the solve."""
     from paa_mj.control.trajopt import TIME_RANGE

@@ -133,8 +133,8 @@ def main(argv=None):
             warnings.simplefilter("always", SamplingWarning)  # said once per robot, goal, step and gain by itself
             warnings.simplefilter("always", GainsNote)  # said once per robot and goal by the note itself
             quiet = getattr(args, "json", False)
-            with json_only_on_stdout() if quiet else contextlib.nullcontext(), \
-                    watchdog(f"paa-mj {args.command}", enabled=not quiet):
+            # --json keeps stdout for the object and stderr for its silences: a long run still says it works
+            with json_only_on_stdout() if quiet else contextlib.nullcontext(), watchdog(f"paa-mj {args.command}"):
                 first = None if quiet else _first_use()
                 if first:
                     stage(first)

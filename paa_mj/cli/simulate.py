@@ -84,7 +84,7 @@ def run_from_args(args, progress=True):
 def cmd_simulate(args):
     with output_lock(args.out, "simulate"):
         try:
-            _, traj = run_from_args(args, progress=not args.json)
+            robot, traj = run_from_args(args, progress=not args.json)
         except SimulationDiverged as err:
             if args.json and err.trajectory is not None and len(err.trajectory):
                 print_json(err.trajectory.summary())  # what was computed, with its status, as for an interrupt
@@ -105,6 +105,8 @@ def cmd_simulate(args):
         st = summary["switch_time"]
         print(f"robot {summary['robot']}, controller {summary['controller']}, {summary['engine']}"
               f" ({summary['integrator']}, dt = {summary['dt']}), {summary['final_time']:.3f} s")
+        if summary.get("gains"):
+            print(f"  gains                {_gains_line(robot, traj, summary['gains'])}")
         print(f"  switch to balance    {'never' if st is None else f'{st:.4f} s'}")
         print(f"  outcome              {summary['outcome']}")
         goal = "UDD" if traj.goal == "folded" and traj.n_links == 3 else f"the {traj.goal} goal"
@@ -119,6 +121,13 @@ def cmd_simulate(args):
         print(f"  {label:<20} {', '.join(f'{v:.2f}' for v in peaks)} N m")
     return finish(traj.meta.get("interrupted", False), f"stopped at t = {summary['final_time']:.3f} s", args.out,
                   kept="kept what was computed in {out}")
+
+
+def _gains_line(robot, traj, gains):
+    from ..control.gains import gains_origin
+
+    values = ", ".join(f"{k} = {gains[k]:.6g}" for k in ("kD", "kP", "kV"))
+    return f"{values} ({gains_origin(robot.analytic, traj.task, robot.gains, gains)})"
 
 
 def cmd_render(args):

@@ -132,7 +132,7 @@ def cmd_compare(args):
     if args.json:
         print_json(summary)
     else:
-        print(leaderboard_markdown(summary))
+        print(leaderboard_markdown(summary, written=args.out is not None))
     return finish(summary["interrupted"], "the leaderboard is incomplete", args.out)
 
 

@@ -1,6 +1,7 @@
 """Gains against the theory: errors below the singularity bound (41), warnings outside Theorem 1."""
 from __future__ import annotations
 
+import math
 import warnings
 from dataclasses import dataclass
 
@@ -83,6 +84,20 @@ def family_gains(model: AnalyticModel, task: Task, rule: GainRule = FAMILY_RULE)
 def gains_text(gains: dict) -> str:
     """``--kD X --kP Y --kV Z``: gains as the command line takes them."""
     return " ".join(f"--{k} {gains[k]:.6g}" for k in ("kD", "kP", "kV"))
+
+
+def gains_origin(model: AnalyticModel, task: Task, stored: dict | None, gains: dict) -> str:
+    """Where a run's ``gains`` come from, in words: the family rule's for the task's goal, the robot's stored gains
+    (they may be both: :command:`make-model` stores the rule's gains for the folded goal), or the command's."""
+    def same(other):
+        return bool(other) and all(k in other and math.isclose(gains[k], other[k], rel_tol=1e-9)
+                                   for k in ("kD", "kP", "kV"))
+
+    stored_words = "the model's stored gains" if same(stored) else ""
+    if same(family_gains(model, task)):
+        rule = f"the family rule's for the {task.name} goal: {FAMILY_RULE.describe()}"
+        return f"{stored_words}, {rule}" if stored_words else rule
+    return stored_words or "as given"
 
 
 class GainsNote(UserWarning):

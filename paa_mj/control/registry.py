@@ -43,7 +43,7 @@ from ..errors import PaaError
 from ..model.params import RobotParams
 from ..task import Task, as_task
 from .base import Binding, Controller
-from .catalog import DESCRIPTIONS, GAIN_CONTROLLERS, OPTIONS
+from .catalog import DESCRIPTIONS, GAIN_CONTROLLERS, OPTIONS, PLANNERS
 from .combined import CombinedController, LevelCondition, RegionCondition
 from .energy import ConventionalController, EnergyVCLController
 from .gains import default_gains
@@ -92,19 +92,28 @@ def _kip_bound(robot, limit):
 
 # Each builder takes (robot, task, gains, check, **options) and returns the controller for that robot and task.
 
+def _planned_kip(robot, task, limit, objective, duration, intervals, plant):
+    """The kip ``robot`` plans; a controller that believes in a model other than its ``plant``'s starts IPOPT from
+    the plant's own kip (the same bounds and settings), so that a perturbed model re-plans near that plan."""
+    bound = _kip_bound(robot, limit)
+    start = None
+    if plant is not None and plant.params != robot.params:
+        start = solve_kip(plant.analytic, bound, objective, duration=duration, intervals=intervals, task=task)
+    return solve_kip(robot.analytic, bound, objective, duration=duration, intervals=intervals, task=task,
+                     start=start)
+
+
 def build_trajopt(robot, task, gains=None, check=True, limit=None, duration=None, intervals=INTERVALS,
-                  lqr_weights=None):
+                  lqr_weights=None, plant=None):
     """The minimum-time kip, tracked by TVLQR, then (67)."""
-    kip = solve_kip(robot.analytic, _kip_bound(robot, limit), "min-time", duration=duration, intervals=intervals,
-                    task=task)
+    kip = _planned_kip(robot, task, limit, "min-time", duration, intervals, plant)
     return kip_controller(robot.analytic, kip, task, name="trajopt", lqr_weights=lqr_weights)
 
 
 def build_trajopt_effort(robot, task, gains=None, check=True, limit=None, duration=EFFORT_DURATION,
-                         intervals=INTERVALS, lqr_weights=None):
+                         intervals=INTERVALS, lqr_weights=None, plant=None):
     """The kip of least effort over ``duration`` seconds, tracked by TVLQR, then (67)."""
-    kip = solve_kip(robot.analytic, _kip_bound(robot, limit), "min-effort", duration=duration, intervals=intervals,
-                    task=task)
+    kip = _planned_kip(robot, task, limit, "min-effort", duration, intervals, plant)
     return kip_controller(robot.analytic, kip, task, name="trajopt-effort", lqr_weights=lqr_weights)
 
 
@@ -331,7 +340,9 @@ class ControllerSpec:
                 return controller  # bound already (a built-in the user's class made): the run checks that binding
         else:
             gains = None if self.gains is None else dict(zip(("kD", "kP", "kV"), self.gains))
-            controller = BUILTIN[self.name][0](believed, task, gains=gains, check=self.check, **dict(self.options))
+            plant = {"plant": robot} if self.name in PLANNERS and self.believed is not None else {}
+            controller = BUILTIN[self.name][0](believed, task, gains=gains, check=self.check, **dict(self.options),
+                                               **plant)
         _bind(controller, robot, task, self.short_name)  # to the plant: believing another model is on purpose
         return controller
 

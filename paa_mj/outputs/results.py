@@ -30,8 +30,9 @@ def _cell(value, fmt):
     return "-" if value is None or (isinstance(value, float) and math.isnan(value)) else format(value, fmt)
 
 
-def leaderboard_markdown(summary) -> str:
-    """``leaderboard.md``: controllers as rows, as RealAIGym lays its leaderboards out."""
+def leaderboard_markdown(summary, written=True) -> str:
+    """``leaderboard.md``: controllers as rows, as RealAIGym lays its leaderboards out; ``written``: its last line
+    points to the files that hold every number (False: a run without an output folder, which writes none)."""
     from ..control.registry import BUILTIN
 
     goal = summary.get("goal", "folded")
@@ -76,7 +77,8 @@ def leaderboard_markdown(summary) -> str:
               "Peak torques applied over every run: " + "; ".join(
                   f"{name} {', '.join(f'{v:.1f}' for v in row['max_abs_tau'])} N m"
                   for name, row in summary["controllers"].items()) + ".",
-              "Every number is in `leaderboard.json`; the runs are in `studies/`.", ""]
+              "Every number is in `leaderboard.json`; the runs are in `studies/`." if written else
+              "Nothing was written: give --out DIR for leaderboard.json, the charts and the runs.", ""]
     return "\n".join(lines)
 
 

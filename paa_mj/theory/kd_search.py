@@ -19,11 +19,20 @@ its ``upper`` is the global bound
 """
 from __future__ import annotations
 
+import contextlib
+import dataclasses
+import hashlib
+import json
+import math
 import os
 from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
 
 import numpy as np
 
+from ..errors import PaaError
+from ..io import write_json
+from ..provenance import cache_root, package_digest
 from .bounds import box_bounds, centre_matrices, gradient, values_into
 from .maxima import Maximum, branch_and_bound
 
@@ -183,6 +192,36 @@ def kd_min_search(am, E_r, tol=TOL, budget_cpu_s=BUDGET_CPU_S, desc=None) -> Max
     q_a = np.diff(np.concatenate([[0.0], x])) % (2 * np.pi)
     return Maximum(float(value), tuple(float(q) for q in q_a), float(np.max(values)), upper=float(upper),
                    tol=float(tol), method=method, boxes=int(boxes))
+
+
+def certificate_dir() -> Path:
+    """Where certified maxima are kept between commands (:func:`kept_certificate`)."""
+    return cache_root() / "kd_min"
+
+
+def _certificate_path(am, E_r, tol) -> Path:
+    text = json.dumps({"package": package_digest(), "robot": am.key(), "E_r": float(E_r), "tol": float(tol)})
+    return certificate_dir() / f"{hashlib.sha256(text.encode()).hexdigest()[:24]}.json"
+
+
+def kept_certificate(am, E_r, tol=TOL) -> Maximum | None:
+    """The certified kD_min of this robot and goal energy that an earlier command found (keyed by the package's
+    code, the robot's parameters, E_r and ``tol``), if f at its argmax is still its value; else None."""
+    try:
+        fields = json.loads(_certificate_path(am, E_r, tol).read_text())
+        kept = Maximum(**{**fields, "argmax": tuple(float(q) for q in fields["argmax"])})
+    except (OSError, ValueError, TypeError):
+        return None
+    x = np.cumsum(np.asarray(kept.argmax, float))[None]  # the actuated angles back to absolute ones
+    same = kept.certified and math.isclose(BoundFunction(am, E_r).values(x)[0], kept.value, rel_tol=1e-12)
+    return kept if same else None
+
+
+def keep_certificate(am, E_r, kd: Maximum):
+    """Keep a certified ``kd`` for :func:`kept_certificate` (a bracket depends on its budget: not kept)."""
+    if kd.certified:
+        with contextlib.suppress(PaaError):  # an unwritable cache costs a search next time, nothing else
+            write_json(_certificate_path(am, E_r, kd.tol), dataclasses.asdict(kd))
 
 
 def duration(seconds) -> str:

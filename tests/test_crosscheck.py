@@ -68,3 +68,18 @@ def test_cross_check_detects_a_wrong_analytic_model(gymnast):
     q, qd, tau = random_states(50, 3, analytic=wrong)
     M, bias, _, _ = engine_quantities(gymnast.model, q, qd, tau)
     assert np.max(np.abs(M - wrong.mass_matrix(q))) > 1e-7
+
+
+def test_the_check_command_fails_when_the_two_models_disagree(monkeypatch, capsys):
+    """A gate: exit 2 and one line when an error passes the agreement (a feature the validation let through)."""
+    import paa_mj.model.crosscheck as crosscheck
+    from paa_mj.cli import main
+
+    assert main(["check", "--samples", "20"]) == 0 and "agree within 1e-09    yes" in capsys.readouterr().out
+    real = crosscheck.cross_check
+    monkeypatch.setattr(crosscheck, "cross_check", lambda *a, **k: crosscheck.CrossCheck(
+        **{**real(*a, **k).as_dict(), "max_rel_err_qacc": 2.6}))
+    assert main(["check", "--samples", "20"]) == 2
+    out, err = capsys.readouterr()
+    assert "agree within 1e-09    NO" in out
+    assert err.strip().splitlines()[-1].startswith("paa-mj: error: MuJoCo and the analytic model disagree on gymnast:")

@@ -100,3 +100,27 @@ def test_the_search_scores_rules_by_the_robots_they_balance():
     best = int(np.argmax(found["balanced"].sum(axis=1)))
     assert found["best"] == found["rules"][best]
     assert search_table(found).count("\n") == 3
+
+
+def test_an_interrupted_run_says_so_instead_of_judging_the_whole_run():
+    from paa_mj.sim.rollout import simulate_mujoco
+
+    gymnast = load_robot("gymnast")
+    traj = simulate_mujoco(gymnast, t_final=0.2, task=Task.named("folded", gymnast))
+    assert traj.outcome().startswith("never entered region (68) in 0.2 s")
+    traj.meta.update(status=f"interrupted at t = {traj.t[-1]:.4f} s", interrupted=True, t_final=30.0)
+    assert traj.outcome() == ("interrupted at t = 0.2000 s, before the end of its 30 s, not at the folded goal; run it"
+                              " whole for its outcome")
+
+
+def test_an_outcome_proposes_only_the_remedies_that_apply_to_the_run():
+    from paa_mj.sim.rollout import simulate_mujoco
+
+    gymnast = load_robot("gymnast")
+    folded = Task.named("folded", gymnast)
+    passive = simulate_mujoco(gymnast, "passive", t_final=0.2, task=folded).outcome()
+    assert passive == "never entered region (68) in 0.2 s; try a longer --t-final"  # no gains to change
+    lqr = simulate_mujoco(gymnast, "lqr", t_final=0.2, task=folded).outcome()
+    assert "--switch" not in lqr and lqr.endswith("; try a longer --t-final")  # no hand-over to move
+    vcl = simulate_mujoco(gymnast, "vcl", t_final=0.2, task=folded).outcome()
+    assert vcl.endswith("try a longer --t-final or other gains (paa-mj gain-search compares rules of gains)")

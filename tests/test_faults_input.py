@@ -43,6 +43,10 @@ FEATURES = [
      "plausible range"),
     ("actuation disabled", 'contact="disable"', 'contact="disable" actuation="disable"', "actuation disabled"),
     ("sleeping bodies", 'contact="disable"', 'contact="disable" sleep="enable"', "sleeping bodies"),
+    ("damping switched off", HIPS, '<joint name="hips" type="hinge" axis="0 1 0" damping="3"/>',
+     'damping switched off (flag damper="disable")'),
+    ("actuator group disabled", '<motor name="hip" joint="hips" gear="1"/>',
+     '<motor name="hip" joint="hips" gear="1" group="2"/>', "actuator 1 in a disabled group"),
     ("joint reference angle", HIPS, '<joint name="hips" type="hinge" axis="0 1 0" ref="0.5"/>',
      "joint reference angles"),
     ("NaN stored gain", 'data="4550.0 16000.0 5000.0"', 'data="nan 16000 5000"', "paa_gains kD = nan"),
@@ -58,6 +62,10 @@ def test_model_features_the_paper_lacks_are_refused_by_name(what, old, new, frag
     text = _variant(old, new)
     if what == "contacts":
         text = text.replace('<flag energy="enable" contact="disable"/>', '<flag energy="enable"/>')
+    if what == "damping switched off":
+        text = text.replace('contact="disable"/>', 'contact="disable" damper="disable"/>')
+    if what == "actuator group disabled":
+        text = text.replace('<option ', '<option actuatorgroupdisable="2" ')
     path.write_text(text)
     _one_line_error(run("theory", "--robot", path), fragment)
 
@@ -102,9 +110,9 @@ CONTRADICTIONS = [
     ("sample interval longer than the run", ["simulate", "--sample-dt", "5", "--t-final", "1"],
      "--sample-dt 5 s is longer than --t-final 1 s"),
     ("integrator with the analytic engine", ["simulate", "--engine", "analytic", "--integrator", "Euler"],
-     "--integrator do not apply to --engine analytic"),
+     "--integrator does not apply to --engine analytic"),
     ("time step with the analytic engine", ["simulate", "--engine", "analytic", "--dt", "0.002"],
-     "--dt do not apply to --engine analytic"),
+     "--dt does not apply to --engine analytic"),
     ("unknown GL backend in reproduce", ["reproduce", "--gl", "vulkan"], "invalid choice: 'vulkan'"),
     ("--no-switch with another controller", ["simulate", "--no-switch", "--controller", "lqr"], "contradicts"),
     ("gains for a controller without gains", ["simulate", "--controller", "passive", "--kP", "3"],
@@ -208,6 +216,13 @@ def test_a_closed_pipe_ends_quietly():
                           text=True, timeout=120)
     assert proc.stdout.startswith("Theory of Liu & Xin")
     assert "Traceback" not in proc.stderr and "BrokenPipe" not in proc.stderr
+
+
+def test_a_closed_standard_output_is_written_to_nowhere(tmp_path):
+    proc = subprocess.run(f"{sys.executable} -m paa_mj.cli simulate --t-final 0.05 --out {tmp_path / 'run'} >&-",
+                          shell=True, capture_output=False, stderr=subprocess.PIPE, text=True, timeout=120)
+    assert proc.returncode == 0 and "Traceback" not in proc.stderr
+    assert (tmp_path / "run" / "summary.json").is_file()  # the files are still written
 
 
 @pytest.fixture

@@ -33,6 +33,9 @@ CONTRADICTIONS_AND_RANGES = [
     (["theory", "--kD", "1e300", "--kP", "1e300", "--kV", "1e300"], "kD = 1e+300 is above 1e+12"),
     (["simulate", "--x0", "1e300", "0", "0", "0", "0", "0"], "initial angle 1e+300 rad is beyond"),
     (["simulate", "--sample-dt", "0.0015", "--t-final", "1"], "not a whole number of time steps"),
+    (["simulate", "--dt", "0.03", "--sample-dt", "0.06", "--t-final", "1"],
+     "final time 1 s is not a whole number of time steps (dt = 0.03 s): give 0.99 or 1.02"),
+    (["simulate", "--dt", "1", "--t-final", "2"], "time step 1 s is above 0.1 s"),
     (["simulate", "--t-final", "1", "--out", ""], "--out: an empty path names no folder"),
     (["render", "--out", "clip.gif/"], "names a folder"),
     (["make-model", "--m", "1", "1", "1", "--l", "1", "1", "1", "--name", "a\nb", "--out", "x.xml"],
@@ -47,6 +50,12 @@ CONTRADICTIONS_AND_RANGES = [
       "--scheduler", "inline"], "is 0 N m, not a physical torque scale for robot gymnast"),
     (["simulate", "--controller", "trajopt-effort", "--kip-duration", "1e6", "--t-final", "1"],
      "a kip duration must be in (0, 120] s"),
+    (["realaigym", "--protocol", "performance-v2", "--seed", "5"], "--seed applies to the protocols robustness-v2"),
+    (["roa", "--method", "sos", "--samples", "5"], "--samples applies to --method sampling"),
+    (["robustness", "--factors", "noise", "--torque-scale", "5"], "--torque-scale applies to the factors"),
+    (["simulate", "--controller", "passive", "--switch", "region"], "--switch applies to the controllers vcl, vc"),
+    (["theory", "--kd-budget", "1e300"], "--kd-budget 1e+300 CPU-s is above 86400 (a day)"),
+    (["bench", "--batch-size", "100000000000"], "physics steps for 3 batches of 100000000000 rollouts"),
 ]
 
 

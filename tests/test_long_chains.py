@@ -39,3 +39,17 @@ def test_the_longest_chain_runs_without_gains_and_is_refused_one_line_where_it_n
                "--t-final", "0.1", cwd=tmp_path)
     assert proc.returncode == 2 and "Traceback" not in proc.stderr and len(proc.stderr.strip().splitlines()) == 1
     assert "is not above kD_min" in proc.stderr and "controller (40) can become singular" in proc.stderr, proc.stderr
+
+
+def test_the_controllability_of_the_longest_chain_is_decided_without_overflow():
+    """The Kalman matrix's powers A^(2n - 1) B overflowed at 64 links: each power is rescaled, and PBH decides."""
+    import warnings
+
+    from paa_mj.model.dynamics import AnalyticModel
+    from paa_mj.theory.linear import goal_controllability
+
+    am = AnalyticModel.from_params(_chain(MAX_LINKS))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        ctrb = goal_controllability(am, Task.named("folded", am))
+    assert ctrb.controllable is True and ctrb.pbh_min > 1e3 * np.finfo(float).eps and np.isfinite(ctrb.sigma_min_ratio)

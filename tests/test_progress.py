@@ -51,11 +51,12 @@ def test_a_json_run_keeps_stdout_for_its_object_and_still_fills_its_silences_on_
     log, real = io.StringIO(), progress.watchdog
 
     @contextlib.contextmanager
-    def quick(command, enabled=True, **kwargs):
+    def slow(command, enabled=True, **kwargs):  # the command's own watchdog, with a silence it cannot miss
         with real(command, enabled=enabled, silence=0.05, stream=log):
             yield
+            time.sleep(0.3)
 
-    monkeypatch.setattr(progress, "watchdog", quick)
+    monkeypatch.setattr(progress, "watchdog", slow)
     assert main(["theory", "--robot", "acrobot", "--goal", "stretched", "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["goal"] == "stretched"
     assert log.getvalue().startswith("paa-mj theory: still working")

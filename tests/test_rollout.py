@@ -145,3 +145,10 @@ def test_the_exact_closed_loop_of_a_compiled_law_is_that_of_its_torque(robot, go
     if python.switch_time is not None:
         assert compiled.switch_time == pytest.approx(python.switch_time, abs=1e-8)
     assert np.max(np.abs(compiled.q[-1] - compiled.q[0])) > 0.5  # it moved
+
+
+def test_a_run_ending_between_two_samples_records_its_end(gymnast):
+    traj = simulate_mujoco(gymnast, t_final=0.013, sample_dt=0.01)
+    assert traj.t.tolist() == pytest.approx([0.0, 0.01, 0.013]) and traj.summary()["final_time"] == pytest.approx(0.013)
+    longer = simulate_mujoco(gymnast, t_final=0.02, sample_dt=0.001)
+    np.testing.assert_array_equal(traj.q[-1], longer.q[13])  # the state of step 13, as the finer grid has it

@@ -112,6 +112,8 @@ def _drop_stdout():
 
 
 def main(argv=None):
+    if sys.stdout is None:  # started with standard output closed (>&-): what it would print goes nowhere
+        sys.stdout = open(os.devnull, "w")
     _choose_gl_early(argv)
     previous = install_signal_handlers()
     try:

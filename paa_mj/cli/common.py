@@ -281,12 +281,13 @@ def spec_from_args(args, robot, task, name=None):
             raise PaaError(f"--lqr-weights applies to the controllers {', '.join(LQR_CONTROLLERS)}, not to {name}")
         options.append(("lqr_weights", tuple(weights)))
     switch = getattr(args, "switch", None)
-    if switch not in (None, "region"):
+    if switch is not None:
         from ..control.catalog import SWITCHED
 
         if name not in SWITCHED:
             raise PaaError(f"--switch applies to the controllers {', '.join(SWITCHED)}, not to {name}")
-        options.append(("switch", switch))
+        if switch != "region":  # region (68) is the default hand-over: the spec stays the plain one
+            options.append(("switch", switch))
     given = {k: getattr(args, k, None) for k in ("kD", "kP", "kV")}
     if all(v is None for v in given.values()):
         return ControllerSpec(name, options=tuple(options), task=task)

@@ -1,6 +1,7 @@
 """``paa-mj realaigym``: RealAIGym's benchmark protocols (performance v2, robustness v2, global policy v3)."""
 from __future__ import annotations
 
+from ..errors import PaaError
 from .common import (check_fresh, controller_parent, finish, folder, finite, initial_state, output_lock, print_json, robot_parent,
                      seed, spec_from_args)
 
@@ -12,13 +13,16 @@ def cmd_realaigym(args):
     from ..task import Task
 
     check_fresh(args)
+    if args.seed is not None and args.protocol == "performance-v2":
+        raise PaaError("--seed applies to the protocols robustness-v2 and global-v3: performance-v2 draws nothing")
     robot = load_robot(args.robot)
     task = Task.named(args.goal, robot)
     spec = spec_from_args(args, robot, task)
     x0 = None if args.x0 is None else initial_state(args, robot, task)
     with output_lock(args.out, "realaigym"):
-        summary, arrays = run_protocol(args.protocol, robot, spec, task, x0, args.seed, out_dir=args.out,
-                                       fresh=args.fresh, progress=not args.json)
+        drawn = {} if args.seed is None else {"seed": args.seed}  # else the protocols' own default
+        summary, arrays = run_protocol(args.protocol, robot, spec, task, x0, out_dir=args.out, fresh=args.fresh,
+                                       progress=not args.json, **drawn)
         if args.out and not summary["interrupted"]:
             write_realaigym(args.out, summary, arrays)
     if args.json:
@@ -64,7 +68,7 @@ def register(sub, parser_class):
     p.add_argument("--x0", type=finite, nargs="+", metavar="X",
                    help="start q1..qn d1..dn in paa_mj's angles [rad, rad/s] (default: hanging at rest, their"
                         " [0, 0, 0, 0], which is -pi 0 0 0 here)")
-    p.add_argument("--seed", type=seed, default=777,
+    p.add_argument("--seed", type=seed, default=None,
                    help="seed of the random draws (default 777, the one their pendubot script has commented out;"
                         " their acrobot script draws unseeded)")
     p.add_argument("--out", type=folder, metavar="DIR", help="folder for realaigym.json, the CSV or the charts"

@@ -4,6 +4,7 @@ from __future__ import annotations
 import math
 import os
 
+from ..errors import PaaError
 from .common import file_path, goal_parent, positive, positive_int, print_json, robot_parent, seed, task_from_args
 
 #: States sampled in the set and simulated in MuJoCo by default, and trajectories drawn from its edge.
@@ -60,7 +61,7 @@ def cmd_roa(args):
     from ..model.robot import load_robot
     from ..control.lqr import lqr_weights
     from ..theory.linear import LQR_WEIGHT, lqr_solution, lqr_weight_matrices
-    from ..theory.roa import region_of_attraction, uniform_in_ellipsoid, on_ellipsoid
+    from ..theory.roa import choose_method, region_of_attraction, uniform_in_ellipsoid, on_ellipsoid
 
     robot = load_robot(args.robot)
     task = task_from_args(args, robot)
@@ -69,8 +70,11 @@ def cmd_roa(args):
     K, S = lqr_solution(robot.analytic, task, Q, R)
     limits = _torque_limits(robot, args.torque_limit)
     dt = float(robot.model.opt.timestep)
+    if args.samples is not None and (args.method == "sos" or choose_method(args.method, n) == "sos"):
+        raise PaaError("--samples applies to --method sampling, not to sos")
+    sampled = {} if args.samples is None else {"samples": args.samples}
     roa = region_of_attraction(robot.analytic, task, K, S, Q, R, u_max=limits, dt=dt, method=args.method,
-                               samples=args.samples, seed=args.seed)
+                               seed=args.seed, **sampled)
     rng = np.random.default_rng(args.seed)
     inside = uniform_in_ellipsoid(S, roa.rho, args.check, rng) if roa.rho > 0 else np.zeros((0, 2 * n))
     check, _ = mujoco_check(robot, task, args.lqr_weights, roa, limits, inside)
@@ -115,8 +119,8 @@ def register(sub, parser_class):
                    help="weights of (67): Q = Q I, R = R I (default the paper's 1e4 and 1)")
     p.add_argument("--method", choices=("sos", "sampling"),
                    help="sos (Drake; the default where it imports, chains of up to 4 links) or sampling")
-    p.add_argument("--samples", type=positive_int, default=64,
-                   help="sampling: states simulated on the boundary of each level tried")
+    p.add_argument("--samples", type=positive_int, default=None,
+                   help="sampling: states simulated on the boundary of each level tried (default 64)")
     p.add_argument("--check", type=positive_int, default=CHECK_STATES,
                    help="states sampled uniformly in the set and simulated in MuJoCo")
     p.add_argument("--seed", type=seed, default=0, help="seed of every sample")

@@ -16,8 +16,9 @@ def run_parent(robot_default="gymnast"):
     p.add_argument("--engine", choices=("mujoco", "analytic"), default="mujoco",
                    help="MuJoCo, or the analytic model (1) by solve_ivp with continuous-time control")
     p.add_argument("--x0", type=finite, nargs="+", metavar="X",
-                   help="initial q1..qn d1..dn [rad, rad/s], 2n numbers (default: hanging at rest, (65) for the"
-                        " gymnast: -pi 0 0 0 0 0)")
+                   help="initial q1..qn d1..dn [rad, rad/s], 2n numbers (default: the task's start: hanging at rest,"
+                        " (65) for the gymnast: -pi 0 0 0 0 0; at the stretched goal link 1 turned a little off"
+                        " hanging, an equilibrium of (40) there; --json states x0)")
     p.add_argument("--no-switch", action="store_true", help="the same as --controller vcl-only")
     p.add_argument("--sample-dt", type=positive, default=0.01, help="recording interval [s], at most --t-final")
     return p
@@ -27,8 +28,9 @@ def _check_engine_options(args):
     if args.engine == "analytic":
         given = [name for name, value in (("--dt", args.dt), ("--integrator", args.integrator)) if value is not None]
         if given:
-            raise PaaError(f"{' and '.join(given)} do not apply to --engine analytic (solve_ivp, continuous-time"
-                           " control); drop them or use --engine mujoco")
+            raise PaaError(f"{' and '.join(given)} {'do' if len(given) > 1 else 'does'} not apply to --engine analytic"
+                           " (solve_ivp, continuous-time control); drop "
+                           + ("them" if len(given) > 1 else "it") + " or use --engine mujoco")
     if args.sample_dt > args.t_final:
         raise PaaError(f"--sample-dt {args.sample_dt:g} s is longer than --t-final {args.t_final:g} s")
 
@@ -60,6 +62,10 @@ def run_from_args(args, progress=True):
     robot = load_robot("gymnast" if args.robot is None else args.robot)  # an empty --robot is refused
     # the analytic engine has no time step; its cost is counted at 1 ms as in its own check
     check_duration(args.t_final, args.dt or (1e-3 if args.engine == "analytic" else float(robot.model.opt.timestep)))
+    if args.engine != "analytic":
+        from ..sim.inputs import check_whole_steps
+
+        check_whole_steps(args.t_final, args.dt or float(robot.model.opt.timestep))
     task = task_from_args(args, robot)
     spec = spec_from_args(args, robot, task)
     controller = spec.build(robot)

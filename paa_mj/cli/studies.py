@@ -82,6 +82,9 @@ def cmd_robustness(args):
     from ..studies.robustness import robustness
 
     factors = [f.strip() for f in args.factors.split(",") if f.strip()]
+    if args.torque_scale is not None and not {"torque_limit", "torque_noise"} & set(factors):
+        raise PaaError("--torque-scale applies to the factors torque_limit and torque_noise, and --factors has"
+                       " neither")
     summary = _study(args, "robustness", lambda robot, spec, common: robustness(
         robot, trials=args.trials, t_final=args.t_final, seed=args.seed, controller=spec, factors=factors,
         start=args.start, model_error=args.model_error, torque_scale=args.torque_scale, **common), write_robustness)

@@ -15,6 +15,11 @@ def cmd_theory(args):
     from ..control.gains import FAMILY_RULE, family_gains
     from ..control.registry import resolve_gains
 
+    from ..limits import MAX_SECONDS
+
+    if args.kd_budget is not None and args.kd_budget > MAX_SECONDS:
+        raise PaaError(f"--kd-budget {args.kd_budget:g} CPU-s is above {MAX_SECONDS:g} (a day), the longest a command"
+                       " may work")
     robot = load_robot(args.robot)
     task = task_from_args(args, robot)
     if args.kd_budget is not None and not theorem1_covers(robot.analytic, task):
@@ -36,11 +41,12 @@ def cmd_theory(args):
 
 
 def cmd_check(args):
-    from ..model.crosscheck import cross_check
+    from ..model.crosscheck import AGREEMENT, cross_check
     from ..model.robot import load_robot
 
     robot = load_robot(args.robot)
-    result = cross_check(robot.model, samples=args.samples, seed=args.seed).as_dict()
+    check = cross_check(robot.model, samples=args.samples, seed=args.seed)
+    result = {**check.as_dict(), "agrees": check.agrees, "agreement": AGREEMENT}
     if args.json:
         print_json(result)
     else:
@@ -48,6 +54,10 @@ def cmd_check(args):
         print(f"MuJoCo against the analytic model, {model}, robot {robot.name}, {args.samples} random states:")
         for key in ("max_rel_err_M", "max_rel_err_bias", "max_rel_err_qacc", "max_rel_err_energy"):
             print(f"  {key:<22} {result[key]:.3e}")
+        print(f"  agree within {AGREEMENT:g}    {'yes' if check.agrees else 'NO'}")
+    if not check.agrees:
+        raise PaaError(f"MuJoCo and the analytic model disagree on {robot.name}: a relative error of {check.worst():.3g}"
+                       f" > {AGREEMENT:g}; the model has a feature the analytic model does not describe")
     return 0
 
 

@@ -157,6 +157,9 @@ def _check_options(model, source):
         raise _feature_error(source, "gravity disabled")
     if model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_ACTUATION:
         raise _feature_error(source, "actuation disabled (the motors would apply no torque)")
+    if model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_DAMPER and np.any(model.dof_damping != 0):
+        raise _feature_error(source, "joint damping switched off (flag damper=\"disable\") on joints that have it"
+                                     " (the analytic model would still damp them)")
     if model.opt.enableflags & mujoco.mjtEnableBit.mjENBL_SLEEP:
         raise _feature_error(source, "sleeping bodies (a link at rest would stop being simulated)")
     if model.opt.density != 0 or model.opt.viscosity != 0:
@@ -217,6 +220,11 @@ def _check_joints(model, source):
 
 
 def _check_actuators(model, source):
+    mask = int(model.opt.disableactuator)  # a bit per group 0..30
+    off = [act for act, group in enumerate(model.actuator_group) if 0 <= group <= 30 and mask >> int(group) & 1]
+    if off:
+        raise _feature_error(source, f"actuator{'s' if len(off) > 1 else ''} {', '.join(map(str, off))} in a disabled"
+                                     " group (option actuatorgroupdisable: its motor would apply no torque)")
     n = model.njnt
     if model.nu != n - 1:
         raise _feature_error(source, f"{model.nu} actuators (a chain of {n} links has {n - 1} motor"

@@ -40,6 +40,23 @@ def _per_link(name, value, n=None):
     return arr
 
 
+def _check_range(key, values):
+    """One per-link parameter: finite, > 0 (>= 0 for damping and armature) and within :data:`PLAUSIBLE`."""
+    if not np.all(np.isfinite(values)):
+        raise PaaError(f"non-physical parameters: {key} = {np.asarray(values).tolist()} is not finite")
+    zero_allowed = key in ("damping", "armature")
+    bad = np.flatnonzero(values < 0 if zero_allowed else values <= 0)
+    if bad.size:
+        i = bad[0]
+        raise PaaError(f"non-physical parameters: {key}{i + 1} = {values[i]:g} must be {'>=' if zero_allowed else '>'} 0")
+    low, high = PLAUSIBLE[key]
+    bad = np.flatnonzero((values < low) | (values > high))
+    if bad.size:
+        i = bad[0]
+        raise PaaError(f"non-physical parameters: {key}{i + 1} = {values[i]:g} lies outside the plausible"
+                       f" range [{low:g}, {high:g}]")
+
+
 @dataclass(frozen=True, eq=False)
 class RobotParams:
     """Masses, lengths, COM distances, inertias, joint damping and armature of the n links.
@@ -101,25 +118,8 @@ class RobotParams:
         for key in PER_LINK:
             if not np.all(np.isfinite(getattr(self, key))):
                 raise PaaError(f"non-physical parameters: {key} = {getattr(self, key).tolist()} is not finite")
-        for key in ("m", "l", "J"):
-            values = getattr(self, key)
-            bad = np.flatnonzero(values <= 0)
-            if bad.size:
-                i = bad[0]
-                raise PaaError(f"non-physical parameters: {key}{i + 1} = {values[i]:g} must be > 0")
-        for key in ("damping", "armature"):
-            values = getattr(self, key)
-            bad = np.flatnonzero(values < 0)
-            if bad.size:
-                i = bad[0]
-                raise PaaError(f"non-physical parameters: {key}{i + 1} = {values[i]:g} must be >= 0")
-        for key, (low, high) in PLAUSIBLE.items():
-            values = getattr(self, key)
-            bad = np.flatnonzero((values < low) | (values > high))
-            if bad.size:
-                i = bad[0]
-                raise PaaError(f"non-physical parameters: {key}{i + 1} = {values[i]:g} lies outside the plausible"
-                               f" range [{low:g}, {high:g}]")
+        for key in ("m", "l", "J", "damping", "armature"):
+            _check_range(key, getattr(self, key))
         bad = np.flatnonzero((self.lc < 0) | (self.lc > self.l))
         if bad.size:
             i = bad[0]
@@ -137,6 +137,8 @@ class RobotParams:
         """Slender uniform rods: lc = l / 2 and J = m l^2 / 12 (as Table 2 of the paper)."""
         m = _per_link("m", m)
         l = _per_link("l", l, m.size)
+        for key, values in (("m", m), ("l", l)):  # before J is made of them (1e300 m would overflow it)
+            _check_range(key, values)
         return cls(m=m, l=l, lc=l / 2, J=m * l**2 / 12, g=g, name=name, damping=damping, armature=armature)
 
     def key(self) -> tuple:

@@ -143,7 +143,9 @@ def chain_theory_report(am: AnalyticModel, kD, kP, kV, task: Task, dt=None, kd_b
     safe_above = kd.value if kd.certified else kd.upper
     A, B = goal_linearization(am, task)
     ctrb = goal_controllability(am, task)
-    rank = int(np.linalg.matrix_rank(control.ctrb(A, B)))
+    with np.errstate(all="ignore"):  # unscaled, A^(2n - 1) B overflows on long chains
+        unscaled = control.ctrb(A, B)
+    rank = int(np.linalg.matrix_rank(unscaled)) if np.all(np.isfinite(unscaled)) else None
     merged_ok, db_min, db_max = merged_acrobot_deltabar(am)
     K = lqr_gain(am, task)
     why = (f"this robot has {am.n_links} links" if am.n_links != 3 else "this robot has damping or armature") \
@@ -174,9 +176,12 @@ def chain_theory_table(name, r) -> str:
         f"  kD_min (41), by definition {_kd_words(r)}   at q_a = ({', '.join(f'{v:.4f}' for v in r['kD_min_at'])});"
         f" kD = {g['kD']:g} {'above' if r['kD_above_kD_min'] else 'NOT above'}",
         f"      by {r['kD_min_method']}" + (f", {r['kD_min_boxes']} boxes" if r["kD_min_boxes"] else ""),
-        f"  goal linearly controllable {_yes(r['goal_controllable'])} (rank {r['goal_controllability']['rank']} of"
-        f" {r['state_dimension']}; python-control ctrb rank {r['ctrb_rank']}; PBH margin"
-        f" {r['goal_controllability']['pbh_min']:.3g})",
+        f"  goal linearly controllable {_yes(r['goal_controllable'])} (PBH margin"
+        f" {r['goal_controllability']['pbh_min']:.3g}; scaled Kalman rank {r['goal_controllability']['rank']} of"
+        f" {r['state_dimension']}, python-control ctrb rank "
+        + ("- (it overflows)" if r["ctrb_rank"] is None else f"{r['ctrb_rank']}")
+        + ("" if r["goal_controllability"]["rank"] == r["ctrb_rank"] == r["state_dimension"] else
+           ": the powers of A are too ill-conditioned for a rank on this chain, PBH decides") + ")",
         f"  merged acrobot (30)        deltabar in [{r['deltabar_min']:.6g}, {r['deltabar_max']:.6g}]:"
         f" up-down controllable for every frozen posture: {_yes(r['merged_acrobot_ud_controllable'])}",
         f"  LQR gain K at the goal     Q = 1e4 I{r['state_dimension']}, R = I{r['links'] - 1}",

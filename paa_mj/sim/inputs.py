@@ -5,6 +5,8 @@ Each function returns the value in the form the engine takes, or raises one line
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ..errors import PaaError
@@ -82,7 +84,8 @@ def _check_initial_magnitudes(x0):
 
 
 def steps_for(t_final, dt):
-    """The number of steps of a run of ``t_final`` seconds at ``dt``, checked against the time budget."""
+    """The number of steps of a run of ``t_final`` seconds at ``dt`` (the nearest), checked against the time
+    budget."""
     t_final = positive_finite("final time", t_final, allow_none=False)
     if not t_final / dt < 1e15:  # past this no run could finish: say so before counting the steps
         raise PaaError(f"final time {t_final:g} s is too long: it would need about {t_final / dt:.3g} physics steps"
@@ -91,6 +94,16 @@ def steps_for(t_final, dt):
     if n_steps < 1:
         raise PaaError(f"final time {t_final:g} s is shorter than one time step ({dt:g} s)")
     return n_steps
+
+
+def check_whole_steps(t_final, dt):
+    """A final time the user asks for must be a whole number of time steps: a run ending elsewhere would be judged
+    at another time than the one asked (the engines take the nearest step)."""
+    n_steps = steps_for(t_final, dt)
+    if abs(t_final / dt - n_steps) > 1e-9 * n_steps:
+        below = math.floor(t_final / dt) * dt
+        raise PaaError(f"final time {t_final:g} s is not a whole number of time steps (dt = {dt:g} s): give"
+                       f" {below:.6g} or {below + dt:.6g}")
 
 
 def sample_interval(sample_dt, dt, t_final):

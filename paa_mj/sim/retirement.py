@@ -110,5 +110,5 @@ def warn_unstable_sampling(plant, controllers, dt, task, robot_name="the robot")
         balance = sampled_balance(plant, K, dt, task)
         if balance["radius"] >= 1.0:
             warnings.warn(f"the balance LQR (67) of {robot_name} at the {task.name} goal is unstable when sampled at"
-                          f" dt = {dt * 1e3:g} ms (spectral radius {balance['radius']:.4g} >= 1), so no run of it can"
+                          f" dt = {dt * 1e3:g} ms (spectral radius {balance['radius']:.6g} >= 1), so no run of it can"
                           f" balance; it is {sampling_advice(balance)}", SamplingWarning, stacklevel=3)

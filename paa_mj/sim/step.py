@@ -251,8 +251,7 @@ def before_physics(r, step, mode, tau_cmd, physics, run, settings, state, sample
     status = actuate(r, step, mode, tau_cmd, physics, run, settings, state, samples)
     if status != RUNNING:
         st.status = status
-        if status != FINISHED:
-            _record_last(r, step, run, state, samples)
+        _record_last(r, step, run, state, samples)  # the end, where the sampling grid does not reach it
         return True
     if settings.pushes.shape[1] > 0:
         apply_pushes(r, step * run.dt, settings.pushes, physics.qfrc)

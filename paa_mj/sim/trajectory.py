@@ -19,6 +19,13 @@ FIELDS = ("t", "q", "qd", "tau", "E_minus_Er", "V", "mode")
 
 
 
+def _try(remedies) -> str:
+    """"; try a, b or c" (nothing without a remedy)."""
+    if not remedies:
+        return ""
+    return "; try " + (", ".join(remedies[:-1]) + " or " if len(remedies) > 1 else "") + remedies[-1]
+
+
 @dataclass
 class Trajectory:
     """Samples of one rollout.
@@ -87,21 +94,27 @@ class Trajectory:
         saturated = self._saturation()
         # a balance that cannot hold at this step is the reason, and its remedy replaces the generic ones
         unstable = self._unstable_balance()
+        # remedies only where they apply: gains to a gain controller, --dt to MuJoCo, --switch to (68)'s hand-over
+        gains, region = bool(self.meta.get("gains")), str(self.meta.get("switch") or "").startswith("region")
         if status.startswith("diverged"):
-            return f"{status}{switched}{saturated}" + (unstable or "; try gains with a larger margin over kD_min (41)"
-                                                       " (paa-mj theory shows the family rule's), a smaller --dt or"
-                                                       " --switch roa")
+            remedies = ["gains with a larger margin over kD_min (41) (paa-mj theory shows the family rule's)"] * gains \
+                + ["a smaller --dt"] * (self.meta.get("engine") != "analytic") + ["--switch roa"] * region
+            return f"{status}{switched}{saturated}" + (unstable or _try(remedies))
+        if status.startswith("interrupted"):  # what it had done by then: no verdict on the whole run
+            where = f"at the {self.goal} goal" if self.balanced() else f"not at the {self.goal} goal"
+            return (f"{status}, before the end of its {self.meta.get('t_final', 0.0):g} s, {where}{switched}"
+                    f"{saturated}; run it whole for its outcome")
         if self.meta.get("success", self.balanced()):
             return f"reached the {self.goal} goal and held it (the task's success){switched}{saturated}"
+        longer = ["a longer --t-final"] + ["other gains (paa-mj gain-search compares rules of gains)"] * gains
         if self.switch_time is None:
             inside = self.task.in_switch_region(self.q, self.qd) if len(self) else np.zeros(0, bool)
             if not inside.any():
-                return (f"never entered region (68) in {self.meta.get('t_final', 0.0):g} s{saturated}; try a longer"
-                        " --t-final or other gains (paa-mj gain-search compares rules of gains)")
+                return (f"never entered region (68) in {self.meta.get('t_final', 0.0):g} s{saturated}{_try(longer)}")
             return (f"entered region (68) at t = {float(self.t[np.argmax(inside)]):.4f} s but never handed over to"
-                    f" (67){saturated}")
+                    f" (67){saturated}" + ("" if region else _try(longer)))
         return f"not balanced at the {self.goal} goal at the end{switched}{saturated}" + (
-            unstable or "; try --switch roa (a certified hand-over) or a longer --t-final")
+            unstable or _try(["--switch roa (a certified hand-over)"] * region + ["a longer --t-final"]))
 
     def _unstable_balance(self) -> str:
         """Where the run switched to a balance that is unstable when sampled at its step: that, and what to do."""

@@ -36,6 +36,7 @@ import mujoco
 import numpy as np
 
 from ..control.registry import make_controller
+from ..limits import check_steps
 from ..model.robot import load_robot
 from ..task import Task, as_task
 from ..sim.analytic import simulate_analytic
@@ -261,6 +262,9 @@ def run_bench(batch_size=1024, batch_seconds=2.0, repeats=3, basin_grid=16, basi
     dt = robot.model.opt.timestep
     n = robot.params.n_links
     task = as_task(task, robot)
+    # the batch and its head to head, counted before the other measurements spend their minutes
+    check_steps(batch_size * repeats * (round(batch_seconds / dt) + round(mujoco_batch_seconds / dt)),
+                f"{repeats} batches of {batch_size} rollouts", "--batch-size")
     start = task.start
     ctrl = make_controller("vcl", robot, task=task)
     t_single = rollout_seconds

@@ -32,6 +32,7 @@ import numpy as np
 
 from ..errors import PaaError
 from ..io import write_json
+from ..limits import MAX_SECONDS
 from ..provenance import cache_root, package_digest
 from .bounds import box_bounds, centre_matrices, gradient, values_into
 from .maxima import Maximum, branch_and_bound
@@ -180,9 +181,11 @@ def kd_min_search(am, E_r, tol=TOL, budget_cpu_s=BUDGET_CPU_S, desc=None) -> Max
     if upper <= 0.0:  # E_r + mu <= 0 at every posture: f <= 0
         method = "E_r + sum_k b_k <= 0: f <= 0 everywhere, so kD_min <= 0"
     elif estimated_cpu_s(am.n_links) > HOPELESS * budget_cpu_s:
+        need = estimated_cpu_s(am.n_links)
         method = (f"Newton's method from {len(starts)} postures and the global bound, no search: a certificate would"
-                  f" take about {duration(estimated_cpu_s(am.n_links))} of CPU (give it that budget: paa-mj theory"
-                  " --kd-budget)")
+                  f" take about {duration(need)} of CPU" + (" (give it that budget: paa-mj theory --kd-budget)"
+                                                           if need <= MAX_SECONDS else
+                                                           ", beyond the day a command may take"))
     else:
         lows, highs = np.full(d, -np.pi), np.full(d, np.pi)
         lows[0] = 0.0  # f(-x) = f(x)

@@ -96,6 +96,17 @@ def test_simulated_atlas_says_how_each_kip_ended(capsys, tmp_path):
         assert (tmp_path / name).exists(), name
 
 
+def test_an_atlas_says_once_how_many_of_its_robots_cannot_hold_their_balance(capsys, monkeypatch):
+    from paa_mj.sim import retirement
+
+    monkeypatch.setattr(retirement, "_WARNED", set())  # as in a new command
+    code, _, err = run(capsys, "atlas", "--robot", "example2", "--grid", "2", "--simulate", "--starts", "1",
+                       "--t-final", "0.2", "--scheduler", "inline")
+    lines = [line for line in err.splitlines() if "unstable when sampled" in line]
+    assert code == 0 and len(lines) == 1  # not once per robot of the family
+    assert "on 4 of the 4 robots of this atlas" in lines[0] and "(the first: example2 at the folded goal" in lines[0]
+
+
 @pytest.mark.parametrize("args, fragment", [
     (["--vary", "l1,l1"], "two different parameters"),
     (["--vary", "l1,q2"], "two different parameters"),

@@ -27,13 +27,16 @@ confusion table of that against the simulated kip is the atlas's finding.
 """
 from __future__ import annotations
 
+import contextlib
 import math
+import warnings
 
 import numpy as np
 
 from ..control.registry import ControllerSpec
 from ..errors import PaaError
 from ..provenance import text_sha256
+from ..sim.retirement import SamplingWarning
 from ..limits import check_memory, check_steps
 from ..model.dynamics import AnalyticModel
 from ..model.params import RobotParams
@@ -273,8 +276,9 @@ def _simulate(robot, family, arrays, starts, t_final, seed, scheduler, out_dir, 
     rollouts = RolloutSet(np.array(x0), specs, task, plants=plants, torque_limit=torque_limit)
     store = ChunkStore(out_dir, study_key({**key, "part": "kips", "starts": starts, "t_final": t_final, "seed": seed,
                                            "chunk": chunk, **rollouts.definition()}), fresh, study="atlas-kips")
-    result = run_study(robot, rollouts, t_final, seed=seed, scheduler=scheduler, store=store, progress=progress,
-                       desc="atlas kips", chunk=chunk)
+    with _sampling_warnings_summed(len(family)):
+        result = run_study(robot, rollouts, t_final, seed=seed, scheduler=scheduler, store=store, progress=progress,
+                           desc="atlas kips", chunk=chunk)
     done = result.meta["completed"]
     codes = classify(result, task)
     for r in np.unique(owner):
@@ -288,6 +292,24 @@ def _simulate(robot, family, arrays, starts, t_final, seed, scheduler, out_dir, 
         if len(rows) > 1 and done[rows[1:]].all():
             balanced_starts[r] = float(np.mean(result.success[rows[1:]]))
     return outcome, reached, balanced_starts, V_final, result.interrupted, peak_torques(result.max_abs_tau, done)
+
+
+@contextlib.contextmanager
+def _sampling_warnings_summed(robots):
+    """One :class:`~paa_mj.sim.retirement.SamplingWarning` for the family instead of one per robot (each scaled robot
+    carries its base robot's name, and a 16 x 16 atlas would say it 256 times); other warnings pass through."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", SamplingWarning)
+        yield
+    sampling = [w for w in caught if issubclass(w.category, SamplingWarning)]
+    for w in caught:
+        if not issubclass(w.category, SamplingWarning):
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    if sampling:
+        first = str(sampling[0].message).split(", so no run")[0].replace("the balance LQR (67) of ", "")
+        warnings.warn(f"the balance LQR (67) is unstable when sampled at the model's time step on {len(sampling)} of"
+                      f" the {robots} robots of this atlas, whose runs cannot balance (the first: {first})",
+                      SamplingWarning, stacklevel=3)
 
 
 def _robot_rows(family, arrays, f1, f2):

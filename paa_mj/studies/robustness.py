@@ -235,6 +235,11 @@ def robustness(robot: Robot, trials=64, t_final=None, seed=0, controller: Contro
     peak = None
     if {"torque_limit", "torque_noise"} & set(chosen):
         peak = float(torque_scale) if torque_scale is not None else nominal_peak(robot, spec, base_limit, t_final)
+    levels = [v for v in chosen.get("torque_limit", {}).get("levels", ()) if math.isfinite(v)]
+    if levels and peak is not None and max(levels) * peak > min(base_limit):
+        raise PaaError(f"the torque_limit levels reach {max(levels) * peak:g} N m (fractions of the torque scale"
+                       f" {peak:g} N m), above the saturation of every run at {min(base_limit):g} N m: they would be"
+                       " that saturation, not their level; lower --torque-scale or raise --torque-limit")
     rollouts, index = _rollouts(robot, spec, task, chosen, runs, initial_states(trials, task, seed, start),
                                 base_limit, peak, seed)
     key = study_key({"study": "robustness", "robot": robot.xml, "t_final": t_final, "seed": seed, "chunk": chunk,

@@ -164,7 +164,7 @@ def cmd_render(args):
 
     if traj is None:
         robot, traj = run_from_args(args, progress=True)
-    check_video_request(traj, args.fps, args.width, args.height)
+    check_video_request(traj, args.fps, args.width, args.height, saved=bool(args.from_file))
     render_trajectory(robot, traj, out, fps=args.fps, width=args.width, height=args.height, camera=args.camera,
                       progress=True)
     print(f"wrote {out} ({backend}, {args.fps:g} fps, {args.width}x{args.height})")

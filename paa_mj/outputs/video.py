@@ -54,8 +54,9 @@ FRAME_SECONDS = 0.01
 GIF_FPS_RANGE = (100.0 / 65535, 50.0)
 
 
-def check_video_request(traj: Trajectory, fps, width, height):
-    """Refuse a video that would take too long, before anything is rendered (frames are streamed to disk)."""
+def check_video_request(traj: Trajectory, fps, width, height, saved=False):
+    """Refuse a video that would take too long, before anything is rendered (frames are streamed to disk);
+    ``saved``: the trajectory comes from a file, whose duration no option shortens."""
     if not (np.isfinite(fps) and fps > 0):
         raise PaaError(f"--fps must be a positive finite number, got {fps}")
     frames = int(np.floor(float(traj.t[-1]) * fps)) + 1
@@ -63,7 +64,8 @@ def check_video_request(traj: Trajectory, fps, width, height):
     if cost > MAX_FRAMES:
         hours = cost * FRAME_SECONDS / 3600
         raise PaaError(f"would need {frames} frames of {width} x {height} (about {hours:.3g} h to render, the limit"
-                       f" is {MAX_FRAMES * FRAME_SECONDS / 3600:.3g} h); lower --fps, --t-final or the size")
+                       f" is {MAX_FRAMES * FRAME_SECONDS / 3600:.3g} h); lower --fps"
+                       + (" or the size" if saved else ", --t-final or the size"))
     return frames
 
 

@@ -200,7 +200,7 @@ def build_plan(robot: Robot, task: Task, x0, t_final, controllers, *, dt=None, i
     dt = float(base.opt.timestep)
     n_steps = steps_for(t_final, dt)
     check_steps(float(n) * n_steps, f"{n} rollout(s) of {t_final:g} s at dt = {dt:g} s",
-                "--t-final or the number of rollouts, or raise --dt")
+                "the final time (--t-final) or the number of rollouts")
     if every:
         check_memory(n * (n_steps // every + 2) * 80.0, "recorded samples", "--t-final or raise --sample-dt")
     warn_unstable_sampling(robot.analytic, controllers, dt, task, robot.name)

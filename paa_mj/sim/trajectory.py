@@ -112,7 +112,7 @@ class Trajectory:
             if not inside.any():
                 return (f"never entered region (68) in {self.meta.get('t_final', 0.0):g} s{saturated}{_try(longer)}")
             return (f"entered region (68) at t = {float(self.t[np.argmax(inside)]):.4f} s but never handed over to"
-                    f" (67){saturated}" + ("" if region else _try(longer)))
+                    f" (67){saturated}")
         return f"not balanced at the {self.goal} goal at the end{switched}{saturated}" + (
             unstable or _try(["--switch roa (a certified hand-over)"] * region + ["a longer --t-final"]))
 

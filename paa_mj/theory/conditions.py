@@ -79,8 +79,8 @@ def chain_kd_min(am: AnalyticModel, task, budget_cpu_s=None, progress=True) -> M
     bound of :func:`~paa_mj.theory.kd_search.kd_min_search`, certified to a relative 1e-6 (about 15 CPU-seconds
     at 8 links, minutes at 9). Where its budget runs out first (from about 10 links) the result is a bracket:
     ``value <= kD_min <= upper``, ``certified`` False. Cached per robot and goal: a later call reuses the result
-    when it is certified, when it asks for no budget of its own, or when it asks for no more than the first; a
-    certified one is also kept on disk for later commands (:func:`~paa_mj.theory.kd_search.kept_certificate`).
+    when it is certified, when it asks for no budget of its own, or when it asks for no more than the first; it is
+    also kept on disk for later commands, a bracket with its budget (:func:`~paa_mj.theory.kd_search.kept_search`).
 
     Parameters
     ----------
@@ -92,7 +92,7 @@ def chain_kd_min(am: AnalyticModel, task, budget_cpu_s=None, progress=True) -> M
     progress : bool
         A progress bar on stderr, with the bracket, while the search runs (lines from 2 s on).
     """
-    from .kd_search import BUDGET_CPU_S, keep_certificate, kd_min_search, kept_certificate
+    from .kd_search import BUDGET_CPU_S, keep_search, kd_min_search, kept_search
 
     budget = BUDGET_CPU_S if budget_cpu_s is None else float(budget_cpu_s)
     E_r = task.goal_energy(am)
@@ -100,10 +100,10 @@ def chain_kd_min(am: AnalyticModel, task, budget_cpu_s=None, progress=True) -> M
     known = _KD_MIN_CACHE.get(key)
     if known is None or not (known[1].certified or budget_cpu_s is None or known[0] >= budget):
         desc = f"kD_min (41), {am.n_links} links, {task.name} goal" if progress else None
-        kd = kept_certificate(am, E_r)
+        kd = kept_search(am, E_r, budget)
         if kd is None:
             kd = kd_min_search(am, E_r, budget_cpu_s=budget, desc=desc)
-            keep_certificate(am, E_r, kd)
+            keep_search(am, E_r, kd, budget)
         known = _KD_MIN_CACHE[key] = (budget, kd)
     return known[1]
 

@@ -198,7 +198,7 @@ def kd_min_search(am, E_r, tol=TOL, budget_cpu_s=BUDGET_CPU_S, desc=None) -> Max
 
 
 def certificate_dir() -> Path:
-    """Where certified maxima are kept between commands (:func:`kept_certificate`)."""
+    """Where the searches' results are kept between commands (:func:`kept_search`)."""
     return cache_root() / "kd_min"
 
 
@@ -207,24 +207,27 @@ def _certificate_path(am, E_r, tol) -> Path:
     return certificate_dir() / f"{hashlib.sha256(text.encode()).hexdigest()[:24]}.json"
 
 
-def kept_certificate(am, E_r, tol=TOL) -> Maximum | None:
-    """The certified kD_min of this robot and goal energy that an earlier command found (keyed by the package's
-    code, the robot's parameters, E_r and ``tol``), if f at its argmax is still its value; else None."""
+def kept_search(am, E_r, budget_cpu_s, tol=TOL) -> Maximum | None:
+    """The kD_min of this robot and goal energy that an earlier command's search found (keyed by the package's
+    code, the robot's parameters, E_r and ``tol``), if f at its argmax is still its value and it is certified or
+    its bracket was searched with at least ``budget_cpu_s``; else None."""
     try:
         fields = json.loads(_certificate_path(am, E_r, tol).read_text())
+        budget = float(fields.pop("budget_cpu_s"))
         kept = Maximum(**{**fields, "argmax": tuple(float(q) for q in fields["argmax"])})
-    except (OSError, ValueError, TypeError):
+    except (OSError, ValueError, TypeError, KeyError):
         return None
     x = np.cumsum(np.asarray(kept.argmax, float))[None]  # the actuated angles back to absolute ones
-    same = kept.certified and math.isclose(BoundFunction(am, E_r).values(x)[0], kept.value, rel_tol=1e-12)
-    return kept if same else None
+    same = math.isclose(BoundFunction(am, E_r).values(x)[0], kept.value, rel_tol=1e-12)
+    return kept if same and (kept.certified or budget >= budget_cpu_s) else None
 
 
-def keep_certificate(am, E_r, kd: Maximum):
-    """Keep a certified ``kd`` for :func:`kept_certificate` (a bracket depends on its budget: not kept)."""
-    if kd.certified:
+def keep_search(am, E_r, kd: Maximum, budget_cpu_s):
+    """Keep what a search found (certified, or a bracket with the budget it had) for :func:`kept_search`: a chain
+    of 9 to 11 links spends its whole budget on each command otherwise."""
+    if kd.boxes or kd.certified:  # not the global bound, which costs nothing again
         with contextlib.suppress(PaaError):  # an unwritable cache costs a search next time, nothing else
-            write_json(_certificate_path(am, E_r, kd.tol), dataclasses.asdict(kd))
+            write_json(_certificate_path(am, E_r, kd.tol), {**dataclasses.asdict(kd), "budget_cpu_s": budget_cpu_s})
 
 
 def duration(seconds) -> str:

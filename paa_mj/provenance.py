@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import functools
 import hashlib
+import json
 import os
 from pathlib import Path
 
@@ -28,6 +29,15 @@ def package_digest() -> str:
         if path.suffix in (".py", ".xml") and "__pycache__" not in path.parts:
             digest.update(str(path.relative_to(root)).encode() + b"\0" + path.read_bytes() + b"\0")
     return digest.hexdigest()
+
+
+def cache_key(**definition) -> str:
+    """The name of a cached result: 24 hexadecimal digits of the sha256 of its ``definition`` (JSON-able, arrays
+    included) and of the package's code."""
+    from .io import _json_default
+
+    text = json.dumps({"package": package_digest(), **definition}, sort_keys=True, default=_json_default)
+    return hashlib.sha256(text.encode()).hexdigest()[:24]
 
 
 def text_sha256(text: str) -> str:

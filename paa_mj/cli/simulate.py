@@ -61,11 +61,12 @@ def run_from_args(args, progress=True):
     _check_engine_options(args)
     robot = load_robot("gymnast" if args.robot is None else args.robot)  # an empty --robot is refused
     # the analytic engine has no time step; its cost is counted at 1 ms as in its own check
-    check_duration(args.t_final, args.dt or (1e-3 if args.engine == "analytic" else float(robot.model.opt.timestep)))
+    step = args.dt or (1e-3 if args.engine == "analytic" else float(robot.model.opt.timestep))
+    check_duration(args.t_final, step)
     if args.engine != "analytic":
         from ..sim.inputs import check_whole_steps
 
-        check_whole_steps(args.t_final, args.dt or float(robot.model.opt.timestep))
+        check_whole_steps(args.t_final, step)
     task = task_from_args(args, robot)
     spec = spec_from_args(args, robot, task)
     controller = spec.build(robot)

@@ -14,7 +14,6 @@ def cmd_theory(args):
 
     from ..control.gains import FAMILY_RULE, family_gains
     from ..control.registry import resolve_gains
-
     from ..limits import MAX_SECONDS
 
     if args.kd_budget is not None and args.kd_budget > MAX_SECONDS:

@@ -24,8 +24,6 @@ trajectory is solved once per machine.
 """
 from __future__ import annotations
 
-import hashlib
-import json
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -35,7 +33,7 @@ from ..errors import PaaError
 from ..model import equations as eq
 from ..model.dynamics import AnalyticModel
 from ..task import Task
-from ..provenance import cache_root, package_digest
+from ..provenance import cache_key, cache_root
 
 OBJECTIVES = ("min-time", "min-effort")
 #: Collocation intervals by default.
@@ -140,21 +138,10 @@ def cache_dir() -> Path:
 
 
 def _key(am, bound, objective, duration, intervals, x0, xN, start=None):
-    text = json.dumps({"v": CACHE_VERSION, "package": package_digest(), "robot": am.key(),
-                       "bound": np.asarray(bound).tolist(),
-                       "objective": objective, "duration": duration, "intervals": intervals,
-                       "x0": np.asarray(x0).tolist(), "xN": np.asarray(xN).tolist(),
-                       **({} if start is None else {"start": _digest(start)})})
-    return hashlib.sha256(text.encode()).hexdigest()[:24]
-
-
-def _digest(kip) -> str:
-    """The sha256 of a kip's numbers: a solve started from it is another problem to the cache (IPOPT may find
-    another local optimum from another start)."""
-    digest = hashlib.sha256()
-    for values in (kip.x, kip.u, kip.x_mid, kip.u_mid, np.array([kip.duration])):
-        digest.update(np.ascontiguousarray(values, dtype=float).tobytes())
-    return digest.hexdigest()
+    # a solve started from a kip is another problem to the cache: IPOPT may find another local optimum from there
+    return cache_key(v=CACHE_VERSION, robot=am.key(), bound=np.asarray(bound), objective=objective, duration=duration,
+                     intervals=intervals, x0=np.asarray(x0), xN=np.asarray(xN),
+                     **({} if start is None else {"start": start.arrays()}))
 
 
 def solve_kip(am: AnalyticModel, bound, objective="min-time", duration=None, intervals=INTERVALS, x0=None,

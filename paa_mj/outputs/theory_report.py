@@ -135,14 +135,14 @@ def chain_theory_report(am: AnalyticModel, kD, kP, kV, task: Task, dt=None, kd_b
     import control
 
     from ..theory.conditions import chain_kd_min, merged_acrobot_deltabar
-    from ..theory.linear import goal_linearization
+    from ..theory.linear import goal_linearization, linear_controllability
 
     check_gain_range(kD, kP, kV)
     E_r = task.goal_energy(am)
     kd = chain_kd_min(am, task, budget_cpu_s=kd_budget_cpu_s)
     safe_above = kd.value if kd.certified else kd.upper
     A, B = goal_linearization(am, task)
-    ctrb = goal_controllability(am, task)
+    ctrb = linear_controllability(A, B)
     with np.errstate(all="ignore"):  # unscaled, A^(2n - 1) B overflows on long chains
         unscaled = control.ctrb(A, B)
     rank = int(np.linalg.matrix_rank(unscaled)) if np.all(np.isfinite(unscaled)) else None

@@ -81,7 +81,12 @@ def modal_bound(cert, qpos, qvel, goal):
 
 
 class SamplingWarning(UserWarning):
-    """A controller's balance gain is unstable when held over the simulation's time step; the run goes on."""
+    """A controller's balance gain is unstable when held over the simulation's time step; the run goes on.
+    ``detail``: which robot, goal and step, and the spectral radius, in words (a summary of many quotes it)."""
+
+    def __init__(self, message, detail=""):
+        super().__init__(message)
+        self.detail = detail
 
 
 _WARNED: set = set()
@@ -109,6 +114,7 @@ def warn_unstable_sampling(plant, controllers, dt, task, robot_name="the robot")
         _WARNED.add(key)
         balance = sampled_balance(plant, K, dt, task)
         if balance["radius"] >= 1.0:
-            warnings.warn(f"the balance LQR (67) of {robot_name} at the {task.name} goal is unstable when sampled at"
-                          f" dt = {dt * 1e3:g} ms (spectral radius {balance['radius']:.6g} >= 1), so no run of it can"
-                          f" balance; it is {sampling_advice(balance)}", SamplingWarning, stacklevel=3)
+            detail = (f"{robot_name} at the {task.name} goal is unstable when sampled at dt = {dt * 1e3:g} ms"
+                      f" (spectral radius {balance['radius']:.6g} >= 1)")
+            warnings.warn(SamplingWarning(f"the balance LQR (67) of {detail}, so no run of it can balance; it is"
+                                          f" {sampling_advice(balance)}", detail), stacklevel=3)

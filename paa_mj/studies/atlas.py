@@ -306,10 +306,9 @@ def _sampling_warnings_summed(robots):
         if not issubclass(w.category, SamplingWarning):
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     if sampling:
-        first = str(sampling[0].message).split(", so no run")[0].replace("the balance LQR (67) of ", "")
         warnings.warn(f"the balance LQR (67) is unstable when sampled at the model's time step on {len(sampling)} of"
-                      f" the {robots} robots of this atlas, whose runs cannot balance (the first: {first})",
-                      SamplingWarning, stacklevel=3)
+                      f" the {robots} robots of this atlas, whose runs cannot balance (the first:"
+                      f" {sampling[0].message.detail})", SamplingWarning, stacklevel=3)
 
 
 def _robot_rows(family, arrays, f1, f2):

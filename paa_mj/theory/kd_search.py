@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
-import hashlib
 import json
 import math
 import os
@@ -33,7 +32,7 @@ import numpy as np
 from ..errors import PaaError
 from ..io import write_json
 from ..limits import MAX_SECONDS
-from ..provenance import cache_root, package_digest
+from ..provenance import cache_key, cache_root
 from .bounds import box_bounds, centre_matrices, gradient, values_into
 from .maxima import Maximum, branch_and_bound
 
@@ -178,10 +177,10 @@ def kd_min_search(am, E_r, tol=TOL, budget_cpu_s=BUDGET_CPU_S, desc=None) -> Max
     value, x = max((f.ascend(starts[i]) for i in np.argsort(values)[::-1][:4 if d <= 20 else 2]),
                    key=lambda pair: pair[0])
     boxes, upper, method = 0, f.global_bound(), METHOD
+    need = estimated_cpu_s(am.n_links)
     if upper <= 0.0:  # E_r + mu <= 0 at every posture: f <= 0
         method = "E_r + sum_k b_k <= 0: f <= 0 everywhere, so kD_min <= 0"
-    elif estimated_cpu_s(am.n_links) > HOPELESS * budget_cpu_s:
-        need = estimated_cpu_s(am.n_links)
+    elif need > HOPELESS * budget_cpu_s:
         method = (f"Newton's method from {len(starts)} postures and the global bound, no search: a certificate would"
                   f" take about {duration(need)} of CPU" + (" (give it that budget: paa-mj theory --kd-budget)"
                                                            if need <= MAX_SECONDS else
@@ -203,8 +202,7 @@ def certificate_dir() -> Path:
 
 
 def _certificate_path(am, E_r, tol) -> Path:
-    text = json.dumps({"package": package_digest(), "robot": am.key(), "E_r": float(E_r), "tol": float(tol)})
-    return certificate_dir() / f"{hashlib.sha256(text.encode()).hexdigest()[:24]}.json"
+    return certificate_dir() / f"{cache_key(robot=am.key(), E_r=float(E_r), tol=float(tol))}.json"
 
 
 def kept_search(am, E_r, budget_cpu_s, tol=TOL) -> Maximum | None:

@@ -5,22 +5,22 @@ vector environment's steps per second.
 
 Needs a CUDA device and the extra ``gpu`` (``pip install "paa_mj[gpu]"``). Every basin is the command a user
 runs (``paa-mj basin ... --json``) in its own process, timed from outside (wall clock and the child's CPU
-seconds): imports, kernel loading, the run and the files written. In order:
+seconds): imports, kernel loading, the run and the files written, its summary read from its ``summary.json``. In
+order:
 
-1. a tiny basin on each engine that compiles its kernels into the caches (their times are stated as ``compile``);
-2. the 64 x 64 basin of the paper's gymnast (folded goal, ``vcl``, 30 s) on the CPU engine (every core) and on
-   the GPU: the ratio of their wall-clock times, and how far they agree cell by cell (outcome, switch time,
-   final state: MuJoCo Warp is float32);
-3. the 256 x 256 basin on the GPU;
-4. the 1024 x 1024 basin over ``--short`` seconds where the budget left allows it (judged as if the GPU were
-   already full at 256 x 256), and over 30 s where it still does: every world is stepped to the end on the
-   GPU (a stopped world's steps cost the same), so the time of a 30 s basin is at most the short one's scaled
-   by the ratio of their steps (stated as a projection when the 30 s run is skipped);
+1. a tiny basin on each engine that compiles its kernels into the caches, or loads them from there (their times
+   are stated as ``compile``; ``scripts/warp_aot.py`` compiles the GPU's ahead of time on any machine);
+2. the 1024 x 1024 basin of the paper's gymnast (folded goal, ``vcl``, 30 s) on the GPU, stopped where it would
+   not leave ``--reserve`` seconds of the budget; a run that is stopped states how far it got (its last progress
+   line: seconds simulated, summed over the worlds, a stopped world counted whole);
+3. the 64 x 64 basin on the CPU engine (every core) and on the GPU: the ratio of their wall-clock times, and how
+   far they agree cell by cell (outcome, switch time, final state: MuJoCo Warp is float32);
+4. the 256 x 256 basin on the GPU, with the CPU engine's time on it scaled from 64 x 64 by the number of starts;
 5. the vector environment (``engine="warp"`` against ``engine="mujoco"`` with a thread per core) with random
    actions: environment steps per second at 4096 and 65536 sub-environments.
 
-Each stage writes ``gpu_figures.json`` in ``--out`` again (beside each basin's folder), so that what ran is kept if a later stage is cut
-short; a stage whose estimate does not fit in what is left of ``--budget`` is skipped and says so.
+Each stage writes ``gpu_figures.json`` in ``--out`` again (beside each basin's folder), so that what ran is kept if
+a later stage is cut short; a stage that does not fit in what is left of ``--budget`` is skipped and says so.
 """
 from __future__ import annotations
 
@@ -46,21 +46,34 @@ def child_seconds():
 
 
 def basin(out, name, grid, t_final, engine, device, chunk, timeout=None):
-    """One ``paa-mj basin`` in its own process: (summary, wall [s], CPU [s], folder); stopped after ``timeout`` s."""
+    """One ``paa-mj basin`` in its own process: (summary, wall [s], CPU [s], folder); stopped after ``timeout`` s
+    (:class:`Cut`, with its last progress line)."""
     folder = out / name
     cmd = [sys.executable, "-m", "paa_mj.cli", "basin", "--grid", str(grid), "--t-final", str(t_final),
-           "--engine", engine, "--chunk", str(chunk), "--out", str(folder), "--fresh", "--json",
-           "--scheduler", "inline"]
+           "--engine", engine, "--chunk", str(chunk), "--out", str(folder), "--fresh", "--scheduler", "inline"]
     if engine == "warp":
         cmd += ["--device", device]
     start, cpu = time.perf_counter(), child_seconds()
-    done = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, timeout=timeout)
+    try:
+        done = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, timeout=timeout)
+    except subprocess.TimeoutExpired as cut:
+        err = cut.stderr.decode() if isinstance(cut.stderr, bytes) else (cut.stderr or "")
+        lines = [line for line in err.splitlines() if "simulated" in line]
+        raise Cut(time.perf_counter() - start, lines[-1] if lines else None) from None
     wall, cpu = time.perf_counter() - start, child_seconds() - cpu
     if done.returncode:
         raise RuntimeError(f"{' '.join(cmd[2:])}: exit {done.returncode}: {done.stderr[-1500:]}")
-    summary = json.loads(done.stdout.strip().splitlines()[-1])
+    summary = json.loads((folder / "summary.json").read_text())
     print(f"  {name}: {wall:.1f} s wall, {cpu:.1f} CPU-s, success {summary['success']:.4f}", flush=True)
     return summary, wall, cpu, folder
+
+
+class Cut(Exception):
+    """A basin stopped at its timeout: the seconds it ran and its last progress line."""
+
+    def __init__(self, wall, last_progress):
+        super().__init__(f"cut after {wall:.0f} s")
+        self.wall, self.last_progress = wall, last_progress
 
 
 def agreement(cpu_folder, gpu_folder):
@@ -116,9 +129,8 @@ class Figures:
         import mujoco
         import warp
 
-        self.args, self.began = args, time.perf_counter()
+        self.args, self.began, self.cpu_run = args, time.perf_counter(), None
         self.small, self.middle, self.large = (int(g) for g in args.grids.split(","))
-        self.projected = None  # the large basin's time over t_final, from its short run
         self.data = {"machine": {"gpu": gpu_name(), "cpus": os.cpu_count(), "python": platform.python_version(),
                                  "mujoco": mujoco.__version__, "warp": warp.config.version},
                      "command": " ".join(sys.argv), "skipped": []}
@@ -131,9 +143,13 @@ class Figures:
     def left(self):
         return self.args.budget - (time.perf_counter() - self.began)
 
-    def basin(self, name, grid, t_final, engine, **kwargs):
+    def basin(self, name, grid, t_final, engine, timeout=None):
+        """:func:`basin`, stopped where the budget ends unless ``timeout`` is sooner."""
         device = self.args.device if engine == "warp" else None
-        return basin(self.args.out, name, grid, t_final, engine, device, max(grid**2, 4), **kwargs)
+        timeout = self.left() - 5 if timeout is None else timeout
+        if timeout < 10:
+            raise Cut(0.0, "not started")
+        return basin(self.args.out, name, grid, t_final, engine, device, max(grid**2, 4), timeout=timeout)
 
     def compile(self):
         print("compile", flush=True)
@@ -158,29 +174,11 @@ class Figures:
         grid, t = self.middle, self.args.t_final
         print(f"{grid} x {grid}, {t} s: GPU", flush=True)
         summary, wall, cpu, _ = self.basin("warp_middle", grid, t, "warp")
-        scale = (grid / self.small) ** 2  # the CPU engine's cost grows with the starts
-        self.data["basin_middle"] = {"grid": grid, "gpu": {"wall_s": wall, "cpu_s": cpu, "success": summary["success"]},
-                                     "cpu_engine_scaled_cpu_s": self.cpu_run[2] * scale,
-                                     "cpu_engine_scaled_wall_s": self.cpu_run[1] * scale}
-
-    def gpu_large_short(self):
-        grid, short, t = self.large, self.args.short, self.args.t_final
-        # if the GPU were already full at the middle grid, the large one would cost this
-        linear = self.data["basin_middle"]["gpu"]["wall_s"] * (grid / self.middle) ** 2 * short / t
-        if self.left() < linear + 60:
-            self.data["skipped"].append(f"{grid} x {grid} over {short} s: {linear:.0f} s if the GPU scaled"
-                                        f" linearly from {self.middle} x {self.middle}, {self.left():.0f} s left")
-            return
-        print(f"{grid} x {grid}, {short} s: GPU", flush=True)
-        try:
-            _, wall, cpu, _ = self.basin("warp_large_short", grid, short, "warp", timeout=self.left() - 30)
-        except subprocess.TimeoutExpired:
-            self.data["skipped"].append(f"{grid} x {grid} over {short} s: cut with {self.left():.0f} s left")
-            return
-        # conservative: the fixed costs (imports, the plan, the files) are scaled with the steps too
-        self.projected = wall * t / short
-        self.data["basin_large"] = {"grid": grid, "short": {"t_final": short, "wall_s": wall, "cpu_s": cpu},
-                                    "projected_wall_s": self.projected}
+        self.data["basin_middle"] = {"grid": grid, "gpu": {"wall_s": wall, "cpu_s": cpu, "success": summary["success"]}}
+        if self.cpu_run is not None:
+            scale = (grid / self.small) ** 2  # the CPU engine's cost grows with the starts
+            self.data["basin_middle"].update(cpu_engine_scaled_cpu_s=self.cpu_run[2] * scale,
+                                             cpu_engine_scaled_wall_s=self.cpu_run[1] * scale)
 
     def vector(self):
         print("vector environment", flush=True)
@@ -195,15 +193,20 @@ class Figures:
 
     def gpu_large(self):
         grid, t = self.large, self.args.t_final
-        if self.projected is None:
+        room = self.left() - self.args.reserve
+        if room < 60:
+            self.data["skipped"].append(f"{grid} x {grid} over {t} s: {self.left():.0f} s left")
             return
-        if self.left() < self.projected * 1.2 + 30:
-            self.data["skipped"].append(f"{grid} x {grid} over {t} s: projected {self.projected:.0f} s,"
-                                        f" {self.left():.0f} s left")
+        print(f"{grid} x {grid}, {t} s: GPU (at most {room:.0f} s)", flush=True)
+        try:
+            summary, wall, cpu, _ = self.basin("warp_large", grid, t, "warp", timeout=room)
+        except Cut as cut:
+            print(f"  cut after {cut.wall:.0f} s: {cut.last_progress}", flush=True)
+            self.data["basin_large"] = {"grid": grid, "t_final": t, "cut_after_s": cut.wall,
+                                        "last_progress": cut.last_progress}
             return
-        print(f"{grid} x {grid}, {t} s: GPU", flush=True)
-        summary, wall, cpu, _ = self.basin("warp_large", grid, t, "warp")
-        self.data["basin_large"]["full"] = {"wall_s": wall, "cpu_s": cpu, "success": summary["success"]}
+        self.data["basin_large"] = {"grid": grid, "t_final": t, "gpu": {"wall_s": wall, "cpu_s": cpu,
+                                                                         "success": summary["success"]}}
 
 
 def main():
@@ -211,16 +214,19 @@ def main():
     parser.add_argument("--out", type=Path, required=True)
     parser.add_argument("--budget", type=float, default=540.0, help="seconds for every stage together")
     parser.add_argument("--device", default="cuda:0")
-    parser.add_argument("--short", type=float, default=3.0, help="duration of the short largest basin [s]")
+    parser.add_argument("--reserve", type=float, default=240.0,
+                        help="seconds of the budget the largest basin leaves to the stages after it")
     parser.add_argument("--t-final", type=float, default=30.0, help="duration of every other basin [s]")
     parser.add_argument("--grids", default="64,256,1024", help="the three grids: both engines, GPU, largest")
     parser.add_argument("--envs", default="4096,65536", help="vector environment sizes")
     args = parser.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
     figures = Figures(args)
-    for stage in (figures.compile, figures.both_engines, figures.gpu_middle, figures.gpu_large_short, figures.vector,
-                  figures.gpu_large):
-        stage()
+    for stage in (figures.compile, figures.gpu_large, figures.both_engines, figures.gpu_middle, figures.vector):
+        try:
+            stage()
+        except Cut as cut:
+            figures.data["skipped"].append(f"{stage.__name__}: cut after {cut.wall:.0f} s ({cut.last_progress})")
         figures.save()
     figures.data["total_wall_s"] = time.perf_counter() - figures.began
     figures.save()

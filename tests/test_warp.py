@@ -69,19 +69,65 @@ def folded(gymnast):
     return Task.named("folded", gymnast)
 
 
-@needs_warp
-def test_physics_agrees_with_mj_step_over_200_steps(gymnast, warp_modules):
-    """mujoco_warp.step of 4 worlds against mj_step, RK4 at 1 ms, torques held: within 1e-5 (measured 3e-6)."""
+@pytest.mark.parametrize("name", ["gymnast", "example2", "acrobot", "chain4", "realaigym_acrobot"])
+def test_every_stored_robot_makes_no_constraint_row(name):
+    """The warp engine gives its worlds no room for constraint rows where ``makes_no_constraints``: true of every
+    stored robot, and MuJoCo makes none for it at random states, far outside any joint range."""
     import mujoco
 
-    from paa_mj.sim.warp_engine import device_model
+    from paa_mj.model import load_robot
+    from paa_mj.model.mjcf_read import makes_no_constraints
+
+    model = load_robot(name).model
+    assert makes_no_constraints(model)
+    data = mujoco.MjData(model)
+    for x in np.random.default_rng(0).uniform(-20, 20, (20, 2 * model.nv)):
+        data.qpos[:], data.qvel[:] = x[:model.nv], x[model.nv:]
+        mujoco.mj_forward(model, data)
+        assert data.nefc == 0 and data.ncon == 0
+
+
+@pytest.mark.parametrize("old, new", [
+    ('<joint name="hips" type="hinge" axis="0 1 0"/>', '<joint name="hips" type="hinge" axis="0 1 0" range="-1 1"/>'),
+    ('<joint name="hips" type="hinge" axis="0 1 0"/>',
+     '<joint name="hips" type="hinge" axis="0 1 0" frictionloss="0.2"/>'),
+    ('material="legs" contype="0" conaffinity="0"', 'material="legs" contype="1" conaffinity="1"'),
+], ids=["joint range", "friction loss", "contacts"])
+def test_a_model_that_makes_constraint_rows_is_not_constraint_free(old, new):
+    """A joint range, friction loss or colliding links: MuJoCo makes rows for them, and ``makes_no_constraints``
+    says so (the warp engine then keeps MuJoCo Warp's default room and solver)."""
+    import mujoco
+
+    from paa_mj.model.mjcf_read import makes_no_constraints
+
+    from .faults_shared import _variant
+
+    xml = _variant(old, new)
+    if "contype" in new:  # colliding links with contacts on (the gymnast's file switches them off)
+        xml = xml.replace('contact="disable"', 'contact="enable"')
+    model = mujoco.MjModel.from_xml_string(xml)
+    assert not makes_no_constraints(model)
+    if "range" in new or "frictionloss" in new:
+        data = mujoco.MjData(model)
+        data.qpos[2] = 2.0  # past the range; friction loss makes a row at any state
+        mujoco.mj_forward(model, data)
+        assert data.nefc > 0
+
+
+@needs_warp
+def test_physics_agrees_with_mj_step_over_200_steps(gymnast, warp_modules):
+    """mujoco_warp.step of 4 worlds against mj_step, RK4 at 1 ms, torques held: within 1e-5 (measured 3e-6), with
+    the worlds the engines make (no room for constraint rows: the solver's work is MuJoCo's copy for nefc = 0)."""
+    import mujoco
+
+    from paa_mj.sim.warp_engine import device_worlds
 
     wp, mjw = warp_modules
     rng = np.random.default_rng(0)
     q0, v0, u = rng.uniform(-1, 1, (4, 3)), rng.uniform(-1, 1, (4, 3)), rng.uniform(-20, 20, (4, 2))
     with wp.ScopedDevice(DEVICE):
-        model = device_model(gymnast.model)
-        m, d = mjw.put_model(model), mjw.make_data(model, nworld=4)
+        m, d = device_worlds(mjw, gymnast.model, 4)
+        assert d.njmax == 0  # the gymnast makes no constraint row
         d.qpos.assign(q0.astype(np.float32))
         d.qvel.assign(v0.astype(np.float32))
         d.ctrl.assign(u.astype(np.float32))

@@ -17,7 +17,7 @@ import numpy as np
 
 from ..sim.step import MAX_SPEED
 from ..sim.warp_device import device_name, load_warp
-from ..sim.warp_engine import device_model
+from ..sim.warp_engine import device_worlds
 from ..task import BOOK, book_update
 from .stepper import EpisodeRecords, finish_rows
 
@@ -83,9 +83,7 @@ class WarpRobots(EpisodeRecords):
         self._new_episodes(model, n, kind, torque_limits, task)
         with wp.ScopedDevice(self.device):
             self._keep, self._check = _kernels(wp, links)
-            copy = device_model(model)
-            self._model = self.mjw.put_model(copy)
-            self._data = self.mjw.make_data(copy, nworld=n)
+            self._model, self._data = device_worlds(self.mjw, model, n)
             self._good = wp.zeros((n, 2 * links), dtype=wp.float32)
             self._active = wp.zeros(n, dtype=wp.int32)
             self._bad = wp.zeros(n, dtype=wp.int32)

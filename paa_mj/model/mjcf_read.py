@@ -219,6 +219,21 @@ def _check_joints(model, source):
     return axis
 
 
+def makes_no_constraints(model: mujoco.MjModel) -> bool:
+    """Whether MuJoCo makes no constraint row for ``model`` in any state: True for every robot this reader accepts.
+
+    The features that make constraint rows (joint ranges, friction loss, tendons, equality constraints, contact
+    pairs, flexes, link geoms that collide) are the ones this reader refuses, so MuJoCo's constraint solver has
+    nothing to do for these robots: its acceleration is the smooth one, ``qacc = qacc_smooth``.
+    """
+    try:
+        _check_options(model, "model")
+        _check_joints(model, "model")
+    except PaaError:
+        return False
+    return True
+
+
 def _check_actuators(model, source):
     mask = int(model.opt.disableactuator)  # a bit per group 0..30
     off = [act for act, group in enumerate(model.actuator_group) if 0 <= group <= 30 and mask >> int(group) & 1]

@@ -14,7 +14,8 @@ kernels hold no equation of their own, they unpack the device arrays and call th
    success, peak and last torques, smoothness, peak speed, the last good state) and stops a rollout that asked
    for a non-finite torque, retired or finished (:func:`~paa_mj.sim.step.verdict`), as
    :func:`paa_mj.sim.step.actuate` does; then the pushes (:func:`~paa_mj.sim.step.apply_pushes`);
-2. ``mujoco_warp.step`` advances every world (the robot's integrator and time step);
+2. ``mujoco_warp.step`` advances every world (the robot's integrator and time step; no room for constraint rows,
+   :func:`device_worlds`, so the acceleration is the smooth one as in MuJoCo for ``nefc = 0``);
 3. ``after`` adds the step's effort and work (:func:`~paa_mj.sim.step.add_effort_work`) and stops a world whose
    state is not finite or runs away (:func:`~paa_mj.sim.step.state_status`), back at its last good state, as
    :func:`paa_mj.sim.step.finish_step` does.
@@ -49,7 +50,7 @@ from .step import RUNNING, account, add_effort_work, apply_pushes, call_controll
     measure_into, state_status, verdict
 from .warp_device import device_name, load_warp
 
-__all__ = ["DEVICE_LAWS", "device_controllers", "run"]
+__all__ = ["DEVICE_LAWS", "device_controllers", "device_worlds", "run"]
 
 #: Steps between two looks from Python (progress, Ctrl-C, every rollout ended).
 SEGMENT = 256
@@ -112,13 +113,22 @@ def _check_plan(plan: engine.Plan):
         raise PaaError(f"the warp engine counts steps in 32 bits: {plan.n_steps} steps are too many")
 
 
-def device_model(model):
-    """A copy of a plant's MjModel for MuJoCo Warp: MuJoCo's energy (not read by the engine) left off."""
+def device_worlds(mjw, model, n_worlds):
+    """A plant's MjModel as MuJoCo Warp's model and data of ``n_worlds`` worlds: ``(model, data)``.
+
+    MuJoCo's energy (not read by the engines) is left off. A plant that makes no constraint row
+    (:func:`~paa_mj.model.mjcf_read.makes_no_constraints`: every robot the package reads) gets no room for
+    contacts or constraint rows, so that MuJoCo Warp copies the smooth acceleration as MuJoCo does for ``nefc = 0``
+    instead of running its solver over empty rows, and 1024 x 1024 worlds fit in the device's memory.
+    """
     import mujoco
+
+    from ..model.mjcf_read import makes_no_constraints
 
     copy = model.__copy__()
     copy.opt.enableflags &= ~int(mujoco.mjtEnableBit.mjENBL_ENERGY)
-    return copy
+    sizes = {"nconmax": 0, "njmax": 0} if makes_no_constraints(copy) else {}
+    return mjw.put_model(copy), mjw.make_data(copy, nworld=n_worlds, **sizes)
 
 
 _KERNELS = {}
@@ -245,9 +255,7 @@ class _Worlds:
 
     def __init__(self, wp, mjw, plan, params, memory, device):
         n, links = len(plan), plan.n_links
-        model = device_model(plan.models[0])
-        self.model = mjw.put_model(model)
-        self.data = mjw.make_data(model, nworld=n)
+        self.model, self.data = device_worlds(mjw, plan.models[0], n)
         self.data.qpos.assign(plan.x0[:, :links].astype(np.float32))
         self.data.qvel.assign(plan.x0[:, links:].astype(np.float32))
         settings, rollouts = plan.settings, plan.settings.rollouts

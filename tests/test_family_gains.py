@@ -91,7 +91,12 @@ def test_the_origin_of_a_run_s_gains_is_named():
     assert G.gains_origin(model, folded, stored, stored) == "the model's stored gains"
     assert G.gains_origin(model, stretched, stored, G.family_gains(model, stretched)).startswith(
         "the family rule's for the stretched goal: kD = 1.05 kD_min (41)")
-    assert G.gains_origin(model, folded, stored, {**stored, "kV": 2 * stored["kV"]}) == "as given"
+    assert G.gains_origin(model, folded, stored, {**stored, "kV": 2 * stored["kV"]}) == \
+        "kV as given; kD, kP the model's stored ones"
+    assert G.gains_origin(model, folded, stored, {"kD": 1.0, "kP": 2.0, "kV": 3.0}) == "kD, kP, kV as given"
+    rule = G.family_gains(model, stretched)
+    assert G.gains_origin(model, stretched, stored, {**rule, "kD": 2 * rule["kD"]}) == \
+        "kD as given; kP, kV the family rule's for the stretched goal"
 
 
 def test_the_search_scores_rules_by_the_robots_they_balance():

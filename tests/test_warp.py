@@ -224,6 +224,50 @@ def test_small_basin_has_the_outcomes_of_the_mujoco_engine(gymnast, folded, warp
     assert dev.meta["engine"] == "warp" and dev.meta["device"] == DEVICE
 
 
+def test_each_rollout_gets_its_own_controller_s_parameters(gymnast, folded):
+    """Rollouts of two controllers of one law (other gains), interleaved: each row of the device's parameters and
+    memory is its own controller's packed form."""
+    from paa_mj.control import make_controller
+    from paa_mj.sim.batch import build_plan
+    from paa_mj.sim.engine import pack
+    from paa_mj.sim.warp_engine import device_controllers
+
+    a = make_controller("vcl", gymnast, task=folded)
+    b = make_controller("vcl", gymnast, task=folded, gains={"kD": 2 * gymnast.gains["kD"]})
+    controllers = [a, b, b, a, b]
+    plan = build_plan(gymnast, folded, np.tile(np.r_[folded.goal, np.zeros(3)], (5, 1)), 0.01, controllers)
+    _, params, memory = device_controllers(plan, controllers)
+    for row, controller in enumerate(controllers):
+        packed = pack(controller.compiled())
+        np.testing.assert_array_equal(params[row, :packed.params.size], packed.params)
+        np.testing.assert_array_equal(memory[row, :packed.memory.size], packed.memory)
+    assert not np.array_equal(params[0], params[1])
+
+
+@needs_warp
+def test_packing_the_running_worlds_changes_no_result(gymnast, folded, warp_modules, monkeypatch):
+    """The worlds still running are packed into fewer as others stop: every record of every rollout is the same,
+    bit for bit, as without packing (each world's step reads its own rows only)."""
+    from paa_mj.sim import simulate_batch
+    from paa_mj.sim import warp_engine
+
+    x0 = _grid_around_goal(folded)
+    common = dict(task=folded, dt=0.005, engine="warp", device=DEVICE)
+    monkeypatch.setattr(warp_engine, "SEGMENT", 8)
+    monkeypatch.setattr(warp_engine, "PACK_MIN", 10**9)
+    whole = simulate_batch(gymnast, x0, 1.5, **common)
+    packs = []
+    take = warp_engine._Worlds.take
+    monkeypatch.setattr(warp_engine._Worlds, "take", lambda self, keep: packs.append(len(keep)) or take(self, keep))
+    monkeypatch.setattr(warp_engine, "PACK_MIN", 2)
+    monkeypatch.setattr(warp_engine, "PACK_WHEN", 0.99)
+    packed = simulate_batch(gymnast, x0, 1.5, **common)
+    assert packs and packs[0] < len(x0), packs  # packed at least once, while worlds still ran
+    for field in ("status", "success", "switch_time", "t_end", "t_region", "final_state", "max_abs_tau", "int_tau2",
+                  "work", "smoothness", "max_speed"):
+        np.testing.assert_array_equal(getattr(packed, field), getattr(whole, field), err_msg=field)
+
+
 @needs_warp
 def test_step_kernels_call_only_the_translations_of_step(warp_modules):
     """The bookkeeping of a step is written once: the Warp engine's kernels call, as Warp functions, exactly the

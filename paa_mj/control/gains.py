@@ -82,22 +82,34 @@ def family_gains(model: AnalyticModel, task: Task, rule: GainRule = FAMILY_RULE)
 
 
 def gains_text(gains: dict) -> str:
-    """``--kD X --kP Y --kV Z``: gains as the command line takes them."""
-    return " ".join(f"--{k} {gains[k]:.6g}" for k in ("kD", "kP", "kV"))
+    """``--kD X --kP Y --kV Z``: gains as the command line takes them (those of the three that ``gains`` has)."""
+    return " ".join(f"--{k} {gains[k]:.6g}" for k in ("kD", "kP", "kV") if k in gains)
 
 
 def gains_origin(model: AnalyticModel, task: Task, stored: dict | None, gains: dict) -> str:
     """Where a run's ``gains`` come from, in words: the family rule's for the task's goal, the robot's stored gains
-    (they may be both: :command:`make-model` stores the rule's gains for the folded goal), or the command's."""
-    def same(other):
-        return bool(other) and all(k in other and math.isclose(gains[k], other[k], rel_tol=1e-9)
-                                   for k in ("kD", "kP", "kV"))
+    (they may be both: :command:`make-model` stores the rule's gains for the folded goal), the command's, or gain
+    by gain where they mix (a kD given, kP and kV of the rule)."""
+    keys = ("kD", "kP", "kV")
 
+    def same(other, which=keys):
+        return bool(other) and all(k in other and math.isclose(gains[k], other[k], rel_tol=1e-9) for k in which)
+
+    rule_gains = family_gains(model, task)
+    rule = f"the family rule's for the {task.name} goal"
     stored_words = "the model's stored gains" if same(stored) else ""
-    if same(family_gains(model, task)):
-        rule = f"the family rule's for the {task.name} goal: {FAMILY_RULE.describe()}"
+    if same(rule_gains):
+        rule = f"{rule}: {FAMILY_RULE.describe()}"
         return f"{stored_words}, {rule}" if stored_words else rule
-    return stored_words or "as given"
+    if stored_words:
+        return stored_words
+    from_rule = [k for k in keys if same(rule_gains, (k,))]
+    from_stored = [k for k in keys if k not in from_rule and same(stored, (k,))]
+    given = [k for k in keys if k not in from_rule + from_stored]
+    parts = [f"{', '.join(given)} as given"]
+    parts += [f"{', '.join(from_rule)} {rule}"] if from_rule else []
+    parts += [f"{', '.join(from_stored)} the model's stored ones"] if from_stored else []
+    return "; ".join(parts)
 
 
 class GainsNote(UserWarning):
@@ -107,21 +119,24 @@ class GainsNote(UserWarning):
 _NOTED: set = set()
 
 
-def default_gains(model: AnalyticModel, task: Task, stored: dict | None) -> dict:
+def default_gains(model: AnalyticModel, task: Task, stored: dict | None, given: dict | None = None) -> dict:
     """The gains a controller takes when none are given: the robot's stored gains where their kD is above the
     bound (41) of the task's goal, else the family rule's (:func:`family_gains`), said once per robot and goal by
-    a :class:`GainsNote`."""
+    a :class:`GainsNote` naming those of them the run takes (not the ``given`` ones; nothing where a given kD is
+    not above the bound, which the run's check refuses with the rule's gains in its message)."""
     bound = singularity_bound(model, task)
     if stored and all(k in stored for k in ("kD", "kP", "kV")) and stored["kD"] > bound:
         return dict(stored)
     gains = family_gains(model, task)
-    key = (model.key(), task.name, bool(stored))
-    if key not in _NOTED:
+    given = {k: v for k, v in (given or {}).items() if v is not None}
+    taken = {k: v for k, v in gains.items() if k not in given}
+    key = (model.key(), task.name, bool(stored), tuple(taken))
+    if taken and not given.get("kD", math.inf) <= bound and key not in _NOTED:
         _NOTED.add(key)
         why = (f"its stored kD = {stored['kD']:g} is not above kD_min = {bound:.6g} of (41) for the {task.name} goal"
                if stored and "kD" in stored else "it stores no gains")
-        warnings.warn(f"gains of the family rule ({FAMILY_RULE.describe()}): {gains_text(gains)}, since {why}",
-                      GainsNote, stacklevel=2)
+        warnings.warn(f"{'gains' if len(taken) == 3 else ', '.join(taken)} of the family rule"
+                      f" ({FAMILY_RULE.describe()}): {gains_text(taken)}, since {why}", GainsNote, stacklevel=2)
     return gains
 
 

@@ -59,7 +59,7 @@ def resolve_gains(robot, task, kD=None, kP=None, kV=None) -> dict:
     given = {"kD": kD, "kP": kP, "kV": kV}
     if all(v is not None for v in given.values()):
         return robot.resolve_gains(**given)
-    return robot.resolve_gains(**given, defaults=default_gains(robot.analytic, task, robot.gains))
+    return robot.resolve_gains(**given, defaults=default_gains(robot.analytic, task, robot.gains, given))
 
 
 def _gains(robot, task, gains):

@@ -179,19 +179,14 @@ class TVLQRController(Controller):
 
 def _cached_table(model, kip, times, table_dt, task: Task):
     """The controller's table [n, dt, x_ref, u_ref, K], from the trajectory cache when it is there."""
-    import hashlib
-
     from ..io import write_npz
+    from ..provenance import cache_key
     from .trajopt import cache_dir
-
-    from ..provenance import package_digest
 
     nx, nu = 2 * model.n_links, model.n_links - 1
     weights = (LQR_Q.tolist(), LQR_R.tolist()) if nx == 6 else (LQR_WEIGHT, nx, nu)
-    digest = hashlib.sha256(repr((package_digest(), model.key(), table_dt, *weights)
-                                 + ((task.name,) if task.name != "folded" else ())).encode()
-                            + b"".join(np.ascontiguousarray(a).tobytes() for a in (kip.x, kip.u, kip.x_mid, kip.u_mid))
-                            ).hexdigest()[:24]
+    digest = cache_key(kind="tvlqr", model=model.key(), table_dt=table_dt, weights=weights, goal=task.name,
+                       x=kip.x, u=kip.u, x_mid=kip.x_mid, u_mid=kip.u_mid)
     path = cache_dir() / f"tvlqr-{digest}.npz"
     if path.is_file():
         try:

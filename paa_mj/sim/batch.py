@@ -174,10 +174,14 @@ def controllers_for(robot: Robot, controller, n, task: Task, progress: bool = Fa
     items = controller if isinstance(controller, (list, tuple)) else [controller] * n
     if len(items) != n:
         raise PaaError(f"need one controller per rollout ({n}), got {len(items)}")
-    keys = [item if isinstance(item, (str, ControllerSpec)) else id(item) for item in items]
+    # each distinct object keyed once: a million rollouts of one spec hash its task once, not a million times
+    first = {}
+    for item in items:
+        first.setdefault(id(item), item)
+    key_of = {i: item if isinstance(item, (str, ControllerSpec)) else i for i, item in first.items()}
     distinct = {}
-    for key, item in zip(keys, items):
-        distinct.setdefault(key, item)  # each key's first item, in the order of first use
+    for i, key in key_of.items():
+        distinct.setdefault(key, first[i])  # each key's first item, in the order of first use
     built = {}
     for key in progress_bar(list(distinct), desc="building the controllers", unit="controller",
                             enabled=progress and len(distinct) > 1):
@@ -185,7 +189,8 @@ def controllers_for(robot: Robot, controller, n, task: Task, progress: bool = Fa
         if isinstance(spec, ControllerSpec) and spec.task is None:
             spec = spec.for_task(task)
         built[key] = spec.build(robot) if isinstance(spec, ControllerSpec) else spec
-    return [built[key] for key in keys]
+    built_of = {i: built[key] for i, key in key_of.items()}
+    return [built_of[id(item)] for item in items]
 
 
 def build_plan(robot: Robot, task: Task, x0, t_final, controllers, *, dt=None, integrator=None, plants=None,

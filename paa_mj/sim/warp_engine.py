@@ -24,9 +24,11 @@ The records are one row a rollout, float64 and int32 (:data:`COUNTS`, :data:`SUM
 float64 too. Only MuJoCo Warp's own arrays are float32: the state is read from them after each step and
 ``ctrl`` and the pushes written to them, in the kernels and nowhere else.
 
-On a GPU the steps are captured once in a CUDA graph and replayed; on the CPU device each kernel is launched
-from Python (about 2 ms a step of Euler, 10 ms of RK4 on this package's CI machine, whatever the number of
-worlds: a correctness check, not a fast path). MuJoCo Warp computes in float32: a rollout agrees with the CPU
+Every :data:`SEGMENT` steps Python looks at the worlds: where at most :data:`PACK_WHEN` of them still run, they
+are packed into fewer worlds (:meth:`_Worlds.take`; a world's step reads only its own rows, so nothing it computes
+changes) and the others' records are kept. On a GPU the steps are captured in a CUDA graph and replayed; on the
+CPU device each kernel is launched from Python (about 2 ms a step of Euler, 10 ms of RK4 on this package's CI
+machine, whatever the number of worlds: a correctness check, not a fast path). MuJoCo Warp computes in float32: a rollout agrees with the CPU
 engine's float64 to about 1e-6 over 200 steps, and the closed loop stays within float32 rounding of it until
 the dynamics amplify the difference (``tests/test_warp.py`` states what it checks).
 
@@ -92,14 +94,19 @@ def device_controllers(plan: engine.Plan, controllers):
             raise PaaError("the warp engine runs one controller law for every rollout of a batch (gains and models"
                            " may differ): split the batch, or use --engine mujoco")
         kernels = triple
-    rows = [forms[key] for key in keys]
-    width = max(p.params.size for p in rows)
-    memory = max(p.memory.size for p in rows)
-    params = np.zeros((len(rows), width))
-    mem = np.zeros((len(rows), memory))
-    for r, p in enumerate(rows):
-        params[r, :p.params.size] = p.params
-        mem[r, :p.memory.size] = p.memory
+    distinct = list(dict.fromkeys(keys))
+    width = max(forms[key].params.size for key in distinct)
+    memory = max(forms[key].memory.size for key in distinct)
+    params = np.zeros((len(keys), width))
+    mem = np.zeros((len(keys), memory))
+    position = {key: k for k, key in enumerate(distinct)}
+    which = np.fromiter((position[key] for key in keys), dtype=np.int64, count=len(keys))
+    order = np.argsort(which, kind="stable")
+    ends = np.searchsorted(which[order], np.arange(len(distinct) + 1))
+    for k, key in enumerate(distinct):  # each controller's rows at once
+        rows, p = order[ends[k]:ends[k + 1]], forms[key]
+        params[rows, :p.params.size] = p.params
+        mem[rows, :p.memory.size] = p.memory
     return kernels, params, mem
 
 
@@ -129,6 +136,10 @@ def device_worlds(mjw, model, n_worlds):
     copy.opt.enableflags &= ~int(mujoco.mjtEnableBit.mjENBL_ENERGY)
     sizes = {"nconmax": 0, "njmax": 0} if makes_no_constraints(copy) else {}
     return mjw.put_model(copy), mjw.make_data(copy, nworld=n_worlds, **sizes)
+
+
+#: MuJoCo Warp's per-world arrays that carry a world from one step to the next (the rest each step recomputes).
+CARRIED = ("qpos", "qvel", "act", "ctrl", "qfrc_applied", "qacc_warmstart", "time")
 
 
 _KERNELS = {}
@@ -253,8 +264,15 @@ class _Worlds:
     records, float64 and int32 (:data:`COUNTS`, :data:`SUMS`), in the layouts :mod:`paa_mj.sim.step`'s functions
     read on the CPU (one row a rollout)."""
 
+    #: The arrays of one row a rollout (all but the task, which every rollout shares).
+    ROWS = ("q", "qd", "seen", "tau", "u", "force", "params", "memory", "limits", "noise", "delays", "ids",
+            "delay_line", "pushes", "push_end", "cert", "level", "counts", "sums", "books", "peak", "last_tau",
+            "last_state")
+
     def __init__(self, wp, mjw, plan, params, memory, device):
         n, links = len(plan), plan.n_links
+        self.wp, self.mjw, self.plant = wp, mjw, plan.models[0]
+        self.rows = np.arange(n)  # the rollouts these worlds run, in order
         self.model, self.data = device_worlds(mjw, plan.models[0], n)
         self.data.qpos.assign(plan.x0[:, :links].astype(np.float32))
         self.data.qvel.assign(plan.x0[:, links:].astype(np.float32))
@@ -284,21 +302,38 @@ class _Worlds:
         self.books = put(np.full((n, 3), -1, np.int32), wp.int32)
         self.peak, self.last_tau, self.last_state = zeros(n, links - 1), zeros(n, links - 1), put(plan.x0)
 
-    def state(self, plan, memory_size):
-        """The engine's :class:`~paa_mj.sim.records.State` of the run, read back."""
-        n, links = len(plan), plan.n_links
-        state = new_state(n, links, memory_size, 0)
+    def store(self, state):
+        """These worlds' records read back into their rows of the run's :class:`~paa_mj.sim.records.State`."""
+        rows, memory_size = self.rows, self.memory.shape[1]
         counts, sums = self.counts.numpy(), self.sums.numpy()
         for k, field in enumerate(COUNTS):
-            state.rollouts[field] = counts[:, k]
+            state.rollouts[field][rows] = counts[:, k]
         for k, field in enumerate(SUMS):
-            state.rollouts[field] = sums[:, k]
-        state.book[:] = self.books.numpy()
-        state.peak[:] = self.peak.numpy()
-        state.last_tau[:] = self.last_tau.numpy()
-        state.last_state[:] = self.last_state.numpy()
-        state.memory[:, :memory_size] = self.memory.numpy()
-        return state
+            state.rollouts[field][rows] = sums[:, k]
+        state.book[rows] = self.books.numpy()
+        state.peak[rows] = self.peak.numpy()
+        state.last_tau[rows] = self.last_tau.numpy()
+        state.last_state[rows] = self.last_state.numpy()
+        state.memory[rows, :memory_size] = self.memory.numpy()
+
+    def take(self, keep):
+        """New worlds of the rows ``keep`` (indices into these worlds), each where it was: the state MuJoCo Warp
+        carries from a step (:data:`CARRIED`) and every array of one row a rollout. A world's step depends on its
+        own rows alone, so it goes on exactly as it would have among the others."""
+        wp = self.wp
+        taken = object.__new__(_Worlds)
+        taken.wp, taken.mjw, taken.plant, taken.task = wp, self.mjw, self.plant, self.task
+        taken.rows = self.rows[keep]
+        taken.model, (_, taken.data) = self.model, device_worlds(self.mjw, self.plant, len(keep))
+        for name in CARRIED:
+            old = getattr(self.data, name, None)
+            if old is not None and old.size:
+                getattr(taken.data, name).assign(old.numpy()[keep])
+        for name in self.ROWS:
+            old = getattr(self, name)
+            setattr(taken, name, wp.array(np.ascontiguousarray(old.numpy()[keep]), dtype=old.dtype,
+                                          device=old.device))
+        return taken
 
 
 def run(plan: engine.Plan, controllers, *, device=None, progress=False, desc="rollouts") -> engine.Outcome:
@@ -309,74 +344,94 @@ def run(plan: engine.Plan, controllers, *, device=None, progress=False, desc="ro
     triple, params, memory = device_controllers(plan, controllers)
     wp, mjw = load_warp()
     device = device_name(wp, device)
+    state = new_state(len(plan), plan.n_links, memory.shape[1], 0)
     with wp.ScopedDevice(device):
-        control, after = _kernels(wp, triple, plan.n_links)
+        kernels = _kernels(wp, triple, plan.n_links)
         worlds = _Worlds(wp, mjw, plan, params, memory, device)
-        interrupted = _advance(wp, mjw, plan, worlds, control, after, device, progress, desc)
-        state = worlds.state(plan, memory.shape[1])
+        interrupted = _advance(plan, worlds, kernels, state, progress, desc)
     return engine.stopped_outcome(state, None, interrupted, meta={"engine": "warp", "device": device})
 
 
-def _advance(wp, mjw, plan, worlds, control, after, device, progress, desc):
-    """Step every world to the end (or until all stopped); returns True if interrupted (Ctrl-C)."""
-    n = len(plan)
-    dt = float(plan.dt)
-    w = worlds
-    d = w.data
-    control_inputs = [d.qpos, d.qvel, d.ctrl, d.qfrc_applied, w.q, w.qd, w.seen, w.tau, w.u, w.force, w.params,
-                      w.memory, w.limits, w.noise, w.delays, w.ids, w.delay_line, w.pushes, w.push_end, w.task,
-                      w.cert, w.level, w.counts, w.sums, w.books, w.peak, w.last_tau, w.last_state,
-                      int(plan.n_steps), dt, bool(plan.run.retire), int(plan.run.seed)]
-    after_inputs = [d.qpos, d.qvel, w.q, w.qd, w.u, w.counts, w.sums, w.last_state, dt]
+#: Worlds are packed when at most this fraction of them still runs (and at least :data:`PACK_MIN` are there).
+PACK_WHEN = 0.5
+PACK_MIN = 1024
 
-    # launches recorded once: the arguments are packed once, not at every step
-    control_cmd = wp.launch(control, dim=n, inputs=control_inputs, record_cmd=True)
-    after_cmd = wp.launch(after, dim=n, inputs=after_inputs, record_cmd=True)
 
-    def one_step():
-        control_cmd.launch()
-        mjw.step(w.model, w.data)
-        after_cmd.launch()
+class _Steps:
+    """The step of every world (``control``, ``mujoco_warp.step``, ``after``), recorded once for a set of worlds:
+    its launches with their arguments packed, and on a GPU a CUDA graph of :data:`GRAPH_STEPS` of them."""
 
-    graph = None
-    if wp.get_device(device).is_cuda:
-        one_step()  # compiles every kernel before the capture
-        try:
-            with wp.ScopedCapture() as capture:
-                for _ in range(GRAPH_STEPS):
-                    one_step()
-            graph = capture.graph
-        except Exception:  # noqa: BLE001 - capture unsupported here: plain launches, the same numbers
-            graph = None
-        done = 1  # the step before the capture (a capture records, it runs nothing)
-    else:
-        done = 0
+    def __init__(self, plan, worlds, kernels):
+        wp, mjw, w, d = worlds.wp, worlds.mjw, worlds, worlds.data
+        control, after = kernels
+        dt, n = float(plan.dt), len(w.rows)
+        control_inputs = [d.qpos, d.qvel, d.ctrl, d.qfrc_applied, w.q, w.qd, w.seen, w.tau, w.u, w.force, w.params,
+                          w.memory, w.limits, w.noise, w.delays, w.ids, w.delay_line, w.pushes, w.push_end, w.task,
+                          w.cert, w.level, w.counts, w.sums, w.books, w.peak, w.last_tau, w.last_state,
+                          int(plan.n_steps), dt, bool(plan.run.retire), int(plan.run.seed)]
+        after_inputs = [d.qpos, d.qvel, w.q, w.qd, w.u, w.counts, w.sums, w.last_state, dt]
+        control_cmd = wp.launch(control, dim=n, inputs=control_inputs, record_cmd=True)
+        after_cmd = wp.launch(after, dim=n, inputs=after_inputs, record_cmd=True)
+
+        def one_step():
+            control_cmd.launch()
+            mjw.step(w.model, d)
+            after_cmd.launch()
+
+        self.wp, self.one_step, self.graph, self.first = wp, one_step, None, 0
+        if wp.get_device().is_cuda:
+            one_step()  # compiles every kernel before the capture (a capture records, it runs nothing)
+            self.first = 1
+            try:
+                with wp.ScopedCapture() as capture:
+                    for _ in range(GRAPH_STEPS):
+                        one_step()
+                self.graph = capture.graph
+            except Exception:  # noqa: BLE001 - capture unsupported here: plain launches, the same numbers
+                self.graph = None
+
+    def advance(self, steps: int) -> int:
+        """At least ``steps`` steps of every world (whole graphs on a GPU); the steps taken."""
+        if self.graph is None:
+            for _ in range(steps):
+                self.one_step()
+            return steps
+        launches = -(-steps // GRAPH_STEPS)
+        for _ in range(launches):
+            self.wp.capture_launch(self.graph)
+        return launches * GRAPH_STEPS  # extra steps of stopped worlds change nothing
+
+
+def _advance(plan, worlds, kernels, state, progress, desc):
+    """Step every world to the end (or until all stopped), packing the worlds still running into fewer as the
+    others stop (a stopped world's step costs a running one's); each world's records into ``state`` as it leaves
+    and at the end. Returns True if interrupted (Ctrl-C)."""
+    n, dt = len(plan), float(plan.dt)
     total = plan.n_steps + 1  # controller evaluations: steps 0..n_steps
     bar = progress_bar(total=round(n * total * dt, 6), unit="s simulated", desc=desc, enabled=progress)
-    reported = 0.0
+    steps = _Steps(plan, worlds, kernels)
+    done, reported, left_steps = steps.first, 0.0, 0
     try:
         while done < total:
-            segment = min(SEGMENT, total - done)
-            if graph is not None:
-                launches = -(-segment // GRAPH_STEPS)
-                for _ in range(launches):
-                    wp.capture_launch(graph)
-                segment = launches * GRAPH_STEPS  # extra steps of stopped worlds change nothing
-            else:
-                for _ in range(segment):
-                    one_step()
-            done += segment
-            counts = w.counts.numpy()
-            status = counts[:, COUNTS.index("status")]
-            steps = np.where(status == RUNNING, counts[:, COUNTS.index("step")], plan.n_steps)
-            now = round(float(np.sum(steps)) * dt, 6)
+            done += steps.advance(min(SEGMENT, total - done))
+            counts = worlds.counts.numpy()
+            running = counts[:, COUNTS.index("status")] == RUNNING
+            ran = np.where(running, counts[:, COUNTS.index("step")], plan.n_steps)
+            now = round(float(np.sum(ran) + left_steps) * dt, 6)
             if now > reported:
                 bar.update(now - reported)
                 reported = now
-            if not np.any(status == RUNNING):
+            if not running.any():
                 break
+            if done < total and len(running) >= PACK_MIN and running.sum() <= PACK_WHEN * len(running):
+                worlds.store(state)
+                left_steps += plan.n_steps * int(np.sum(~running))
+                worlds = worlds.take(np.flatnonzero(running))
+                steps = _Steps(plan, worlds, kernels)
+                done += steps.first
     except KeyboardInterrupt:
         return True
     finally:
+        worlds.store(state)
         bar.close()
     return False

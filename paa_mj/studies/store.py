@@ -10,8 +10,6 @@ gets another KEY. ``--fresh`` deletes the study's chunks first.
 """
 from __future__ import annotations
 
-import hashlib
-import json
 import re
 import shutil
 import sys
@@ -20,8 +18,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import PaaError
-from ..io import _json_default, ensure_dir, write_npz
-from ..provenance import package_digest
+from ..io import ensure_dir, write_npz
+from ..provenance import definition_digest, package_digest
 
 
 def study_key(definition: dict) -> str:
@@ -29,9 +27,7 @@ def study_key(definition: dict) -> str:
     controller's recipe and source, every option that changes a result) and of the package (version and code)."""
     from .. import __version__
 
-    text = json.dumps({"version": __version__, "package": package_digest(), **definition}, sort_keys=True,
-                      default=_json_default)
-    return hashlib.sha256(text.encode()).hexdigest()[:20]
+    return definition_digest({"version": __version__, "package": package_digest(), **definition})[:20]
 
 
 _LEGACY_KEY = re.compile(r"[0-9a-f]{20}")

@@ -418,6 +418,8 @@ def _advance(plan, worlds, kernels, state, progress, desc):
             running = counts[:, COUNTS.index("status")] == RUNNING
             ran = np.where(running, counts[:, COUNTS.index("step")], plan.n_steps)
             now = round(float(np.sum(ran) + left_steps) * dt, 6)
+            # the clock of the worlds still running, and how many: a stopped world counts whole in the total
+            bar.set_description_str(f"{desc} (t = {min(done, total - 1) * dt:.1f} s, {int(running.sum())} running)")
             if now > reported:
                 bar.update(now - reported)
                 reported = now

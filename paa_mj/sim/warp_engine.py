@@ -52,7 +52,7 @@ from .step import RUNNING, account, add_effort_work, apply_pushes, call_controll
     measure_into, state_status, verdict
 from .warp_device import device_name, load_warp
 
-__all__ = ["DEVICE_LAWS", "device_controllers", "device_worlds", "run"]
+__all__ = ["DEVICE_LAWS", "device_controllers", "device_model", "device_worlds", "run"]
 
 #: Steps between two looks from Python (progress, Ctrl-C, every rollout ended).
 SEGMENT = 256
@@ -120,20 +120,26 @@ def _check_plan(plan: engine.Plan):
         raise PaaError(f"the warp engine counts steps in 32 bits: {plan.n_steps} steps are too many")
 
 
+def device_model(model):
+    """A copy of a plant's MjModel for MuJoCo Warp: MuJoCo's energy (not read by the engines) left off."""
+    import mujoco
+
+    copy = model.__copy__()
+    copy.opt.enableflags &= ~int(mujoco.mjtEnableBit.mjENBL_ENERGY)
+    return copy
+
+
 def device_worlds(mjw, model, n_worlds):
     """A plant's MjModel as MuJoCo Warp's model and data of ``n_worlds`` worlds: ``(model, data)``.
 
-    MuJoCo's energy (not read by the engines) is left off. A plant that makes no constraint row
+    The model is :func:`device_model`'s copy. A plant that makes no constraint row
     (:func:`~paa_mj.model.mjcf_read.makes_no_constraints`: every robot the package reads) gets no room for
     contacts or constraint rows, so that MuJoCo Warp copies the smooth acceleration as MuJoCo does for ``nefc = 0``
     instead of running its solver over empty rows, and 1024 x 1024 worlds fit in the device's memory.
     """
-    import mujoco
-
     from ..model.mjcf_read import makes_no_constraints
 
-    copy = model.__copy__()
-    copy.opt.enableflags &= ~int(mujoco.mjtEnableBit.mjENBL_ENERGY)
+    copy = device_model(model)
     sizes = {"nconmax": 0, "njmax": 0} if makes_no_constraints(copy) else {}
     return mjw.put_model(copy), mjw.make_data(copy, nworld=n_worlds, **sizes)
 

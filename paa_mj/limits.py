@@ -37,11 +37,12 @@ def _gib(n):
     return f"{n / 2**30:.3g} GiB"
 
 
-def check_memory(nbytes: float, what: str, lower: str):
-    """Refuse a request of ``nbytes`` for ``what`` above the budget; ``lower`` names the options to lower."""
-    budget = MEMORY_FRACTION * available_memory()
+def check_memory(nbytes: float, what: str, lower: str, budget: float | None = None, where: str = "this machine"):
+    """Refuse a request of ``nbytes`` for ``what`` above the budget (default: :data:`MEMORY_FRACTION` of this
+    machine's available memory; ``where`` names another, a GPU); ``lower`` names the options to lower."""
+    budget = MEMORY_FRACTION * available_memory() if budget is None else budget
     if not math.isfinite(nbytes) or nbytes > budget:
-        raise PaaError(f"would need {_gib(nbytes)} of {what} (this machine can give {_gib(budget)}); lower {lower}")
+        raise PaaError(f"would need {_gib(nbytes)} of {what} ({where} can give {_gib(budget)}); lower {lower}")
 
 
 def check_steps(steps: float, what: str, lower: str, cores: int | None = None):

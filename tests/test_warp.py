@@ -245,6 +245,18 @@ def test_each_rollout_gets_its_own_controller_s_parameters(gymnast, folded):
 
 
 @needs_warp
+def test_worlds_beyond_the_device_s_free_memory_are_refused_in_one_line(gymnast, folded, warp_modules, monkeypatch):
+    """Before any allocation, the worlds' bytes (MuJoCo Warp's data of a world, measured, and the engine's rows)
+    against the device's free memory: one line that names the need, the room and --chunk."""
+    from paa_mj.sim import simulate_batch
+
+    wp, _ = warp_modules
+    monkeypatch.setattr(type(wp.get_device(DEVICE)), "free_memory", property(lambda self: 10_000))
+    with pytest.raises(PaaError, match=r"would need .* of cpu memory for 4 worlds .*free memory can give .*--chunk"):
+        simulate_batch(gymnast, np.zeros((4, 6)), 0.01, task=folded, engine="warp", device=DEVICE)
+
+
+@needs_warp
 def test_packing_the_running_worlds_changes_no_result(gymnast, folded, warp_modules, monkeypatch):
     """The worlds still running are packed into fewer as others stop: every record of every rollout is the same,
     bit for bit, as without packing (each world's step reads its own rows only)."""

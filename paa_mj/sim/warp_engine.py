@@ -352,10 +352,36 @@ def run(plan: engine.Plan, controllers, *, device=None, progress=False, desc="ro
     device = device_name(wp, device)
     state = new_state(len(plan), plan.n_links, memory.shape[1], 0)
     with wp.ScopedDevice(device):
+        _check_room(wp, mjw, plan, params, memory, device)
         kernels = _kernels(wp, triple, plan.n_links)
         worlds = _Worlds(wp, mjw, plan, params, memory, device)
         interrupted = _advance(plan, worlds, kernels, state, progress, desc)
     return engine.stopped_outcome(state, None, interrupted, meta={"engine": "warp", "device": device})
+
+
+def _device_bytes(wp, obj) -> int:
+    """Bytes of the Warp arrays in ``obj`` and the dataclasses it holds (MuJoCo Warp's data)."""
+    import dataclasses
+
+    if isinstance(obj, wp.array):
+        return obj.capacity
+    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
+        return sum(_device_bytes(wp, getattr(obj, f.name)) for f in dataclasses.fields(obj))
+    return 0
+
+
+def _check_room(wp, mjw, plan, params, memory, device):
+    """Refuse, in one line, worlds that would not fit in the device's free memory: MuJoCo Warp's data of a world
+    (measured as that of two worlds less one) and this engine's rows, half as much again for the moment a packing
+    holds both sets of worlds."""
+    from ..limits import check_memory
+
+    one, two = (_device_bytes(wp, device_worlds(mjw, plan.models[0], k)[1]) for k in (1, 2))
+    settings, links = plan.settings, plan.n_links
+    rows = 8 * (params.shape[1] + memory.shape[1] + settings.cert[0].size + settings.pushes[0].size + 16 * links + 32)
+    check_memory(1.5 * len(plan) * (two - one + rows), f"{device} memory for {len(plan)} worlds",
+                 "the worlds of one run (--chunk) or their number (--grid, --trials)",
+                 budget=wp.get_device(device).free_memory, where="the device's free memory")
 
 
 #: Worlds are packed when at most this fraction of them still runs (and at least :data:`PACK_MIN` are there).

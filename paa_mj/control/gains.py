@@ -131,7 +131,8 @@ def default_gains(model: AnalyticModel, task: Task, stored: dict | None, given: 
     given = {k: v for k, v in (given or {}).items() if v is not None}
     taken = {k: v for k, v in gains.items() if k not in given}
     key = (model.key(), task.name, bool(stored), tuple(taken))
-    if taken and not given.get("kD", math.inf) <= bound and key not in _NOTED:
+    refused = "kD" in given and given["kD"] <= bound  # the run's check refuses it, naming the rule's gains
+    if taken and not refused and key not in _NOTED:
         _NOTED.add(key)
         why = (f"its stored kD = {stored['kD']:g} is not above kD_min = {bound:.6g} of (41) for the {task.name} goal"
                if stored and "kD" in stored else "it stores no gains")

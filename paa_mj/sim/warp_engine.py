@@ -28,9 +28,10 @@ Every :data:`SEGMENT` steps Python looks at the worlds: where at most :data:`PAC
 are packed into fewer worlds (:meth:`_Worlds.take`; a world's step reads only its own rows, so nothing it computes
 changes) and the others' records are kept. On a GPU the steps are captured in a CUDA graph and replayed; on the
 CPU device each kernel is launched from Python (about 2 ms a step of Euler, 10 ms of RK4 on this package's CI
-machine, whatever the number of worlds: a correctness check, not a fast path). MuJoCo Warp computes in float32: a rollout agrees with the CPU
-engine's float64 to about 1e-6 over 200 steps, and the closed loop stays within float32 rounding of it until
-the dynamics amplify the difference (``tests/test_warp.py`` states what it checks).
+machine, whatever the number of worlds: a correctness check, not a fast path). MuJoCo Warp computes in
+float32: a rollout agrees with the CPU engine's float64 to about 1e-6 over 200 steps, and the closed loop stays
+within float32 rounding of it until the dynamics amplify the difference (``tests/test_warp.py`` states what it
+checks).
 
 What runs here: the controllers whose compiled laws translate (:data:`DEVICE_LAWS`: ``vcl``, ``vc``,
 ``vcl-only`` and ``vc-only`` in the paper's closed forms (the gymnast at its folded goal), ``lqr``,
@@ -52,7 +53,7 @@ from .step import RUNNING, account, add_effort_work, apply_pushes, call_controll
     measure_into, state_status, verdict
 from .warp_device import device_name, load_warp
 
-__all__ = ["DEVICE_LAWS", "device_controllers", "device_model", "device_worlds", "run"]
+__all__ = ["DEVICE_LAWS", "device_controllers", "device_data", "device_model", "device_worlds", "run"]
 
 #: Steps between two looks from Python (progress, Ctrl-C, every rollout ended).
 SEGMENT = 256
@@ -94,20 +95,16 @@ def device_controllers(plan: engine.Plan, controllers):
             raise PaaError("the warp engine runs one controller law for every rollout of a batch (gains and models"
                            " may differ): split the batch, or use --engine mujoco")
         kernels = triple
-    distinct = list(dict.fromkeys(keys))
-    width = max(forms[key].params.size for key in distinct)
-    memory = max(forms[key].memory.size for key in distinct)
-    params = np.zeros((len(keys), width))
-    mem = np.zeros((len(keys), memory))
-    position = {key: k for k, key in enumerate(distinct)}
+    # a row per distinct controller, zero-padded, then each rollout's row of these tables
+    position = {key: k for k, key in enumerate(dict.fromkeys(keys))}
+    packed = [forms[key] for key in position]
+    params = np.zeros((len(packed), max(p.params.size for p in packed)))
+    memory = np.zeros((len(packed), max(p.memory.size for p in packed)))
+    for k, p in enumerate(packed):
+        params[k, :p.params.size] = p.params
+        memory[k, :p.memory.size] = p.memory
     which = np.fromiter((position[key] for key in keys), dtype=np.int64, count=len(keys))
-    order = np.argsort(which, kind="stable")
-    ends = np.searchsorted(which[order], np.arange(len(distinct) + 1))
-    for k, key in enumerate(distinct):  # each controller's rows at once
-        rows, p = order[ends[k]:ends[k + 1]], forms[key]
-        params[rows, :p.params.size] = p.params
-        mem[rows, :p.memory.size] = p.memory
-    return kernels, params, mem
+    return kernels, params[which], memory[which]
 
 
 def _check_plan(plan: engine.Plan):
@@ -129,19 +126,23 @@ def device_model(model):
     return copy
 
 
-def device_worlds(mjw, model, n_worlds):
-    """A plant's MjModel as MuJoCo Warp's model and data of ``n_worlds`` worlds: ``(model, data)``.
-
-    The model is :func:`device_model`'s copy. A plant that makes no constraint row
-    (:func:`~paa_mj.model.mjcf_read.makes_no_constraints`: every robot the package reads) gets no room for
-    contacts or constraint rows, so that MuJoCo Warp copies the smooth acceleration as MuJoCo does for ``nefc = 0``
-    instead of running its solver over empty rows, and 1024 x 1024 worlds fit in the device's memory.
+def device_data(mjw, copy, n_worlds):
+    """MuJoCo Warp's data of ``n_worlds`` worlds of ``copy`` (:func:`device_model`'s). A plant that makes no
+    constraint row (:func:`~paa_mj.model.mjcf_read.makes_no_constraints`: every robot the package reads) gets no
+    room for contacts or constraint rows, so that MuJoCo Warp copies the smooth acceleration as MuJoCo does for
+    ``nefc = 0`` instead of running its solver over empty rows, and 1024 x 1024 worlds fit in the device's memory.
     """
     from ..model.mjcf_read import makes_no_constraints
 
-    copy = device_model(model)
     sizes = {"nconmax": 0, "njmax": 0} if makes_no_constraints(copy) else {}
-    return mjw.put_model(copy), mjw.make_data(copy, nworld=n_worlds, **sizes)
+    return mjw.make_data(copy, nworld=n_worlds, **sizes)
+
+
+def device_worlds(mjw, model, n_worlds):
+    """A plant's MjModel as MuJoCo Warp's model and data of ``n_worlds`` worlds: ``(model, data)``
+    (:func:`device_model`, :func:`device_data`)."""
+    copy = device_model(model)
+    return mjw.put_model(copy), device_data(mjw, copy, n_worlds)
 
 
 #: MuJoCo Warp's per-world arrays that carry a world from one step to the next (the rest each step recomputes).
@@ -277,9 +278,9 @@ class _Worlds:
 
     def __init__(self, wp, mjw, plan, params, memory, device):
         n, links = len(plan), plan.n_links
-        self.wp, self.mjw, self.plant = wp, mjw, plan.models[0]
+        self.wp, self.mjw, self.plant = wp, mjw, device_model(plan.models[0])
         self.rows = np.arange(n)  # the rollouts these worlds run, in order
-        self.model, self.data = device_worlds(mjw, plan.models[0], n)
+        self.model, self.data = mjw.put_model(self.plant), device_data(mjw, self.plant, n)
         self.data.qpos.assign(plan.x0[:, :links].astype(np.float32))
         self.data.qvel.assign(plan.x0[:, links:].astype(np.float32))
         settings, rollouts = plan.settings, plan.settings.rollouts
@@ -330,7 +331,7 @@ class _Worlds:
         taken = object.__new__(_Worlds)
         taken.wp, taken.mjw, taken.plant, taken.task = wp, self.mjw, self.plant, self.task
         taken.rows = self.rows[keep]
-        taken.model, (_, taken.data) = self.model, device_worlds(self.mjw, self.plant, len(keep))
+        taken.model, taken.data = self.model, device_data(self.mjw, self.plant, len(keep))
         for name in CARRIED:
             old = getattr(self.data, name, None)
             if old is not None and old.size:
@@ -376,10 +377,12 @@ def _check_room(wp, mjw, plan, params, memory, device):
     holds both sets of worlds."""
     from ..limits import check_memory
 
-    one, two = (_device_bytes(wp, device_worlds(mjw, plan.models[0], k)[1]) for k in (1, 2))
+    copy = device_model(plan.models[0])
+    one, two = (_device_bytes(wp, device_data(mjw, copy, k)) for k in (1, 2))
     settings, links = plan.settings, plan.n_links
-    rows = 8 * (params.shape[1] + memory.shape[1] + settings.cert[0].size + settings.pushes[0].size + 16 * links + 32)
-    check_memory(1.5 * len(plan) * (two - one + rows), f"{device} memory for {len(plan)} worlds",
+    engine_rows = 8 * (params.shape[1] + memory.shape[1] + settings.cert[0].size + settings.pushes[0].size
+                       + 16 * links + 32)
+    check_memory(1.5 * len(plan) * (two - one + engine_rows), f"{device} memory for {len(plan)} worlds",
                  "the worlds of one run (--chunk) or their number (--grid, --trials)",
                  budget=wp.get_device(device).free_memory, where="the device's free memory")
 
@@ -442,14 +445,15 @@ def _advance(plan, worlds, kernels, state, progress, desc):
     total = plan.n_steps + 1  # controller evaluations: steps 0..n_steps
     bar = progress_bar(total=round(n * total * dt, 6), unit="s simulated", desc=desc, enabled=progress)
     steps = _Steps(plan, worlds, kernels)
-    done, reported, left_steps = steps.first, 0.0, 0
+    done, reported = steps.first, 0.0
     try:
         while done < total:
             done += steps.advance(min(SEGMENT, total - done))
             counts = worlds.counts.numpy()
             running = counts[:, COUNTS.index("status")] == RUNNING
             ran = np.where(running, counts[:, COUNTS.index("step")], plan.n_steps)
-            now = round(float(np.sum(ran) + left_steps) * dt, 6)
+            packed_away = n - len(worlds.rows)  # stopped worlds no longer on the device, each counted whole
+            now = round(float(np.sum(ran) + packed_away * plan.n_steps) * dt, 6)
             # the clock of the worlds still running, and how many: a stopped world counts whole in the total
             bar.set_description_str(f"{desc} (t = {min(done, total - 1) * dt:.1f} s, {int(running.sum())} running)")
             if now > reported:
@@ -459,7 +463,6 @@ def _advance(plan, worlds, kernels, state, progress, desc):
                 break
             if done < total and len(running) >= PACK_MIN and running.sum() <= PACK_WHEN * len(running):
                 worlds.store(state)
-                left_steps += plan.n_steps * int(np.sum(~running))
                 worlds = worlds.take(np.flatnonzero(running))
                 steps = _Steps(plan, worlds, kernels)
                 done += steps.first

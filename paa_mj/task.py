@@ -310,6 +310,11 @@ class Task:
         """Within ``balance_tol`` of the goal in every coordinate; shape (...,) of bool."""
         return self.distance(q, qd) < self.balance_tol
 
+    def settled_tol(self) -> float:
+        """The largest error [rad, rad/s] that, held in every coordinate, is both balanced and inside the success
+        region: a run that provably stays below it is judged a success (its stopping early, retirement, uses it)."""
+        return min(self.balance_tol, self.success_region.angle, self.success_region.speed)
+
     def goal_energy(self, model) -> float:
         """E_r = P(q*): the energy at rest at the goal [J] ((9) at the gymnast's UDD), for an AnalyticModel."""
         return float(model.potential(self.goal))
@@ -325,7 +330,7 @@ class Task:
         ----------
         books : ndarray (N, 3) of int
         end_step : ndarray (N,) of int
-            The step at which each run ended.
+            The step at which each run ended (for one stopped early as balanced for good, would have ended).
         finished, retired : ndarray (N,) of bool
             Ran to its end without divergence; stopped early as balanced for good.
         dt : float
@@ -391,9 +396,11 @@ def book_update(params, qpos, qvel, step, book):
 
 @register_jitable
 def book_succeeded(book, end_step, finished, retired, window):
-    """The one success test: stopped early as balanced for good, or ran to its end without divergence and stayed
-    inside the success region over its last ``window`` steps (the whole run when shorter)."""
-    return retired or (finished and book[B_LAST_EXIT] < end_step - min(window, end_step))
+    """The one success test: ran to its end without divergence, or stopped early as balanced for good (inside the
+    settled tolerance, :meth:`Task.settled_tol`, to its end), and stayed inside the success region over the last
+    ``window`` steps (the whole run when shorter) of the run, which ends at ``end_step``: for a run stopped early,
+    the step at which it would have ended."""
+    return (finished or retired) and book[B_LAST_EXIT] < end_step - min(window, end_step)
 
 
 @njit(cache=True)

@@ -283,7 +283,7 @@ def _atlas_gymnast():
             f" {confusion['theorem applies, swing-up reaches (68)']} of the {applies} and on"
             f" {confusion['theorem does not apply, swing-up reaches (68)']} of the {outside} robots outside the"
             " theorem.\n"
-            f"- {counts['switched, not balanced']} robots reach (68) and then lose the balance with the LQR (67).")
+            f"- {counts['switched, no success']} robots reach (68) and then lose the balance with the LQR (67).")
 
 
 # --- RealAIGym and Drake ------------------------------------------------------------------------------------

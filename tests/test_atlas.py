@@ -88,7 +88,7 @@ def test_simulated_atlas_says_how_each_kip_ended(capsys, tmp_path):
                          "--out", tmp_path)
     assert code == 0, err
     summary = json.loads(out)
-    assert all(row["outcome"] in ("balanced", "switched, not balanced", "never switched, stuck at DUU",
+    assert all(row["outcome"] in ("success", "switched, no success", "never switched, stuck at DUU",
                                   "never switched", "diverged") for row in summary["robots"])
     assert "confusion" in summary["counts"] and sum(summary["counts"]["confusion"].values()) == 4
     assert summary["findings"]

@@ -65,12 +65,17 @@ def test_a_run_whose_balance_cannot_hold_says_so_once(run, fresh_warnings):
     assert stable.returncode == 0 and "unstable when sampled" not in stable.stderr
 
 
-def test_the_outcome_names_an_unstable_balance(fresh_warnings):
-    """RealAIGym's acrobot switches to its stretched goal's LQR (67), unstable at 1 ms: the outcome says so."""
+def test_the_outcome_names_an_unstable_balance(fresh_warnings, monkeypatch):
+    """RealAIGym's acrobot switches to its stretched goal's LQR (67), unstable at 1 ms: the outcome says so; its
+    warning and its summary share one computation of the sampled loop."""
     import warnings
 
     from paa_mj.sim.rollout import simulate_mujoco
+    from paa_mj.theory import linear
 
+    radii, radius = [], linear.sampled_spectral_radius
+    monkeypatch.setattr(linear, "sampled_spectral_radius", lambda *a: radii.append(a[2]) or radius(*a))
+    monkeypatch.setattr(linear, "_SAMPLED_BALANCE", {})
     robot = load_robot("realaigym_acrobot")
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -81,6 +86,7 @@ def test_the_outcome_names_an_unstable_balance(fresh_warnings):
     assert traj.switch_time is not None
     assert "unstable when sampled at dt = 1 ms" in traj.outcome() and "--switch roa" not in traj.outcome()
     assert np.isfinite(balance["radius"])
+    assert radii[0] == 1e-3 and len(radii) == len(set(radii))  # each step's loop once
 
 
 def test_theory_states_the_step_from_which_the_balance_holds(run):

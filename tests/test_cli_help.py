@@ -1,5 +1,6 @@
 """The command line explains itself: every option has help, defaults and allowed values are shown."""
 import argparse
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -30,6 +31,13 @@ def test_help_shows_defaults(capsys):
     assert main(["basin", "--help"]) == 0
     out = " ".join(capsys.readouterr().out.split())
     assert "(default: 64)" in out and "(default: q1,q2)" in out and "(default: gymnast)" in out
+
+
+def test_no_option_states_its_default_twice():
+    for name, sub in _subparsers(build_parser()).items():
+        for action in sub._actions:
+            text = sub._get_formatter()._get_help_string(action) if action.option_strings else ""
+            assert len(re.findall(r"(?<!%)\(default", text)) <= 1, (name, action.option_strings, text)
 
 
 def test_top_level_help_is_plain_text(capsys):
@@ -92,3 +100,10 @@ def test_help_and_version_load_no_heavy_library():
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr
     assert "HEAVY []" in proc.stderr
+
+
+def test_the_task_horizon_the_options_state_is_the_tasks():
+    from paa_mj.cli.common import TASK_HORIZON
+    from paa_mj.task import HORIZON
+
+    assert TASK_HORIZON.endswith(f", {HORIZON:g} s")

@@ -67,6 +67,22 @@ def test_retirement_changes_no_outcome(gymnast):
     assert np.all(np.abs(early.final_state[retired][:, 3:]) < 1e-3)
 
 
+@pytest.mark.parametrize("window", [1.0, 0.2])
+def test_retirement_changes_no_success_under_a_tight_success_region(gymnast, window):
+    """A success region tighter than the balance tolerance, and a start that enters it late: a run stopped early
+    is judged as the whole run is (over the last window of the run it stands for, within the region)."""
+    from paa_mj.task import Region, Task
+
+    task = Task.named("folded", gymnast, success_region=Region(1e-4, 1e-4), success_window=window)
+    x0 = np.concatenate([task.goal + [[2e-3, 0, 0], [-1e-3, 2e-3, 0], [0, 0, 1e-4]], np.zeros((3, 3))], axis=1)
+    full = simulate_batch(gymnast, x0, 3.0, task=task, controller="lqr", retire=False)
+    early = simulate_batch(gymnast, x0, 3.0, task=task, controller="lqr", retire=True)
+    assert np.any(early.t_end < 3.0)  # some retired
+    np.testing.assert_array_equal(early.success, full.success)
+    inside = task.distance(early.final_state[:, :3], early.final_state[:, 3:]) < 1e-4
+    assert np.all(inside[early.t_end < 3.0])  # retired only inside the success region
+
+
 def test_batch_per_rollout_controllers_and_model_error(gymnast):
     x0 = np.tile(X0_HANGING, (2, 1))
     wrong = gymnast.params.scaled(mass_factor=1.05, length_factor=0.98)

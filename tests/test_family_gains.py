@@ -101,8 +101,8 @@ def test_the_origin_of_a_run_s_gains_is_named():
 
 def test_the_search_scores_rules_by_the_robots_they_balance():
     found = gain_search(robots=(("acrobot", "folded"),), grid=((2.0,), (2.0, 0.5), (0.5,)), t_final=30.0)
-    assert found["balanced"].shape == (2, 1)
-    best = int(np.argmax(found["balanced"].sum(axis=1)))
+    assert found["success"].shape == (2, 1)
+    best = int(np.argmax(found["success"].sum(axis=1)))
     assert found["best"] == found["rules"][best]
     assert search_table(found).count("\n") == 3
 
@@ -129,3 +129,18 @@ def test_an_outcome_proposes_only_the_remedies_that_apply_to_the_run():
     assert "--switch" not in lqr and lqr.endswith("; try a longer --t-final")  # no hand-over to move
     vcl = simulate_mujoco(gymnast, "vcl", t_final=0.2, task=folded).outcome()
     assert vcl.endswith("try a longer --t-final or other gains (paa-mj gain-search compares rules of gains)")
+
+
+@pytest.mark.parametrize("covered, base", [(True, {"kD": 2.0, "kP": 8.0, "kV": 1.0}), (False, None),
+                                           (False, {"kD": 2.0, "kP": 8.0, "kV": 1.0})])
+def test_the_atlas_rule_in_words_is_the_rule(covered, base):
+    from paa_mj.control.gains import MARGIN, gain_rule, gain_rule_words
+
+    gains = gain_rule(10.0, 3.0 if covered else None, 5.0 if covered else None, base)
+    words = gain_rule_words(covered, base)
+    assert gains["kD"] == MARGIN * 10.0 and f"kD = {MARGIN:g} kD_min" in words
+    kP = MARGIN * 5.0 if covered else gains["kD"] * (base["kP"] / base["kD"] if base else 2.0)
+    kV = gains["kD"] * (base["kV"] / base["kD"] if base else 1.0)
+    assert gains["kP"] == pytest.approx(kP) and gains["kV"] == pytest.approx(kV)
+    assert ("max(eta1, eta2)" in words) == covered and ("base robot" in words) == bool(base)
+    assert ("kP = 2 kD" in words) == (not covered and not base) and words.endswith("kV = kD") == (not base)

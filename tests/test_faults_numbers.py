@@ -122,7 +122,7 @@ def test_a_studys_counts_add_up(run):
     atlas = _strict(run("atlas", "--grid", "3", "--scheduler", "inline", "--simulate", "--starts", "1", "--t-final",
                         "0.1", "--json").stdout)
     assert atlas["counts"]["robots"] == 9 == len(atlas["robots"])
-    outcomes = ("balanced", "switched, not balanced", "never switched, stuck at DUU", "never switched", "diverged")
+    outcomes = ("success", "switched, no success", "never switched, stuck at DUU", "never switched", "diverged")
     assert sum(atlas["counts"][name] for name in outcomes) == 9
 
 

@@ -102,7 +102,7 @@ def test_render_rgb_array():
 @pytest.mark.parametrize("env_id, task, horizon", [(KIP_ID, "kip", 3000), (BALANCE_ID, "balance", 1000)])
 def test_v1_ids_have_learning_defaults_and_a_horizon_wrappers_read(env_id, task, horizon):
     env = gym.make(env_id)
-    assert env.spec.max_episode_steps == horizon and isinstance(env, gym.wrappers.TimeLimit)
+    assert env.spec.max_episode_steps == horizon and _time_limit(env) == horizon
     inner = env.unwrapped
     assert inner.episode == task and inner.task.name == "folded" and inner.frame_skip == 10 and inner.dt == pytest.approx(0.01)
     assert inner.max_steps == horizon  # the env's own truncation agrees with the registered horizon
@@ -110,6 +110,30 @@ def test_v1_ids_have_learning_defaults_and_a_horizon_wrappers_read(env_id, task,
     check_env(inner, skip_render_check=True)
     old = gym.make(ENV_ID).unwrapped  # v0 keeps its defaults
     assert not old.normalize_actions and old.frame_skip == 1 and old.max_steps == 30000
+
+
+def _time_limit(env):
+    """The max_episode_steps of the TimeLimit wrappers around ``env`` (the innermost), or None."""
+    found = None
+    while isinstance(env, gym.Wrapper):
+        found = env._max_episode_steps if isinstance(env, gym.wrappers.TimeLimit) else found
+        env = env.env
+    return found
+
+
+def test_the_registered_horizon_is_the_envs_own_at_any_time_step(tmp_path):
+    """A robot stepped at 0.5 ms: the registered id truncates at its 30 s (6000 steps of 5 ms), as the env does,
+    not at the 3000 steps of the 1 ms models; the vector environment's task lasts as long as its episodes."""
+    from paa_mj.model.robot import load_robot
+
+    path = tmp_path / "half.xml"
+    text = load_robot("gymnast").xml.replace('timestep="0.001"', 'timestep="0.0005"')
+    path.write_text(text)
+    env = gym.make(KIP_ID, robot=str(path))
+    assert env.unwrapped.max_steps == 6000 and env.spec.max_episode_steps == 6000 and _time_limit(env) == 6000
+    envs = gym.make_vec(KIP_ID, num_envs=2, robot=str(path), max_episode_steps=100)
+    assert envs.unwrapped.max_steps == 100 and envs.unwrapped.task.horizon == pytest.approx(0.5)
+    envs.close()
 
 
 def test_balance_starts_from_a_uniform_perturbation_of_udd():

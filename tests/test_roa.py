@@ -137,3 +137,29 @@ def test_the_roa_named_controllers_are_the_switch_option(name):
     rng = np.random.default_rng(0)
     q, qd = task.goal + rng.normal(0, 0.3, (64, 3)), rng.normal(0, 0.5, (64, 3))
     assert np.array_equal(named.condition.holds(q, qd, 0.0), option.condition.holds(q, qd, 0.0))
+
+
+def test_the_roa_hand_over_takes_the_runs_torque_limit():
+    """simulate --switch roa --torque-limit T hands over on the level of the LQR's region of attraction with the
+    limit T the run applies (paa-mj roa --torque-limit T's), not on the model's unlimited one."""
+    from argparse import Namespace
+
+    from paa_mj.cli.common import spec_from_args
+    from paa_mj.control.registry import ControllerSpec
+    from paa_mj.model import load_robot
+    from paa_mj.theory.linear import lqr_solution, lqr_weight_matrices
+
+    robot = load_robot("gymnast")  # no actuator ranges
+    task = Task.named("folded", robot)
+    args = Namespace(controller="vcl", switch="roa", torque_limit=20.0, lqr_weights=None, kD=None, kP=None, kV=None)
+    limited = spec_from_args(args, robot, task).build(robot)
+    Q, R = lqr_weight_matrices(3)
+    K, S = lqr_solution(robot.analytic, task, Q, R)
+    assert limited.condition.rho <= roa.torque_level(S, K, np.array([20.0, 20.0])) * (1 + 1e-12)
+    assert limited.describe()["switch_level"] == limited.condition.rho
+    free = ControllerSpec("vcl", options=(("switch", "roa"),), task=task).build(robot)
+    assert free.condition.rho > limited.condition.rho
+    named = spec_from_args(Namespace(**{**vars(args), "controller": "vcl-roa", "switch": None}), robot, task)
+    assert named.build(robot).condition.rho == limited.condition.rho
+    with pytest.raises(PaaError, match="region of attraction"):
+        ControllerSpec("vcl", options=(("limit", (20.0, 20.0)),), task=task).build(robot)

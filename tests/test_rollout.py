@@ -152,3 +152,22 @@ def test_a_run_ending_between_two_samples_records_its_end(gymnast):
     assert traj.t.tolist() == pytest.approx([0.0, 0.01, 0.013]) and traj.summary()["final_time"] == pytest.approx(0.013)
     longer = simulate_mujoco(gymnast, t_final=0.02, sample_dt=0.001)
     np.testing.assert_array_equal(traj.q[-1], longer.q[13])  # the state of step 13, as the finer grid has it
+
+
+@pytest.mark.parametrize("timestep", [1e-3, 5e-4])
+def test_both_engines_run_a_final_time_to_the_same_step_and_judge_the_same_instants(gymnast, tmp_path, timestep):
+    """A final time between two steps: the MuJoCo engine runs to the nearest step, and so does the exact closed loop,
+    which judges success at the instants k dt of the robot's own step (not at a fixed 1 ms)."""
+    from paa_mj.model.robot import load_robot
+    from paa_mj.task import Task
+
+    path = tmp_path / "robot.xml"
+    path.write_text(gymnast.xml.replace('timestep="0.001"', f'timestep="{timestep}"'))
+    robot = load_robot(str(path))
+    assert robot.model.opt.timestep == timestep
+    x0 = np.concatenate([Task.named("folded", robot).goal + [1e-3, 0, 0], np.zeros(3)])
+    t_final = 0.2 + 0.7 * timestep
+    mujoco_run = simulate_mujoco(robot, "lqr", x0, t_final, sample_dt=timestep)
+    exact = simulate_analytic(robot, "lqr", x0, t_final, sample_dt=timestep)
+    assert exact.t[-1] == pytest.approx(mujoco_run.t[-1], abs=1e-12) and exact.t[-1] == pytest.approx(0.2 + timestep)
+    assert exact.meta["success"] and mujoco_run.meta["success"]

@@ -17,6 +17,8 @@ import sys
 from ..errors import PaaError
 
 EXIT_BAD_INPUT, EXIT_DIVERGED, EXIT_INCOMPLETE = 2, 3, 4
+#: How the options whose default is the task's horizon (Task.horizon) state it.
+TASK_HORIZON = "the task's horizon, 30 s"
 EXIT_SIGINT, EXIT_SIGTERM = 130, 143
 _received = {"signal": None}
 
@@ -27,7 +29,7 @@ class Formatter(argparse.RawDescriptionHelpFormatter):
     def _get_help_string(self, action):
         text = action.help or ""
         unset = action.default is None or action.default is False or action.default == argparse.SUPPRESS
-        if "%(default)" in text or unset or not action.option_strings:
+        if "(default" in text or unset or not action.option_strings:  # a text that states its own default
             return text
         return text + " (default: %(default)s)"
 
@@ -166,7 +168,10 @@ def task_from_args(args, robot):
     task, which every layer below is handed."""
     from ..task import Task
 
-    return Task.named(getattr(args, "goal", "folded"), robot)
+    task = Task.named(getattr(args, "goal", "folded"), robot)
+    if getattr(args, "t_final", False) is None:  # an option whose default is the task's horizon
+        args.t_final = task.horizon
+    return task
 
 
 def initial_state(args, robot, task):
@@ -205,8 +210,8 @@ def controller_parent():
                         " (default the paper's 1e4 and 1; for vcl, vc, lqr, trajopt, trajopt-effort)")
     p.add_argument("--switch", choices=("region", "roa"),
                    help="where vcl and vc hand over to the LQR (67): region (68) (the default), or roa, the LQR's"
-                        " cost-to-go below the level of its region of attraction with the robot's torque limits"
-                        " (paa-mj roa)")
+                        " cost-to-go below the level of its region of attraction with the run's torque limits (the model's"
+                        " actuator ranges and --torque-limit, as paa-mj roa)")
     return p
 
 
@@ -214,7 +219,7 @@ def physics_parent():
     from ..sim.integrator_names import INTEGRATOR_NAMES
 
     p = argparse.ArgumentParser(add_help=False)
-    p.add_argument("--t-final", type=positive, default=30.0, help="duration [s]")
+    p.add_argument("--t-final", type=positive, help=f"duration [s] (default: {TASK_HORIZON})")
     p.add_argument("--dt", type=positive, help="physics time step [s] (default: the model's, 0.001)")
     p.add_argument("--integrator", choices=INTEGRATOR_NAMES, help="MuJoCo integrator (default: the model's, RK4)")
     p.add_argument("--torque-limit", type=positive, metavar="T",
@@ -288,6 +293,10 @@ def spec_from_args(args, robot, task, name=None):
             raise PaaError(f"--switch applies to the controllers {', '.join(SWITCHED)}, not to {name}")
         if switch != "region":  # region (68) is the default hand-over: the spec stays the plain one
             options.append(("switch", switch))
+    from ..control.catalog import ROA_SWITCHED, SWITCHED
+
+    if getattr(args, "torque_limit", None) is not None and (switch == "roa" or name in set(ROA_SWITCHED) - set(SWITCHED)):
+        options.append(("limit", (args.torque_limit,) * len(robot.torque_limits)))  # the level of the run's limits
     given = {k: getattr(args, k, None) for k in ("kD", "kP", "kV")}
     if all(v is None for v in given.values()):
         return ControllerSpec(name, options=tuple(options), task=task)

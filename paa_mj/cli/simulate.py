@@ -58,8 +58,9 @@ def run_from_args(args, progress=True):
     from ..sim.analytic import simulate_analytic
     from ..sim.rollout import simulate_mujoco
 
-    _check_engine_options(args)
     robot = load_robot("gymnast" if args.robot is None else args.robot)  # an empty --robot is refused
+    task = task_from_args(args, robot)  # also --t-final's default, the task's horizon
+    _check_engine_options(args)
     # the analytic engine has no time step; its cost is counted at 1 ms as in its own check
     step = args.dt or (1e-3 if args.engine == "analytic" else float(robot.model.opt.timestep))
     check_duration(args.t_final, step)
@@ -67,7 +68,6 @@ def run_from_args(args, progress=True):
         from ..sim.inputs import check_whole_steps
 
         check_whole_steps(args.t_final, step)
-    task = task_from_args(args, robot)
     spec = spec_from_args(args, robot, task)
     controller = spec.build(robot)
     x0 = initial_state(args, robot, task)

@@ -4,7 +4,7 @@ from __future__ import annotations
 from ..errors import PaaError
 from .common import (check_fresh, controller_parent, finish, goal_parent, non_negative, note, output_lock, output_parent,
                      positive, positive_int, print_json, robot_parent, seed, spec_from_args, study_parent, task_from_args,
-                     whole_number)
+                     whole_number, TASK_HORIZON)
 
 
 def _finish_study(summary, args, what):
@@ -71,7 +71,7 @@ def cmd_basin(args):
         done = summary["completed_fraction"]
         print(f"{summary['cells']} starts over ({', '.join(summary['axes'])}), {summary['controller']}:"
               + (f" {100 * done:.0f} % of them finished," if done < 1 else "")
-              + f" {100 * summary['success']:.1f} % balanced, median first switch"
+              + f" {100 * summary['success']:.1f} % success, median first switch"
               f" {summary['median_switch_time']} s"
               + (f"; wrote {args.out}/basin.png, basin.svg, basin.npz, summary.json" if args.out else ""))
     return _finish_study(summary, args, "basin")
@@ -212,7 +212,7 @@ def _register_basin(sub):
                    help=f"two of {', '.join(COORDINATES)} for the gymnast, of q1..qn, d1..dn for a chain of n links"
                         " (angles over [-pi, pi], speeds over [-5, 5] rad/s)")
     p.add_argument("--grid", type=positive_int, default=64, help=f"points per axis, 2..{MAX_GRID} (starts = grid^2)")
-    p.add_argument("--t-final", type=positive, default=30.0, help="duration of each run [s]")
+    p.add_argument("--t-final", type=positive, help=f"duration of each run [s] (default: {TASK_HORIZON})")
     p.add_argument("--torque-limit", type=positive, metavar="T",
                    help="saturate each torque of every run at T [N m] (the model's actuator ranges also apply)")
     p.set_defaults(func=cmd_basin)
@@ -231,7 +231,7 @@ def _register_robustness(sub):
                                    " starts: with a 95 % Wilson interval where the runs are independent random draws,"
                                    " one run without an interval where a setting is deterministic.")
     p.add_argument("--trials", type=positive_int, default=64, help="starts per level")
-    p.add_argument("--t-final", type=positive, default=30.0, help="duration of each run [s]")
+    p.add_argument("--t-final", type=positive, help=f"duration of each run [s] (default: {TASK_HORIZON})")
     p.add_argument("--seed", type=seed, default=0, help="seed of the starts and the noise")
     p.add_argument("--factors", default=",".join(DEFAULT_FACTORS), metavar="F,...",
                    help=f"comma-separated, out of {', '.join(FACTORS)}")

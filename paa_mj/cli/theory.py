@@ -66,7 +66,7 @@ def cmd_gain_search(args):
 
     found = gain_search(t_final=args.t_final, progress=not args.json)
     summary = {"t_final": found["t_final"], "robots": [f"{n} {g}" for n, g in found["robots"]],
-               "rules": [vars(rule) for rule in found["rules"]], "balanced": found["balanced"].tolist(),
+               "rules": [vars(rule) for rule in found["rules"]], "success": found["success"].tolist(),
                "best": vars(found["best"]), "family_rule": vars(FAMILY_RULE)}
     if args.json:
         print_json(summary)

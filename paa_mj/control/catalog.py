@@ -29,7 +29,11 @@ LQR_CONTROLLERS = ("vcl", "vcl-roa", "vc", "vc-roa", "lqr", "trajopt", "trajopt-
 #: Controllers that switch from a swing-up to (67), with the option switch = "region" ((68), the default) or "roa"
 #: (the LQR's cost-to-go below the level of its region of attraction, :mod:`paa_mj.theory.roa`).
 SWITCHED = ("vcl", "vc")
+#: Controllers that can hand over on the LQR's region of attraction, whose level takes the run's torque limits
+#: (option limit: the model's actuator ranges capped by it).
+ROA_SWITCHED = SWITCHED + ("vcl-roa", "vc-roa")
 #: Controllers that take options, and which.
 OPTIONS = {name: (("limit", "duration", "intervals") if name in PLANNERS else ())
            + (("lqr_weights",) if name in LQR_CONTROLLERS else ()) + (("switch",) if name in SWITCHED else ())
+           + (("limit",) if name in ROA_SWITCHED else ())
            for name in DESCRIPTIONS if name in PLANNERS or name in LQR_CONTROLLERS}

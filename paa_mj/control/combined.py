@@ -175,4 +175,6 @@ class CombinedController(Controller):
             details = part.describe() if hasattr(part, "describe") else {}
             out.update({k: v for k, v in details.items() if k != "controller"})
         out["switch"] = getattr(self.condition, "name", type(self.condition).__name__)
+        if isinstance(self.condition, LevelCondition):
+            out["switch_level"] = self.condition.rho
         return out

@@ -40,6 +40,13 @@ def gain_rule(kd, e1, e2, base_gains=None):
     return {"kD": kD, "kP": kP, "kV": ratio_v * kD}
 
 
+def gain_rule_words(covered: bool, base_gains=None) -> str:
+    """:func:`gain_rule` in words, for a family whose Theorem 1 applies (``covered``) or not."""
+    kP = f"{MARGIN:g} max(eta1, eta2)" if covered else "kD x (kP/kD of the base robot)" if base_gains else "2 kD"
+    kV = "kD x (kV/kD of the base robot)" if base_gains else "kD"
+    return f"kD = {MARGIN:g} kD_min, kP = {kP}, kV = {kV}"
+
+
 @dataclass(frozen=True)
 class GainRule:
     """Gains of (40) from the robot and goal alone: kD = ``margin`` x kD_min of (41) for the goal, kP = ``p`` x kD

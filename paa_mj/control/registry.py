@@ -72,7 +72,9 @@ HEADROOM = 0.9
 EFFORT_DURATION = 3.0
 
 
-def _kip_bound(robot, limit):
+def _capped_limits(robot, limit):
+    """The motors' limits [N m] a run applies: the model's actuator ranges capped by the option ``limit`` (one
+    number or one per motor; None: the ranges alone)."""
     if limit is not None:
         try:
             limit = np.asarray(limit, float)
@@ -83,7 +85,11 @@ def _kip_bound(robot, limit):
         if limit.shape not in ((), (1,), motors):
             raise PaaError(f"the option limit needs one number or one per motor ({motors[0]}) [N m], got shape"
                            f" {limit.shape}")
-    limits = np.minimum(robot.torque_limits, np.inf if limit is None else limit)
+    return np.minimum(robot.torque_limits, np.inf if limit is None else limit)
+
+
+def _kip_bound(robot, limit):
+    limits = _capped_limits(robot, limit)
     if not np.all(np.isfinite(limits)):
         raise PaaError("a planned kip needs a torque limit: give limit=(T2, T3) [N m] or a model with actuator ranges"
                        " (the command line uses the peak torques of vcl from (65))")
@@ -122,8 +128,11 @@ def build_trajopt_effort(robot, task, gains=None, check=True, limit=None, durati
 SWITCHES = ("region", "roa")
 
 
-def _condition(robot, task, lqr_weights, switch):
+def _condition(robot, task, lqr_weights, switch, limit):
     if switch in (None, "region"):
+        if limit is not None:
+            raise PaaError("the option limit applies to the hand-over on the LQR's region of attraction (switch="
+                           "\"roa\"), not to region (68)")
         return RegionCondition(task)
     if switch != "roa":
         raise PaaError(f"the option switch is one of {', '.join(SWITCHES)}, got {switch!r}")
@@ -133,21 +142,22 @@ def _condition(robot, task, lqr_weights, switch):
 
     n = robot.params.n_links
     Q, R = lqr_weight_matrices(n, *weights_of(n, lqr_weights))
-    S, rho = switch_level(robot.analytic, task, Q, R, u_max=robot.torque_limits,
+    S, rho = switch_level(robot.analytic, task, Q, R, u_max=_capped_limits(robot, limit),
                           dt=float(robot.model.opt.timestep))
     return LevelCondition(task, S, rho)
 
 
-def _switched(robot, task, swing, name, lqr_weights=None, switch=None):
-    """``swing`` until region (68) of the task (or the LQR's region of attraction, ``switch="roa"``), then the
-    LQR (67) at its goal (weights ``lqr_weights``)."""
+def _switched(robot, task, swing, name, lqr_weights=None, switch=None, limit=None):
+    """``swing`` until region (68) of the task (or the LQR's region of attraction with the torque limits the run
+    applies, ``switch="roa"``, ``limit`` capping the model's), then the LQR (67) at its goal (weights
+    ``lqr_weights``)."""
     return CombinedController(swing, LQRController.for_model(robot.analytic, task, lqr_weights),
-                              _condition(robot, task, lqr_weights, switch), name=name)
+                              _condition(robot, task, lqr_weights, switch, limit), name=name)
 
 
-def build_vcl(robot, task, gains=None, check=True, lqr_weights=None, switch=None):
+def build_vcl(robot, task, gains=None, check=True, lqr_weights=None, switch=None, limit=None):
     """The paper's controller: (40) + (67) switched by (68) (or by the LQR's region of attraction)."""
-    return _switched(robot, task, build_vcl_only(robot, task, gains, check), "vcl", lqr_weights, switch)
+    return _switched(robot, task, build_vcl_only(robot, task, gains, check), "vcl", lqr_weights, switch, limit)
 
 
 def build_vcl_only(robot, task, gains=None, check=True):
@@ -155,9 +165,9 @@ def build_vcl_only(robot, task, gains=None, check=True):
     return EnergyVCLController(robot.analytic, **_gains(robot, task, gains), check=check, task=task)
 
 
-def build_vc(robot, task, gains=None, check=True, lqr_weights=None, switch=None):
+def build_vc(robot, task, gains=None, check=True, lqr_weights=None, switch=None, limit=None):
     """The conventional candidate (12) + (67) switched by (68) (or by the LQR's region of attraction)."""
-    return _switched(robot, task, build_vc_only(robot, task, gains, check), "vc", lqr_weights, switch)
+    return _switched(robot, task, build_vc_only(robot, task, gains, check), "vc", lqr_weights, switch, limit)
 
 
 def build_vc_only(robot, task, gains=None, check=True):
@@ -165,14 +175,14 @@ def build_vc_only(robot, task, gains=None, check=True):
     return ConventionalController(robot.analytic, **_gains(robot, task, gains), check=check, task=task)
 
 
-def build_vcl_roa(robot, task, gains=None, check=True, lqr_weights=None):
+def build_vcl_roa(robot, task, gains=None, check=True, lqr_weights=None, limit=None):
     """``vcl`` handing over to (67) on the LQR's region of attraction (``switch="roa"``) instead of (68)."""
-    return _switched(robot, task, build_vcl_only(robot, task, gains, check), "vcl-roa", lqr_weights, "roa")
+    return _switched(robot, task, build_vcl_only(robot, task, gains, check), "vcl-roa", lqr_weights, "roa", limit)
 
 
-def build_vc_roa(robot, task, gains=None, check=True, lqr_weights=None):
+def build_vc_roa(robot, task, gains=None, check=True, lqr_weights=None, limit=None):
     """``vc`` handing over to (67) on the LQR's region of attraction (``switch="roa"``) instead of (68)."""
-    return _switched(robot, task, build_vc_only(robot, task, gains, check), "vc-roa", lqr_weights, "roa")
+    return _switched(robot, task, build_vc_only(robot, task, gains, check), "vc-roa", lqr_weights, "roa", limit)
 
 
 def build_lqr(robot, task, gains=None, check=True, lqr_weights=None):

@@ -14,8 +14,6 @@ from ..lazy import lazy_exports
 ENV_ID = "paa_mj/GymnastKip-v0"
 KIP_ID = "paa_mj/GymnastKip-v1"
 BALANCE_ID = "paa_mj/GymnastBalance-v1"
-#: Registered horizons [environment steps]: the episodes' seconds at the default 10 ms period.
-HORIZONS = {KIP_ID: 3000, BALANCE_ID: 1000}
 
 _EXPORTS = {
     "GymnastEnv": ".single",
@@ -41,12 +39,12 @@ def register():
         gym.register(id=ENV_ID, entry_point="paa_mj.envs.single:GymnastKipEnv")
     for env_id, episode in ((KIP_ID, "kip"), (BALANCE_ID, "balance")):
         if env_id not in gym.registry:
-            gym.register(id=env_id, entry_point="paa_mj.envs.single:GymnastEnv",
-                         vector_entry_point="paa_mj.envs.vector:GymnastVectorEnv", kwargs={"episode": episode},
-                         max_episode_steps=HORIZONS[env_id])
+            # the horizon in steps is the environment's own (its seconds over its period): it adds the TimeLimit
+            gym.register(id=env_id, entry_point="paa_mj.envs.single:registered",
+                         vector_entry_point="paa_mj.envs.vector:GymnastVectorEnv", kwargs={"episode": episode})
 
 
 register()
 
-__all__ = ["BALANCE_ID", "ENV_ID", "GymnastEnv", "GymnastKipEnv", "GymnastVectorEnv", "HORIZONS", "KIP_ID", "SB3Policy",
+__all__ = ["BALANCE_ID", "ENV_ID", "GymnastEnv", "GymnastKipEnv", "GymnastVectorEnv", "KIP_ID", "SB3Policy",
            "action_to_torque", "controller_policy", "observation", "register", "torque_to_action"]

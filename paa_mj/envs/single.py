@@ -22,8 +22,8 @@ observations and n - 1 actions (:mod:`paa_mj.envs.spaces`), and its rewards meas
 (:mod:`paa_mj.envs.stepper`).
 
 Dynamics
-    One environment step holds the torque over ``frame_skip`` physics steps of MuJoCo (RK4, 1 ms):
-    a control period of 10 ms in v1, 1 ms in v0. The physics runs in compiled code
+    One environment step holds the torque over ``frame_skip`` physics steps of MuJoCo (RK4, the model's
+    step, 1 ms for the stored robots): a control period of 10 ms in v1, 1 ms in v0 at 1 ms. The physics runs in compiled code
     (``mj_step`` called from numba, as :mod:`paa_mj.sim.engine` does), the same code for one
     environment and for the vector environment. ``physics="analytic"`` steps the robot's own equations
     of motion by the same RK4 instead (:mod:`paa_mj.sim.rk4`): the same equations, states that agree
@@ -33,14 +33,14 @@ Termination and truncation
     episode then ends on the last good state. Balance also terminates when the state after a step has
     left region (68) by ``terminate_margin`` (default 0.5): :math:`\\max_i |x_i| / l_i \\ge 1 + 0.5`,
     an angle error of pi/4 rad or a speed of 0.75 rad/s. Truncated (when not terminated) after
-    ``max_episode_seconds``; the registered ``max_episode_steps`` gives wrappers the same horizon (at the
-    default ``frame_skip``: with another, pass ``max_episode_steps`` to ``gym.make`` as well).
+    ``max_episode_seconds``; the registered ids wrap the environment in a ``TimeLimit`` of that horizon in
+    environment steps (:func:`registered`), which wrappers read as ``env.spec.max_episode_steps``.
 Info
     ``q``, ``qd``: the raw state, angles unwrapped (controller (40) needs the unwrapped q2);
-    ``time``: physics steps since reset x 1 ms [s] (the time the package's engines give controllers);
+    ``time``: physics steps since reset x the model's time step [s] (the time the package's engines give controllers);
     ``diverged``; ``is_success``: the task's success (:attr:`~paa_mj.task.Task.success_definition`, the same
     compiled test as the engines') of the episode so far, as if it ended now: no divergence, and the true state
-    inside the success region at every 1 ms physics step of the last second (the whole episode when shorter,
+    inside the success region at every physics step of the last second (the whole episode when shorter,
     the start included). At the last step of an episode it is the episode's success.
 Copies
     ``copy.deepcopy(env)`` and ``pickle`` give an independent environment in the same state (its physics
@@ -331,3 +331,11 @@ class GymnastKipEnv(GymnastEnv):
                     terminate_margin=terminate_margin)
         super().__init__("kip", **args)
         self._init_args = args
+
+
+def registered(**kwargs) -> gym.Wrapper:
+    """The entry point of the registered v1 ids: a :class:`GymnastEnv` in a ``TimeLimit`` of its own horizon in
+    environment steps (``max_episode_seconds`` over its control period), so that the horizon wrappers read
+    (``env.spec.max_episode_steps``) is the one it truncates at, whatever the robot's time step and ``frame_skip``."""
+    env = GymnastEnv(**kwargs)
+    return gym.wrappers.TimeLimit(env, env.max_steps)

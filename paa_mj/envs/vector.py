@@ -237,7 +237,8 @@ class GymnastVectorEnv(VectorEnv):
         self.single_action_space = proto.action_space
         self.observation_space = batch_space(proto.observation_space, num_envs)
         self.action_space = batch_space(proto.action_space, num_envs)
-        self.task = proto.task
+        # the episodes' task lasts as long as they do (a max_episode_steps below the prototype's cuts it)
+        self.task = proto.task if self.max_steps == proto.max_steps else proto.task.with_(horizon=self.max_steps * self.dt)
         self.engine = engine
         if engine == "warp":
             from ..errors import PaaError

@@ -28,7 +28,7 @@ STYLE = {
 #: Line styles and markers in turn, for curves that may lie on top of each other.
 LINESTYLES = ["-", "--", ":", "-."]
 MARKERS = ["o", "s", "^", "D", "v", "P", "X"]
-#: Outcome colours of the basin (balanced, switched not balanced, stuck at DUU, never switched, diverged).
+#: Outcome colours of the basin (success, switched with no success, stuck at DUU, never switched, diverged).
 OUTCOME_COLOURS = ["#009E73", "#E69F00", "#CC79A7", "#999999", "#D55E00"]
 
 
@@ -219,7 +219,7 @@ def basin_figure(summary, arrays):
         ax.set_ylabel(f"{b} {unit(b)}")
         ax.grid(False)
     left.set_title(f"{summary['robot']}, {summary.get('controller', 'vcl')}: outcome, "
-                   f"{100 * summary['success']:.0f} % balanced")
+                   f"{100 * summary['success']:.0f} % success")
     right.set_title(f"first switch time, {summary['cells']} starts, {summary['t_final']:g} s")
     return fig
 
@@ -442,9 +442,9 @@ def atlas_outcome_figure(summary, arrays):
     _atlas_axes(left, summary, arrays)
     left.set_title("the kip from (65)" if summary.get("goal", "folded") == "folded" else
                    "the swing-up to the stretched goal")
-    share = arrays["balanced_starts"].reshape(shape)
+    share = arrays["success_starts"].reshape(shape)
     mesh = cell_map(right, f1, f2, 100 * share.T, cmap="viridis", vmin=0, vmax=100)
-    fig.colorbar(mesh, ax=right, label="balanced from random starts [%]")
+    fig.colorbar(mesh, ax=right, label="success from random starts [%]")
     _atlas_axes(right, summary, arrays)
     right.set_title(f"{summary['starts']} random starts per robot")
     fig.suptitle(f"Simulated kips of {summary['robot']}'s family over ({summary['vary'][0]}, {summary['vary'][1]}),"

@@ -269,7 +269,7 @@ def _reading_section(cand, paper):
                          f" {r['balanced']} |")
         for r in cand["sensitivity"]:
             lines.append(f"| MuJoCo RK4, (65) perturbed by {r['perturbation']:g} rad, {r['n']} runs | 1 ms |"
-                         f" median {_fmt(r['median'], 3)} | {100 * r['balanced_fraction']:.0f} % |")
+                         f" median {_fmt(r['median'], 3)} | {100 * r['success_fraction']:.0f} % success |")
         lines += ["", "**Status: a candidate, not a confirmation.** The reading matches the paper's number on the exact"
                   " solution, which needs the paper's simulation to have followed the continuous closed loop closely"
                   " through the first 13 s (a variable-step ODE solver, as Matlab's would be), and the paper's code to"
@@ -293,7 +293,7 @@ def _closing_sections(results, paper, video_path):
     basin_s = results["basin_table1"]
     lines = ["## 4. The basin of Table 1", "",
               f"The paper's controller from {basin_s['cells']} starts over (q1, q2) (the others zero), {basin_s['t_final']:g} s:"
-              f" {100 * basin_s['success']:.1f} % balance, median first switch {_fmt(basin_s['median_switch_time'], 2)} s;"
+              f" {100 * basin_s['success']:.1f} % succeed, median first switch {_fmt(basin_s['median_switch_time'], 2)} s;"
               " outcomes " + ", ".join(f"{k}: {v}" for k, v in basin_s["outcomes"].items()) + ".", "",
               "![basin of Table 1](figures/basin_table1.png)", "",
               "## 5. Other differences, stated plainly", "",

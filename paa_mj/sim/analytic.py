@@ -2,7 +2,7 @@
 
 No zero-order hold and no time step: the reference against which MuJoCo's
 discretisation is judged. The run is judged by its task as MuJoCo's runs are (the task's book of
-success, :func:`~paa_mj.task.book_update`), on the dense solution every :data:`JUDGE_DT` seconds. A switching controller switches where its
+success, :func:`~paa_mj.task.book_update`), on the dense solution at every step of the robot's MuJoCo time step. A switching controller switches where its
 condition's margin first turns negative, watched on the integrator's dense
 output every millisecond (a short visit of the region is not stepped over)
 and located by bisection; integration then restarts under the second controller. Stateless
@@ -36,9 +36,6 @@ from .trajectory import Trajectory
 MIN_STEP = 1e-10
 #: Finest interval at which the switching condition may be watched [s].
 MIN_EVENT_RESOLUTION = 1e-9
-#: The dense solution is judged by the task (success, region (68)) every this many seconds: the step of MuJoCo's
-#: runs of the named robots, so that both engines judge the same instants.
-JUDGE_DT = 1e-3
 
 
 class _NonFiniteTorque(Exception):
@@ -190,7 +187,9 @@ def simulate_analytic(robot: Robot, controller="vcl", x0=None, t_final: float | 
     limits = _limits(robot, torque_limit)
     reset_controller(controller)
     run = _Integration(robot, task, controller, limits, integrators[method], rtol, atol, event_resolution)
-    run.integrate(x0, t_final, sample_dt, progress)
+    steps = steps_for(t_final, run.judge_dt)  # a run of t_final ends where the MuJoCo engine's does: the nearest step
+    run.integrate(x0, t_final if abs(steps * run.judge_dt - t_final) < 1e-6 * run.judge_dt else steps * run.judge_dt,
+                  sample_dt, progress)
     return run.trajectory(x0, t_final, sample_dt, method, rtol)
 
 
@@ -233,7 +232,8 @@ def _limits(robot, torque_limit):
 
 class _Integration:
     """One run of the exact closed loop: its phases (one law, or a swing-up then a balance controller), what
-    it recorded, and the task's book of success kept on the dense solution every :data:`JUDGE_DT` seconds."""
+    it recorded, and the task's book of success kept on the dense solution at the instants k dt of the robot's
+    MuJoCo time step dt, the instants the MuJoCo engine judges."""
 
     def __init__(self, robot, task, controller, limits, integrator, rtol, atol, event_resolution):
         self.robot, self.task, self.controller, self.limits = robot, task, controller, limits
@@ -245,7 +245,8 @@ class _Integration:
         self.switch_time, self.failure, self.interrupted, self.phase = None, None, False, 0
         self.book = np.full(len(BOOK), -1, np.int64)
         self.params = task.params
-        self.judged = -1  # the last instant k JUDGE_DT judged
+        self.judge_dt = float(robot.model.opt.timestep)
+        self.judged = -1  # the last instant k judge_dt judged
 
     def _field(self, law, start):
         def nonfinite(t):
@@ -261,12 +262,12 @@ class _Integration:
         return np.broadcast_to(np.asarray(self.condition.margin(x[:n].T, x[n:].T, t), dtype=float), x.shape[1:])
 
     def _judge(self, dense, end):
-        """Account for the instants k JUDGE_DT up to ``end`` in the task's book."""
-        last = int(np.floor(end / JUDGE_DT + 1e-9))
+        """Account for the instants k judge_dt up to ``end`` in the task's book."""
+        last = int(np.floor(end / self.judge_dt + 1e-9))
         if last <= self.judged:
             return
         steps = np.arange(self.judged + 1, last + 1)
-        states = dense(steps * JUDGE_DT).T
+        states = dense(steps * self.judge_dt).T
         n = self.n
         book_rows(self.params, np.ascontiguousarray(states[:, :n]), np.ascontiguousarray(states[:, n:]), steps,
                   self.book)
@@ -366,8 +367,8 @@ class _Integration:
                           robot_xml=self.robot.xml)
         failed = bool(self.failure) or not np.all(np.isfinite(X))
         finished = not failed and not self.interrupted
-        end = int(np.floor(t_final / JUDGE_DT + 1e-9)) if finished else self.judged
-        traj.meta["success"] = bool(self.task.succeeded(self.book[None], end, finished, False, JUDGE_DT)[0])
+        end = steps_for(t_final, self.judge_dt) if finished else self.judged
+        traj.meta["success"] = bool(self.task.succeeded(self.book[None], end, finished, False, self.judge_dt)[0])
         if failed:
             when = float(t[-1]) if len(t) else 0.0
             why = self.failure or "non-finite state"

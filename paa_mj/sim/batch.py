@@ -283,7 +283,8 @@ def outcome_arrays(plan: engine.Plan, outcome: engine.Outcome, controllers, plan
     return {
         "x0": plan.x0.copy(), "switch_time": switch, "balanced": balanced, "final_state": final,
         "E_minus_Er_final": e_err, "V_final": V, "max_abs_tau": state.peak.copy(), "diverged": diverged,
-        "success": task.succeeded(state.book, steps, status == FINISHED, status == RETIRED, dt) & ~diverged,
+        "success": task.succeeded(state.book, np.where(status == RETIRED, plan.n_steps, steps), status == FINISHED,
+                                  status == RETIRED, dt) & ~diverged,
         "t_end": steps * dt, "status": status, "t_region": region, "t_balanced": t_balanced,
         "int_tau2": rollouts["effort"].copy(), "work": rollouts["work"].copy(),
         "smoothness": np.sqrt(rollouts["smooth"] / np.maximum(steps, 1)), "max_speed": rollouts["speed"].copy(),

@@ -5,8 +5,9 @@ plant and the controller's balance gain K is x_{k+1} = Phi x_k (x = [wrap(q - q*
 coordinates). Writing x = sum_m c_m v_m over the eigenvectors of Phi (all eigenvalues inside the unit
 circle), every future :math:`|x_i|` is at most :math:`\\sum_m |c_m| |v_{m,i}|` (the *modal bound*,
 tight when one mode dominates). A rollout retires when that bound is below
-:data:`RETIRE_FRACTION` x the task's balance tolerance in every coordinate: it would
-stay balanced to the end, and its peak torques can no longer grow (:math:`|K x|` only shrinks there).
+:data:`RETIRE_FRACTION` x the task's settled tolerance in every coordinate (the least of its balance
+tolerance and its success region's half-widths, :meth:`~paa_mj.task.Task.settled_tol`): it would stay balanced,
+and a success, to the end, and its peak torques can no longer grow (:math:`|K x|` only shrinks there).
 Retirement is off where the bound does not hold: with noise, delay, pushes still to come, or an
 unstable sampled loop.
 """
@@ -22,7 +23,7 @@ from ..control.base import balance_gain_of
 from ..model.states import wrap
 from ..theory.linear import sampled_balance, sampled_closed_loop
 
-#: A rollout retires when its modal bound is below this fraction of BALANCE_TOL.
+#: A rollout retires when its modal bound is below this fraction of the task's settled tolerance.
 RETIRE_FRACTION = 0.9
 
 
@@ -37,7 +38,7 @@ def retirement_certificate(plant, K, dt, task):
     The certificate holds Re V^-1, Im V^-1 and the moduli of V (row by row) for the
     eigenvectors V of the closed loop Phi = Ad - Bd K of the plant linearised at
     the task's goal and sampled with zero-order hold at ``dt``; ``level`` =
-    :data:`RETIRE_FRACTION` x the task's ``balance_tol``.
+    :data:`RETIRE_FRACTION` x the task's :meth:`~paa_mj.task.Task.settled_tol`.
     """
     none = np.zeros(certificate_size(plant.n_links)), 0.0
     if K is None:
@@ -50,7 +51,7 @@ def retirement_certificate(plant, K, dt, task):
         return none
     inverse = np.linalg.inv(vectors)
     cert = np.concatenate([inverse.real.reshape(-1), inverse.imag.reshape(-1), np.abs(vectors).reshape(-1)])
-    return cert, RETIRE_FRACTION * task.balance_tol
+    return cert, RETIRE_FRACTION * task.settled_tol()
 
 
 @njit(cache=True)

@@ -18,7 +18,7 @@ its J with it; damping and armature are kept. For every robot of the family:
   (kV = kD when the base stores no gains);
 - with ``simulate``: the kip from the goal's start (65) and from N random starts in
   MuJoCo through the batch engine, each robot its own plant and controller; its outcome
-  is balanced, switched but not balanced, stuck at DUU (the gymnast's folded goal),
+  is a success (the task's), switched with no success, stuck at DUU (the gymnast's folded goal),
   never switched elsewhere (V stays above 0, ``V_final``) or diverged.
 
 "Theorem 1 applies" means the theorem covers the robot and goal, E_r > 0, (54) holds
@@ -45,7 +45,7 @@ from ..task import Task, as_task
 from ..theory.conditions import chain_kd_min, constraint_54, eta1, eta2, frozen_acrobot_controllable, kd_min, \
     merged_acrobot_deltabar
 from ..control.closed_loop import duu_eigenvalues
-from ..control.gains import gain_rule
+from ..control.gains import gain_rule, gain_rule_words
 from ..theory.linear import goal_controllability, lqr_gain, sampled_spectral_radius, theorem1_covers
 from .basin import OUTCOME_NAMES, classify
 from .runner import CHUNK, RolloutSet, applied_limit, map_chunks, peak_torques, run_study, task_definition
@@ -219,15 +219,13 @@ def atlas(robot: Robot, vary=("l1", "m1"), factor_range=DEFAULT_RANGE, grid=32, 
                "factors": [f1.tolist(), f2.tolist()],
                "range": list(factor_range), "grid": grid, "links": robot.params.n_links, **task.describe(),
                "theorem1_covers": covered,
-               "gain_rule": "kD = 1.05 kD_min, kP = " + ("1.05 max(eta1, eta2)" if covered else
-                                                          "kD x (kP/kD of the base robot)")
-                            + ", kV = kD x (kV/kD of the base robot)",
+               "gain_rule": gain_rule_words(covered, robot.gains),
                "interrupted": interrupted, "simulated": bool(simulate)}
     if simulate and not interrupted:
-        outcome, reached, balanced_starts, V_final, interrupted, peak = _simulate(
+        outcome, reached, success_starts, V_final, interrupted, peak = _simulate(
             robot, family, arrays, starts, t_final, seed, scheduler, out_dir, fresh, progress, key, chunk or CHUNK,
             torque_limit, task)
-        arrays["outcome"], arrays["reached_68"], arrays["balanced_starts"] = outcome, reached, balanced_starts
+        arrays["outcome"], arrays["reached_68"], arrays["success_starts"] = outcome, reached, success_starts
         arrays["V_final"] = V_final
         summary["interrupted"] = interrupted
         summary["starts"], summary["t_final"] = starts, t_final
@@ -269,10 +267,10 @@ def _simulate(robot, family, arrays, starts, t_final, seed, scheduler, out_dir, 
     owner = np.array(owner, int)
     outcome = np.full(len(family), -1, np.int8)
     reached = np.zeros(len(family), bool)
-    balanced_starts = np.full(len(family), np.nan)
+    success_starts = np.full(len(family), np.nan)
     V_final = np.full(len(family), np.nan)
     if not x0:
-        return outcome, reached, balanced_starts, V_final, False, None
+        return outcome, reached, success_starts, V_final, False, None
     rollouts = RolloutSet(np.array(x0), specs, task, plants=plants, torque_limit=torque_limit)
     store = ChunkStore(out_dir, study_key({**key, "part": "kips", "starts": starts, "t_final": t_final, "seed": seed,
                                            "chunk": chunk, **rollouts.definition()}), fresh, study="atlas-kips")
@@ -290,8 +288,8 @@ def _simulate(robot, family, arrays, starts, t_final, seed, scheduler, out_dir, 
         reached[r] = bool(np.isfinite(result.switch_time[kip]))
         V_final[r] = result.V_final[kip]
         if len(rows) > 1 and done[rows[1:]].all():
-            balanced_starts[r] = float(np.mean(result.success[rows[1:]]))
-    return outcome, reached, balanced_starts, V_final, result.interrupted, peak_torques(result.max_abs_tau, done)
+            success_starts[r] = float(np.mean(result.success[rows[1:]]))
+    return outcome, reached, success_starts, V_final, result.interrupted, peak_torques(result.max_abs_tau, done)
 
 
 @contextlib.contextmanager
@@ -332,8 +330,8 @@ def _robot_rows(family, arrays, f1, f2):
             row["swing_up_reaches_68"] = None if code < 0 else bool(arrays["reached_68"][r])
             v_final = float(arrays["V_final"][r])
             row["V_final"] = v_final if math.isfinite(v_final) else None
-            value = float(arrays["balanced_starts"][r])
-            row["balanced_from_random_starts"] = value if math.isfinite(value) else None
+            value = float(arrays["success_starts"][r])
+            row["success_from_random_starts"] = value if math.isfinite(value) else None
         rows.append(row)
     return rows
 
@@ -383,7 +381,7 @@ def _findings(summary, arrays):
         kip = arrays["reached_68"] & (arrays["outcome"] >= 0)
         ran = int(np.sum(arrays["outcome"] >= 0))
         lines.append(f"The swing-up (40) from the start reaches region (68) around the {summary['goal']} goal on"
-                     f" {int(kip.sum())} of {ran} robots and balances there on {counts['balanced']}.")
+                     f" {int(kip.sum())} of {ran} robots and succeeds there (the task's success) on {counts['success']}.")
     elif "confusion" in counts:
         c = counts["confusion"]
         lines.append(f"The swing-up (40) from (65) reaches region (68) on {c['theorem applies, swing-up reaches (68)']}"
@@ -401,7 +399,7 @@ def _findings(summary, arrays):
                          " promises it is unstable; there its growth rate is as small as"
                          f" {np.nanmin(arrays['duu_growth'][inside]):.2g} /s.")
     if "confusion" in counts:
-        lost = (arrays["outcome"] == OUTCOMES.index("switched, not balanced")) | \
+        lost = (arrays["outcome"] == OUTCOMES.index("switched, no success")) | \
             (arrays["reached_68"] & (arrays["outcome"] == OUTCOMES.index("diverged")))
         if lost.any():
             unstable = int(np.sum(lost & ~arrays["lqr_sampled_stable"]))

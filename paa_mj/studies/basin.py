@@ -21,8 +21,8 @@ from .settings import BASIN_MAX_GRID as MAX_GRID, BASIN_RANGE as DEFAULT_RANGE
 from .store import ChunkStore, study_key
 
 #: How a rollout ended, by code.
-OUTCOME_NAMES = ("balanced", "switched, not balanced", "never switched, stuck at DUU", "never switched", "diverged")
-BALANCED, LOST, STUCK_DUU, NEVER, DIVERGED = range(len(OUTCOME_NAMES))
+OUTCOME_NAMES = ("success", "switched, no success", "never switched, stuck at DUU", "never switched", "diverged")
+SUCCESS, LOST, STUCK_DUU, NEVER, DIVERGED = range(len(OUTCOME_NAMES))
 #: A final state within this distance of DUU (each coordinate, rad and rad/s) is "stuck at DUU".
 DUU_TOL = 0.05
 
@@ -70,7 +70,7 @@ def classify(result, task: Task) -> np.ndarray:
         near_duu = np.zeros(len(final), bool)
     switched = np.isfinite(result.switch_time)
     code = np.where(switched, LOST, np.where(near_duu, STUCK_DUU, NEVER))
-    code = np.where(result.success, BALANCED, code)
+    code = np.where(result.success, SUCCESS, code)
     return np.where(result.diverged, DIVERGED, code).astype(np.int8)
 
 

@@ -31,11 +31,12 @@ GRID = ((1.05, 1.5, 2.0, 3.0), (0.25, 0.5, 1.0, 2.0, 4.0), (0.1, 0.25, 0.5, 1.0,
 
 
 def gain_search(robots=ROBOTS, grid=GRID, t_final=30.0, progress=False) -> dict:
-    """Which rules of ``grid`` balance which robots: ``{"rules": [...], "robots": [...], "balanced": (R, B) bool}``
-    (rules by rows), ``"ranked"``, the rules' indices from the best (the most balanced, then the smaller margin),
+    """Which rules of ``grid`` succeed on which robots (the task's success from its start): ``{"rules": [...],
+    "robots": [...], "success": (R, B) bool}`` (rules by rows), ``"ranked"``, the rules' indices from the best (the
+    most successes, then the smaller margin),
     and ``"best"``, the first of them."""
     rules = [GainRule(*values) for values in itertools.product(*grid)]
-    balanced = np.zeros((len(rules), len(robots)), bool)
+    success = np.zeros((len(rules), len(robots)), bool)
     for j, (name, goal) in enumerate(robots):
         robot = load_robot(name)
         task = Task.named(goal, robot)
@@ -43,20 +44,20 @@ def gain_search(robots=ROBOTS, grid=GRID, t_final=30.0, progress=False) -> dict:
                                 task=task) for rule in rules]
         result = simulate_batch(robot, np.repeat(task.start[None], len(rules), 0), t_final, task=task,
                                 controller=specs, progress=progress)
-        balanced[:, j] = result.success
-    score = balanced.sum(axis=1)
+        success[:, j] = result.success
+    score = success.sum(axis=1)
     ranked = sorted(range(len(rules)), key=lambda i: (-score[i], rules[i].margin, i))
-    return {"rules": rules, "robots": list(robots), "balanced": balanced, "ranked": ranked, "best": rules[ranked[0]],
+    return {"rules": rules, "robots": list(robots), "success": success, "ranked": ranked, "best": rules[ranked[0]],
             "t_final": t_final}
 
 
 def search_table(found: dict, top=8) -> str:
-    """The ``top`` rules by robots balanced, as a Markdown table (1: balanced within ``t_final``)."""
-    score = found["balanced"].sum(axis=1)
+    """The ``top`` rules by successes, as a Markdown table (1: the task's success within ``t_final``)."""
+    score = found["success"].sum(axis=1)
     head = " | ".join(f"{name} {goal}" for name, goal in found["robots"])
-    lines = [f"| margin | p | v | balanced | {head} |", "|---" * (4 + len(found["robots"])) + "|"]
+    lines = [f"| margin | p | v | successes | {head} |", "|---" * (4 + len(found["robots"])) + "|"]
     for i in found["ranked"][:top]:
         rule = found["rules"][i]
         lines.append(f"| {rule.margin:g} | {rule.p:g} | {rule.v:g} | {score[i]} | "
-                     + " | ".join(str(int(b)) for b in found["balanced"][i]) + " |")
+                     + " | ".join(str(int(b)) for b in found["success"][i]) + " |")
     return "\n".join(lines)

@@ -123,6 +123,11 @@ def nominal_peak(robot: Robot, spec: ControllerSpec, torque_limit=None, t_final=
                                  "give the scale with torque_scale (--torque-scale) or drop those factors")
 
 
+def delay_steps(level_ms, dt) -> int:
+    """The steps of ``dt`` [s] a control delay of ``level_ms`` [ms] holds a torque for: the nearest, halves up."""
+    return int(math.floor(level_ms * 1e-3 / dt + 0.5))
+
+
 def _chosen_levels(factors, levels, model_error) -> dict:
     """The factors and their levels, checked (one-line errors)."""
     factors = [f for f in factors if f]
@@ -171,7 +176,7 @@ def _rollouts(robot, spec, task, chosen, runs, base, base_limit, peak, seed):
                 limit.append(np.minimum(base_limit, level * peak if factor == "torque_limit" else math.inf))
                 noise.append([level, level] if factor == "noise" else [0.0, 0.0])
                 tau_noise.append(level * peak if factor == "torque_noise" else 0.0)
-                delay.append(int(round(level * 1e-3 / dt)) if factor == "delay" else 0)
+                delay.append(delay_steps(level, dt) if factor == "delay" else 0)
                 pushes.append(_pushes(rng, level, robot.analytic.gravity_constants[0], links)
                               if factor == "pushes" and level > 0 else np.zeros((PUSHES_PER_RUN, 2 + links)))
                 index.append(f"{factor}:{level_i}")
@@ -236,9 +241,10 @@ def robustness(robot: Robot, trials=64, t_final=None, seed=0, controller: Contro
     if {"torque_limit", "torque_noise"} & set(chosen):
         peak = float(torque_scale) if torque_scale is not None else nominal_peak(robot, spec, base_limit, t_final)
     levels = [v for v in chosen.get("torque_limit", {}).get("levels", ()) if math.isfinite(v)]
-    if levels and peak is not None and max(levels) * peak > min(base_limit):
+    saturation = float(np.min(np.minimum(base_limit, robot.torque_limits)))  # --torque-limit and the actuator ranges
+    if levels and peak is not None and max(levels) * peak > saturation:
         raise PaaError(f"the torque_limit levels reach {max(levels) * peak:g} N m (fractions of the torque scale"
-                       f" {peak:g} N m), above the saturation of every run at {min(base_limit):g} N m: they would be"
+                       f" {peak:g} N m), above the saturation of every run at {saturation:g} N m: they would be"
                        " that saturation, not their level; lower --torque-scale or raise --torque-limit")
     rollouts, index = _rollouts(robot, spec, task, chosen, runs, initial_states(trials, task, seed, start),
                                 base_limit, peak, seed)
@@ -278,5 +284,8 @@ def _summary(robot, spec, task, result, index, chosen, start, trials, t_final, s
             entry = rate_entry(int(np.sum(success[rows])), len(rows), is_random(factor, level, start))
             rates.append({"level": None if not math.isfinite(level) else float(level), **entry,
                           "diverged_rate": float(np.mean(result.diverged[rows])) if len(rows) else None})
+            if factor == "delay":  # the delay the engines held: whole time steps
+                rates[-1]["held_ms"] = delay_steps(level, float(robot.model.opt.timestep)) \
+                    * float(robot.model.opt.timestep) * 1e3
         summary["factors"][factor] = {"label": fspec["label"], "levels": rates}
     return summary

@@ -145,7 +145,7 @@ def switch_sensitivity(robot: Robot, sizes=(1e-9, 1e-6, 1e-3), n=200, t_final=40
                      "median": None if quart[1] is None else float(quart[1]),
                      "q1": None if quart[0] is None else float(quart[0]),
                      "q3": None if quart[2] is None else float(quart[2]),
-                     "balanced_fraction": float(np.mean(result.success)),
+                     "success_fraction": float(np.mean(result.success)),
                      "times": [None if not np.isfinite(t) else float(t) for t in times]})
     return rows
 

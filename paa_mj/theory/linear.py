@@ -149,9 +149,19 @@ def stable_sampling_step(am: AnalyticModel, K, dt, task: Task, halvings=8) -> fl
 def sampled_balance(am: AnalyticModel, K, dt, task: Task) -> dict:
     """The balance tau = -K x at the task's goal sampled at ``dt`` [s]: ``radius``, the spectral radius of its loop
     (below 1: stable), and ``stable_dt``, the largest of ``dt``/2^k (k = 0..8) at which it is stable (None if
-    none)."""
-    radius = sampled_spectral_radius(am, K, dt, task)
-    return {"radius": radius, "stable_dt": dt if radius < 1.0 else stable_sampling_step(am, K, dt / 2, task, 7)}
+    none). Kept per robot, gain, step and task: a run's warning and its summary ask for the same one."""
+    K = np.asarray(K, float)
+    key = (am.key(), K.shape, K.tobytes(), float(dt), task)
+    if key not in _SAMPLED_BALANCE:
+        if len(_SAMPLED_BALANCE) >= 256:  # a study of many perturbed robots keeps only the latest
+            _SAMPLED_BALANCE.clear()
+        radius = sampled_spectral_radius(am, K, dt, task)
+        _SAMPLED_BALANCE[key] = {"radius": radius,
+                                 "stable_dt": dt if radius < 1.0 else stable_sampling_step(am, K, dt / 2, task, 7)}
+    return dict(_SAMPLED_BALANCE[key])
+
+
+_SAMPLED_BALANCE: dict = {}
 
 
 def balance_time_step(am: AnalyticModel, tasks, dt=1e-3, halvings=8, Q=None, R=None) -> float | None:

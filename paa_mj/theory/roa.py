@@ -316,13 +316,26 @@ def region_of_attraction(am: AnalyticModel, task: Task, K, S, Q, R, *, u_max=Non
 
 def switch_level(am: AnalyticModel, task: Task, Q, R, *, u_max=None, dt, method=None):
     """(S, rho) of the set x^T S x <= rho for a switch to (67) (:class:`~paa_mj.control.combined.LevelCondition`):
-    the ``rho`` of :func:`region_of_attraction` without its checks."""
+    the ``rho`` of :func:`region_of_attraction` without its checks; kept per robot, task, weights, limits, step and
+    method (every controller built for a study's runs asks again)."""
     from .linear import lqr_solution
 
-    K, S = lqr_solution(am, task, Q, R)
     method = choose_method(method, am.n_links)
-    limits = None if u_max is None else np.broadcast_to(np.asarray(u_max, float), (K.shape[0],))
-    rho_torque = torque_level(S, K, limits if limits is not None and np.any(np.isfinite(limits)) else None)
-    if method == "sos":
-        return S, _sos_part(am, task, K, S, Q, R, rho_torque)[0]
-    return S, simulated_level(am, task, K, S, limits, dt, angle_level(S, am.n_links))["rho"]
+    limits = None if u_max is None else np.broadcast_to(np.asarray(u_max, float), (am.n_links - 1,))
+    if limits is not None and not np.any(np.isfinite(limits)):
+        limits = None
+    Q, R = np.asarray(Q, float), np.asarray(R, float)
+    key = (am.key(), task, Q.tobytes(), R.tobytes(), None if limits is None else limits.tobytes(), float(dt), method)
+    if key not in _SWITCH_LEVELS:
+        K, S = lqr_solution(am, task, Q, R)
+        rho_torque = torque_level(S, K, limits)
+        if method == "sos":
+            rho = _sos_part(am, task, K, S, Q, R, rho_torque)[0]
+        else:
+            rho = simulated_level(am, task, K, S, limits, dt, angle_level(S, am.n_links))["rho"]
+        _SWITCH_LEVELS[key] = (S, rho)
+    S, rho = _SWITCH_LEVELS[key]
+    return S.copy(), rho
+
+
+_SWITCH_LEVELS: dict = {}

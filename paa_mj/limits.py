@@ -13,9 +13,13 @@ from .errors import PaaError
 
 #: Fraction of the available memory one request may take.
 MEMORY_FRACTION = 0.5
-#: Longest run accepted [s of wall time], estimated at :data:`STEP_SECONDS` per physics step and core.
+#: Longest run accepted [s of wall time], estimated by :func:`step_seconds` per physics step and core.
 MAX_SECONDS = 24 * 3600.0
-STEP_SECONDS = 5e-6
+#: One core's seconds per physics step of a closed loop (the batch engine, RK4, controller (40)) of n links:
+#: STEP_SECONDS + STEP_SECONDS_PER_LINK2 n^2, measured on this project's machine (18, 26, 33, 66 and 264 us at 3,
+#: 6, 12, 20 and 40 links, runs of 8 rollouts; 11.5 us at 3 links in ``paa-mj bench``).
+STEP_SECONDS = 1e-5
+STEP_SECONDS_PER_LINK2 = 1.6e-7
 
 
 def available_memory() -> int:
@@ -45,10 +49,20 @@ def check_memory(nbytes: float, what: str, lower: str, budget: float | None = No
         raise PaaError(f"would need {_gib(nbytes)} of {what} ({where} can give {_gib(budget)}); lower {lower}")
 
 
-def check_steps(steps: float, what: str, lower: str, cores: int | None = None):
-    """Refuse a run of ``steps`` physics steps estimated to take longer than :data:`MAX_SECONDS`."""
+def step_seconds(links: int = 3) -> float:
+    """One core's seconds per physics step of a closed loop of ``links`` links (an estimate, module constants)."""
+    return STEP_SECONDS + STEP_SECONDS_PER_LINK2 * links * links
+
+
+def check_steps(steps: float, what: str, lower: str, cores: int | None = None, links: int = 3,
+                runs: float | None = None):
+    """Refuse a run of ``steps`` physics steps of a chain of ``links`` links estimated to take longer than
+    :data:`MAX_SECONDS` of wall time on ``cores`` cores (default this machine's), no more of them than ``runs``
+    rollouts can use."""
     cores = cores or os.cpu_count() or 1
-    seconds = steps * STEP_SECONDS / cores
+    if runs is not None:
+        cores = max(1, min(cores, int(runs)))
+    seconds = steps * step_seconds(links) / cores
     if not math.isfinite(seconds) or seconds > MAX_SECONDS:
         days = seconds / 86400
         raise PaaError(f"would need {steps:.3g} physics steps for {what}, about {days:.3g} days here"

@@ -20,6 +20,7 @@ def test_theory_json_keys(capsys):
     r = json.loads(out)
     for key in ("beta", "E_r", "kD_min", "eta1", "eta2", "constraint_54", "udd_controllable", "lqr_K", "duu_eigenvalues"):
         assert key in r
+    assert r["robot"] == "gymnast" and len(r["robot_sha256"]) == 64  # which robot, as every summary says
     assert len(r["beta"]) == 3
     assert set(r["constraint_54"]) >= {"holds", "f_min", "f_max"}
     assert len(r["lqr_K"]) == 2 and all(len(row) == 6 for row in r["lqr_K"])
@@ -37,7 +38,7 @@ def test_check_json(capsys):
     code, out, _ = run_cli(capsys, "check", "--robot", "gymnast", "--samples", "300", "--seed", "3", "--json")
     assert code == 0
     r = json.loads(out)
-    assert r["samples"] == 300
+    assert r["samples"] == 300 and r["robot"] == "gymnast" and len(r["robot_sha256"]) == 64
     for key in ("max_rel_err_M", "max_rel_err_bias", "max_rel_err_qacc"):
         assert r[key] < 1e-9
 

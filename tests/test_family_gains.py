@@ -144,3 +144,24 @@ def test_the_atlas_rule_in_words_is_the_rule(covered, base):
     assert gains["kP"] == pytest.approx(kP) and gains["kV"] == pytest.approx(kV)
     assert ("max(eta1, eta2)" in words) == covered and ("base robot" in words) == bool(base)
     assert ("kP = 2 kD" in words) == (not covered and not base) and words.endswith("kV = kD") == (not base)
+
+
+def test_the_family_rule_in_words_explains_the_gymnasts_kp():
+    """Theorem 1 covers the gymnast's folded goal, and there kP is raised to 1.05 max(eta1, eta2) above 2 kD: the
+    rule's words say so."""
+    from paa_mj.control.gains import FAMILY_RULE, MARGIN, family_gains
+    from paa_mj.theory.conditions import thresholds
+
+    robot = load_robot("gymnast")
+    gains = family_gains(robot.analytic, Task.named("folded", robot))
+    _, e1, e2 = thresholds(robot.analytic)
+    assert gains["kP"] == pytest.approx(MARGIN * max(e1.value, e2.value)) and gains["kP"] > FAMILY_RULE.p * gains["kD"]
+    assert f"kP = {FAMILY_RULE.p:g} kD (at least {MARGIN:g} max(eta1 (59), eta2 (60))" in FAMILY_RULE.describe()
+
+
+def test_a_gain_just_below_its_bound_is_not_written_as_equal_to_it():
+    from paa_mj.control.gains import apart
+
+    assert apart(4503.38, 4503.3819) == ("4503.38", "4503.382")
+    assert apart(4503.3819, 4503.38195) == ("4503.3819", "4503.38195")
+    assert apart(2.0, 2.0) == ("2", "2") and apart(1e300, 2e300) == ("1e+300", "2e+300")

@@ -112,6 +112,10 @@ REFUSED_MODELS = [
      "l3 = -0.6 must be > 0"),
     ("feet nearer than the centre of mass", '<site name="feet" pos="0 0 0.6"', '<site name="feet" pos="0 0 0.1"',
      "lc3 = 0.3 must lie in [0, l3]"),
+    ("a name of two lines", '<mujoco model="custom"', '<mujoco model="evil&#10;paa-mj: error: a forged line"',
+     "the model's name 'evil\\npaa-mj: error: a forged line' has control characters"),
+    ("a name that turns the text around", '<mujoco model="custom"', '<mujoco model="a&#8238;b"',
+     "has control characters"),
 ]
 
 

@@ -494,3 +494,18 @@ def test_a_diverging_gym_step_leaves_no_mujoco_log_and_prints_nothing(how, tmp_p
     out, err = capfd.readouterr()
     assert "WARNING" not in out + err
     assert list(tmp_path.iterdir()) == []  # no MUJOCO_LOG.TXT where the agent runs
+
+
+def test_the_time_budget_counts_a_step_by_the_links_and_the_cores_a_run_can_use():
+    """A step of a 40-link chain costs tens of times the gymnast's, and one rollout uses one core."""
+    from paa_mj.errors import PaaError
+    from paa_mj.limits import MAX_SECONDS, check_steps, step_seconds
+
+    assert step_seconds(40) > 20 * step_seconds(3)
+    steps = 0.5 * MAX_SECONDS / step_seconds(3)  # half a day on one core at 3 links
+    check_steps(steps, "a run", "--t-final", cores=1, links=3)
+    with pytest.raises(PaaError, match="days here"):
+        check_steps(steps, "a run", "--t-final", cores=1, links=40)
+    check_steps(4 * steps, "runs", "--t-final", cores=8, links=3, runs=8)
+    with pytest.raises(PaaError, match="days here"):
+        check_steps(4 * steps, "one run", "--t-final", cores=8, links=3, runs=1)

@@ -56,6 +56,11 @@ CONTRADICTIONS_AND_RANGES = [
     (["simulate", "--controller", "passive", "--switch", "region"], "--switch applies to the controllers vcl, vc"),
     (["theory", "--kd-budget", "1e300"], "--kd-budget 1e+300 CPU-s is above 86400 (a day)"),
     (["bench", "--batch-size", "100000000000"], "physics steps for 3 batches of 100000000000 rollouts"),
+    (["compare", "--quick", "--controllers", "vcl,foo"], "unknown controller 'foo'"),
+    (["robustness", "--factors", "torque_limit", "--torque-scale", "1e-30", "--trials", "1", "--t-final", "1"],
+     "the torque scale given (--torque-scale) is 1e-30 N m, not a physical torque scale for robot gymnast"),
+    (["robustness", "--factors", "torque_noise", "--torque-scale", "1e30", "--trials", "1", "--t-final", "1"],
+     "the torque scale must lie in (0, 1e+12] N m"),
     (["robustness", "--factors", "torque_limit", "--torque-limit", "1", "--torque-scale", "1000", "--trials", "2"],
      "the torque_limit levels reach 1000 N m (fractions of the torque scale 1000 N m), above the saturation"),
 ]

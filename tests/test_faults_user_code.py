@@ -265,6 +265,7 @@ def test_a_non_finite_torque_is_a_divergence_even_under_a_torque_limit(name, eng
     proc = run("simulate", "--engine", engine, "--controller", f"{tmp_path}/mine.py:{name}", "--t-final", "0.05",
                "--torque-limit", "5", "--json", "--out", tmp_path / "run")
     _one_line_error(proc, "the controller returned a non-finite torque", code=3)
+    assert "--dt" not in proc.stderr and "a controller whose torque is finite at every state" in proc.stderr
     summary = _strict(proc.stdout)  # what was computed (the start), printed all the same
     assert summary["status"].startswith("diverged at t = 0.0000 s") and summary["balanced"] is False
     assert summary["success"] is False if "success" in summary else True

@@ -163,3 +163,14 @@ def test_the_roa_hand_over_takes_the_runs_torque_limit():
     assert named.build(robot).condition.rho == limited.condition.rho
     with pytest.raises(PaaError, match="region of attraction"):
         ControllerSpec("vcl", options=(("limit", (20.0, 20.0)),), task=task).build(robot)
+
+
+def test_a_sampling_estimate_beyond_a_day_is_refused_in_one_line(capsys, monkeypatch):
+    """Its steps counted before any is run: levels x horizon / dt at the cost of a step of a chain of n links."""
+    from paa_mj.cli import main
+
+    monkeypatch.setattr(roa, "SIMULATED_STEP_SECONDS", 10.0)  # as a long chain at a tiny time step costs
+    code = main(["roa", "--method", "sampling", "--json"])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and len(err.splitlines()) == 1 and "the sampling estimate would simulate up to 16 levels" in err
+    assert "days of computing (the limit is 24 hours); use --method sos (up to 4 links)" in err

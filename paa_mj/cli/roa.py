@@ -74,7 +74,7 @@ def cmd_roa(args):
         raise PaaError("--samples applies to --method sampling, not to sos")
     sampled = {} if args.samples is None else {"samples": args.samples}
     roa = region_of_attraction(robot.analytic, task, K, S, Q, R, u_max=limits, dt=dt, method=args.method,
-                               seed=args.seed, **sampled)
+                               seed=args.seed, progress=not args.json, **sampled)
     rng = np.random.default_rng(args.seed)
     inside = uniform_in_ellipsoid(S, roa.rho, args.check, rng) if roa.rho > 0 else np.zeros((0, 2 * n))
     check, _ = mujoco_check(robot, task, args.lqr_weights, roa, limits, inside)
@@ -100,7 +100,7 @@ def _print_text(s):
     fraction = s["fraction_of_switch_region_inside"]
     print(f"region of attraction of the LQR (67), robot {s['robot']}, {s['goal']} goal, method {s['method']}:")
     print(f"  rho                  {s['rho']:.6g}  (certified: {s['certified']})")
-    print(f"  rho_torque           {s['rho_torque']}")
+    print("  rho_torque           " + ("none (no torque limit)" if s["rho_torque"] is None else f"{s['rho_torque']:.6g}"))
     print(f"  spectral radius      {s['spectral_radius']:.4g} at dt = {s['dt']:g} s")
     print(f"  (68) inside          {100 * fraction['fraction']:.2f} % of {fraction['samples']} states")
     print(f"  MuJoCo check         {s['mujoco_check']['reached']} of {s['mujoco_check']['states']} reached the goal")

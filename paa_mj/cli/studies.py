@@ -72,7 +72,8 @@ def cmd_basin(args):
         print(f"{summary['cells']} starts over ({', '.join(summary['axes'])}), {summary['controller']}:"
               + (f" {100 * done:.0f} % of them finished," if done < 1 else "")
               + f" {100 * summary['success']:.1f} % success, median first switch"
-              f" {summary['median_switch_time']} s"
+              + (" none (no run switched)" if summary["median_switch_time"] is None else
+                 f" {summary['median_switch_time']:.4g} s")
               + (f"; wrote {args.out}/basin.png, basin.svg, basin.npz, summary.json" if args.out else ""))
     return _finish_study(summary, args, "basin")
 

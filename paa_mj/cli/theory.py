@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 from ..errors import PaaError
+from ..provenance import text_sha256
 from .common import (file_path, finite, gains_parent, goal_parent, links_count, non_negative, positive, positive_int,
                      print_json, robot_parent, seed, task_from_args)
 
@@ -33,7 +34,7 @@ def cmd_theory(args):
         text = chain_theory_table
     report["family_rule"] = {"rule": FAMILY_RULE.describe(), "gains": family_gains(robot.analytic, task)}
     if args.json:
-        print_json(report)
+        print_json({"robot": robot.name, "robot_sha256": text_sha256(robot.xml), **report})
     else:
         print(text(robot.name, report))
     return 0
@@ -45,7 +46,8 @@ def cmd_check(args):
 
     robot = load_robot(args.robot)
     check = cross_check(robot.model, samples=args.samples, seed=args.seed)
-    result = {**check.as_dict(), "agrees": check.agrees, "agreement": AGREEMENT}
+    result = {"robot": robot.name, "robot_sha256": text_sha256(robot.xml), **check.as_dict(), "agrees": check.agrees,
+              "agreement": AGREEMENT}
     if args.json:
         print_json(result)
     else:
@@ -187,7 +189,7 @@ def register(sub, parser_class):
 
     p = sub.add_parser("gain-search", help="the search behind the family rule's gains (no gains given)",
                        description="Kip every stored robot at both goals with vcl under each gain rule of a grid"
-                                   " (kD = margin kD_min (41), kP = p kD, kV = v kD): which rules balance which.")
+                                   " (kD = margin kD_min (41), kP = p kD, kV = v kD): which rules succeed on which.")
     p.add_argument("--t-final", type=positive, default=30.0, help="duration of each kip [s]")
     p.add_argument("--json", action="store_true", help="one JSON object on stdout")
     p.set_defaults(func=cmd_gain_search)

@@ -62,7 +62,8 @@ class GainRule:
     v: float
 
     def describe(self) -> str:
-        return f"kD = {self.margin:g} kD_min (41), kP = {self.p:g} kD, kV = {self.v:g} kD"
+        return (f"kD = {self.margin:g} kD_min (41), kP = {self.p:g} kD (at least {self.margin:g} max(eta1 (59),"
+                f" eta2 (60)) where Theorem 1 covers the robot and goal), kV = {self.v:g} kD")
 
 
 #: The family rule (:class:`GainRule`): the search's best (docs/controllers.md), the atlas's margin.
@@ -86,6 +87,16 @@ def family_gains(model: AnalyticModel, task: Task, rule: GainRule = FAMILY_RULE)
         if np.isfinite(e1.value) and np.isfinite(e2.value):
             kP = max(kP, rule.margin * max(e1.value, e2.value))
     return {"kD": kD, "kP": kP, "kV": rule.v * kD}
+
+
+def apart(value: float, bound: float) -> tuple[str, str]:
+    """``value`` and ``bound`` written with 6 significant digits, or as many more as tell them apart (a gain just
+    below its bound must not read as equal to it)."""
+    for digits in range(6, 18):
+        texts = f"{value:.{digits}g}", f"{bound:.{digits}g}"
+        if texts[0] != texts[1] or value == bound:
+            return texts
+    return texts
 
 
 def gains_text(gains: dict) -> str:
@@ -141,8 +152,8 @@ def default_gains(model: AnalyticModel, task: Task, stored: dict | None, given: 
     refused = "kD" in given and given["kD"] <= bound  # the run's check refuses it, naming the rule's gains
     if taken and not refused and key not in _NOTED:
         _NOTED.add(key)
-        why = (f"its stored kD = {stored['kD']:g} is not above kD_min = {bound:.6g} of (41) for the {task.name} goal"
-               if stored and "kD" in stored else "it stores no gains")
+        why = ("its stored kD = {} is not above kD_min = {} of (41) for the {} goal".format(
+            *apart(stored["kD"], bound), task.name) if stored and "kD" in stored else "it stores no gains")
         warnings.warn(f"{'gains' if len(taken) == 3 else ', '.join(taken)} of the family rule"
                       f" ({FAMILY_RULE.describe()}): {gains_text(taken)}, since {why}", GainsNote, stacklevel=2)
     return gains
@@ -192,16 +203,18 @@ def check_gains(model: AnalyticModel, kD, kP, kV, stacklevel=3, task: Task | Non
     check_gain_range(kD, kP, kV)
     kd, e1, e2 = thresholds(model)
     if kD <= kd.value:
-        raise PaaError(f"gain kD = {kD:g} is not above kD_min = {kd.value:.6g} of (41): controller (40) can become"
+        shown, bound = apart(kD, kd.value)
+        raise PaaError(f"gain kD = {shown} is not above kD_min = {bound} of (41): controller (40) can become"
                        " singular; the family rule's gains would do:"
                        f" {gains_text(family_gains(model, Task.named('folded', model) if task is None else task))}")
     messages = []
     if model.E_r <= 0:
         messages.append(f"E_r = {model.E_r:.6g} J <= 0: the method of the paper does not apply (9)")
-    if kP <= e1.value:
-        messages.append(f"kP = {kP:g} is not above eta1 = {e1.value:.6g} of (59): Theorem 1 no longer guarantees convergence")
-    if kP <= e2.value:
-        messages.append(f"kP = {kP:g} is not above eta2 = {e2.value:.6g} of (60): Theorem 1 no longer guarantees convergence")
+    for name, eta in (("eta1", e1), ("eta2", e2)):
+        if kP <= eta.value:
+            shown, bound = apart(kP, eta.value)
+            messages.append(f"kP = {shown} is not above {name} = {bound} of ({59 if name == 'eta1' else 60}): Theorem 1"
+                            " no longer guarantees convergence")
     c54 = constraint_54(model)
     if not c54.holds:
         messages.append(f"constraint (54) fails (f(z) = 1 near z = {c54.z_closest:.4g}): Theorem 1 does not apply, the swing-up may stall")
@@ -231,7 +244,8 @@ def check_chain_gains(model: AnalyticModel, kD, kP, kV, task: Task):
     where = f"its definition, computed for this {model.n_links}-link robot and the {task.name} goal"
     would_do = f"the family rule's gains would do: {gains_text(family_gains(model, task))}"
     if kD <= kd.value:
-        raise PaaError(f"gain kD = {kD:g} is not above kD_min = {kd.value:.6g} of (41) ({where}): controller (40)"
+        shown, bound = apart(kD, kd.value)
+        raise PaaError(f"gain kD = {shown} is not above kD_min = {bound} of (41) ({where}): controller (40)"
                        f" can become singular; {would_do}")
     if not kd.certified and kD <= kd.upper:
         raise PaaError(f"gain kD = {kD:g} is not certified singularity-free: {bracket_words(kd)} ({where}); {would_do}")

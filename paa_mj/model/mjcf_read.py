@@ -350,6 +350,9 @@ def params_from_model(model: mujoco.MjModel, source: str = "model") -> RobotPara
     lengths.append(_last_link_length(model, up, source))
     J = np.array([_axis_inertia(model, b, axis) for b in range(1, n + 1)])
     name = model.names.split(b"\0", 1)[0].decode() or "model"
+    if not name.isprintable():  # it is quoted in one-line messages and summaries
+        raise PaaError(f"{source}: the model's name {name!r} has control characters (a new line, a tab...): give one"
+                       " line")
     try:
         return RobotParams(m=m, l=np.array(lengths), lc=lc, J=J, g=float(np.linalg.norm(model.opt.gravity)), name=name,
                            damping=model.dof_damping.copy(), armature=model.dof_armature.copy())

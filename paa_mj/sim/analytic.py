@@ -181,7 +181,7 @@ def simulate_analytic(robot: Robot, controller="vcl", x0=None, t_final: float | 
     n = robot.params.n_links
     x0 = check_initial_state(task.start if x0 is None else x0, n)[0]
     t_final = task.horizon if t_final is None else t_final
-    t_final, sample_dt, rtol, atol = _check_sizes(t_final, sample_dt, rtol, atol, event_resolution)
+    t_final, sample_dt, rtol, atol = _check_sizes(t_final, sample_dt, rtol, atol, event_resolution, n)
     controller = controllers_for(robot, controller, 1, task)[0]
     check_binding(controller, robot, task)
     limits = _limits(robot, torque_limit)
@@ -193,7 +193,7 @@ def simulate_analytic(robot: Robot, controller="vcl", x0=None, t_final: float | 
     return run.trajectory(x0, t_final, sample_dt, method, rtol)
 
 
-def _check_sizes(t_final, sample_dt, rtol, atol, event_resolution):
+def _check_sizes(t_final, sample_dt, rtol, atol, event_resolution, n_links):
     """The durations and tolerances, checked (one-line errors), and the run's cost against the budgets."""
     t_final = positive_finite("final time", t_final, allow_none=False)
     sample_dt = positive_finite("sample interval", sample_dt, allow_none=False)
@@ -212,7 +212,7 @@ def _check_sizes(t_final, sample_dt, rtol, atol, event_resolution):
     # every sample is 15 floats here and again in the trajectory: refused before np.arange asks for them
     check_memory(t_final / sample_dt * 240.0, "recorded samples", "--t-final or raise --sample-dt")
     check_steps(t_final / 1e-3, f"the exact closed loop over {t_final:g} s (counted in 1 ms steps)", "--t-final",
-                cores=1)
+                cores=1, links=n_links)
     return t_final, sample_dt, rtol, atol
 
 

@@ -205,11 +205,13 @@ def build_plan(robot: Robot, task: Task, x0, t_final, controllers, *, dt=None, i
     dt = float(base.opt.timestep)
     n_steps = steps_for(t_final, dt)
     check_steps(float(n) * n_steps, f"{n} rollout(s) of {t_final:g} s at dt = {dt:g} s",
-                "the final time (--t-final) or the number of rollouts")
+                "the final time (--t-final) or the number of rollouts", links=links, runs=n)
     if every:
         check_memory(n * (n_steps // every + 2) * 80.0, "recorded samples", "--t-final or raise --sample-dt")
-    warn_unstable_sampling(robot.analytic, controllers, dt, task, robot.name)
     models, model_index, plant_robots = _plants(robot, base, plants, n)
+    groups = _groups(model_index, controllers)  # each gain held on its own plant
+    warn_unstable_sampling([(plant_robots[plant].analytic, controllers[rows[0]]) for (plant, _), rows in groups.items()],
+                           dt, task, robot.name)
     limits = per_rollout(torque_limit, n, links - 1, "torque limit", np.inf)
     if np.any(~(limits > 0)):
         raise PaaError("torque limits must be > 0")
@@ -218,7 +220,7 @@ def build_plan(robot: Robot, task: Task, x0, t_final, controllers, *, dt=None, i
     settings = disturbances.settings(n, links, np.minimum(limits, robot.torque_limits))
     disturbed = disturbances.disturbed(settings)
     # one certificate per distinct (plant, controller): a study's million rollouts share a handful
-    for (plant, _), rows in _groups(model_index, controllers).items():
+    for (plant, _), rows in groups.items():
         gain = balance_gain_of(controllers[rows[0]]) if retire else None
         certificate, level = retirement_certificate(plant_robots[plant].analytic, gain, dt, task)
         rows = rows[~disturbed[rows]]

@@ -101,11 +101,11 @@ def sampling_advice(balance: dict) -> str:
             " simulate's --dt) or --lqr-weights Q R")
 
 
-def warn_unstable_sampling(plant, controllers, dt, task, robot_name="the robot"):
-    """A :class:`SamplingWarning` for each distinct balance gain among ``controllers`` that is unstable when held
-    over ``dt`` [s] on ``plant`` (its analytic model), once per robot, goal, step and gain: such a run cannot
-    balance, whatever its swing-up does."""
-    for controller in {id(c): c for c in controllers}.values():
+def warn_unstable_sampling(pairs, dt, task, robot_name="the robot"):
+    """A :class:`SamplingWarning` for each (plant, controller) of ``pairs`` (the plant's analytic model) whose
+    balance gain is unstable when held over ``dt`` [s] on that plant, once per plant, goal, step and gain: such a
+    run cannot balance, whatever its swing-up does."""
+    for plant, controller in pairs:
         K = balance_gain_of(controller)
         if K is None:
             continue

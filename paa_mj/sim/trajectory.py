@@ -14,6 +14,7 @@ from ..model.params import MAX_LINKS
 from ..provenance import text_sha256
 from ..task import Task
 from .retirement import sampling_advice
+from .step import NONFINITE_TORQUE, STATUS_TEXT
 
 FIELDS = ("t", "q", "qd", "tau", "E_minus_Er", "V", "mode")
 
@@ -97,8 +98,12 @@ class Trajectory:
         # remedies only where they apply: gains to a gain controller, --dt to MuJoCo, --switch to (68)'s hand-over
         gains, region = bool(self.meta.get("gains")), str(self.meta.get("switch") or "").startswith("region")
         if status.startswith("diverged"):
+            # a torque of NaN or inf is the law's own doing: no time step mends it
+            law = STATUS_TEXT[NONFINITE_TORQUE] in status
             remedies = ["gains with a larger margin over kD_min (41) (paa-mj theory shows the family rule's)"] * gains \
-                + ["a smaller --dt"] * (self.meta.get("engine") != "analytic") + ["--switch roa"] * region
+                + ["a smaller --dt"] * (self.meta.get("engine") != "analytic" and not law) \
+                + ["--switch roa"] * (region and not law) + ["a controller whose torque is finite at every state"] * (
+                    law and not gains)
             return f"{status}{switched}{saturated}" + (unstable or _try(remedies))
         if status.startswith("interrupted"):  # what it had done by then: no verdict on the whole run
             where = f"at the {self.goal} goal" if self.balanced() else f"not at the {self.goal} goal"

@@ -194,7 +194,8 @@ def atlas(robot: Robot, vary=("l1", "m1"), factor_range=DEFAULT_RANGE, grid=32, 
     check_memory(n * 4000.0, "the atlas", "--grid")
     if simulate and scheduler in ("inline", "local"):
         check_steps(n * (starts + 1) * t_final / float(robot.model.opt.timestep),
-                    f"{n * (starts + 1)} kips of {t_final:g} s", "--grid, --starts or --t-final")
+                    f"{n * (starts + 1)} kips of {t_final:g} s", "--grid, --starts or --t-final",
+                    links=robot.params.n_links, runs=n * (starts + 1))
     f1, f2 = grid_factors(*factor_range, grid), grid_factors(*factor_range, grid)
     family = [scale(scale(robot.params, vary[0], a), vary[1], b) for a in f1 for b in f2]
     key = {"study": "atlas", "robot": robot.xml, "vary": list(vary), "range": list(factor_range), "grid": grid,

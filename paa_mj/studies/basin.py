@@ -105,7 +105,7 @@ def basin(robot: Robot, axes: tuple[int, int] = (0, 1), grid: int = 64, t_final:
     check_memory(grid * grid * 400.0, "basin results", "--grid")
     if scheduler in ("inline", "local"):
         check_steps(grid * grid * t_final / float(robot.model.opt.timestep), f"{grid * grid} rollouts of {t_final:g} s",
-                    "--grid or --t-final")
+                    "--grid or --t-final", links=robot.params.n_links, runs=grid * grid)
     x0, xs, ys = basin_grid(axes, grid, robot.params.n_links)
     spec.build(robot)  # checks the gains, and that it is built for this task (one line), before any work
     rollouts = RolloutSet(x0, spec, task, torque_limit=torque_limit)

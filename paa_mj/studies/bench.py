@@ -264,7 +264,8 @@ def run_bench(batch_size=1024, batch_seconds=2.0, repeats=3, basin_grid=16, basi
     task = as_task(task, robot)
     # the batch and its head to head, counted before the other measurements spend their minutes
     check_steps(batch_size * repeats * (round(batch_seconds / dt) + round(mujoco_batch_seconds / dt)),
-                f"{repeats} batches of {batch_size} rollouts", "--batch-size")
+                f"{repeats} batches of {batch_size} rollouts", "--batch-size", links=robot.params.n_links,
+                runs=batch_size)
     start = task.start
     ctrl = make_controller("vcl", robot, task=task)
     t_single = rollout_seconds

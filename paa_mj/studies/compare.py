@@ -115,6 +115,7 @@ def _names(controllers):
         raise PaaError("--controllers needs at least one controller")
     by_folder = {}
     for name in names:
+        ControllerSpec(name)  # an unknown name is refused before any run (vcl's kip sets the torque limit)
         other = by_folder.setdefault(folder_name(name), name)
         if other != name:
             raise PaaError(f"controllers {other} and {name} would share the name {folder_name(name)} in the results:"

@@ -123,6 +123,10 @@ def nominal_peak(robot: Robot, spec: ControllerSpec, torque_limit=None, t_final=
                                  "give the scale with torque_scale (--torque-scale) or drop those factors")
 
 
+#: The largest torque scale given for the torque factors [N m] (as the largest torque limit anywhere).
+MAX_TORQUE_SCALE = 1e12
+
+
 def delay_steps(level_ms, dt) -> int:
     """The steps of ``dt`` [s] a control delay of ``level_ms`` [ms] holds a torque for: the nearest, halves up."""
     return int(math.floor(level_ms * 1e-3 / dt + 0.5))
@@ -231,12 +235,14 @@ def robustness(robot: Robot, trials=64, t_final=None, seed=0, controller: Contro
     check_memory(total * 1000.0, "robustness rollouts", "--trials or the levels")
     if scheduler in ("inline", "local"):
         check_steps(total * t_final / float(robot.model.opt.timestep), f"{total} rollouts of {t_final:g} s",
-                    "--trials, the levels or --t-final")
+                    "--trials, the levels or --t-final", links=robot.params.n_links, runs=total)
     spec.build(robot)  # checks the gains, and that it is built for this task (one line), before any work
     links = robot.params.n_links
     base_limit = np.broadcast_to(np.inf if torque_limit is None else np.asarray(torque_limit, float), (links - 1,))
-    if torque_scale is not None and not (math.isfinite(torque_scale) and torque_scale > 0):
-        raise PaaError(f"the torque scale must be finite and > 0 [N m], got {torque_scale}")
+    if torque_scale is not None:
+        if not (math.isfinite(torque_scale) and 0 < torque_scale <= MAX_TORQUE_SCALE):
+            raise PaaError(f"the torque scale must lie in (0, {MAX_TORQUE_SCALE:g}] N m, got {torque_scale}")
+        physical_torque_scale(torque_scale, robot, "the torque scale given (--torque-scale)", "give a larger one")
     peak = None
     if {"torque_limit", "torque_noise"} & set(chosen):
         peak = float(torque_scale) if torque_scale is not None else nominal_peak(robot, spec, base_limit, t_final)

@@ -354,7 +354,7 @@ def run_study(robot: Robot, rollouts: RolloutSet, t_final: float, *, seed=0, sch
     check_memory(n * 8.0 * 40, "study results", "the grid or the number of trials")
     if scheduler in SCHEDULERS:  # here; a remote cluster's size is its own
         check_steps(n * t_final / float(robot.model.opt.timestep), f"{n} rollouts of {t_final:g} s",
-                    "the grid, the number of trials or --t-final")
+                    "the grid, the number of trials or --t-final", links=robot.params.n_links, runs=n)
     starts = list(range(0, n, chunk))
     payloads = [rollouts.chunk(start, min(start + chunk, n)) for start in starts]
     if scheduler == "local" and len(payloads) == 1:  # one chunk: a cluster would only add its start-up

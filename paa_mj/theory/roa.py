@@ -33,11 +33,14 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from ..errors import PaaError
+from ..limits import MAX_SECONDS
 from ..model.dynamics import AnalyticModel
 from ..model.states import wrap
+from ..progress import progress as progress_bar
 from ..task import Task
-from .linear import sampled_spectral_radius
 from . import sos
+from .kd_search import duration
+from .linear import sampled_spectral_radius
 
 METHODS = ("sos", "sampling")
 #: States sampled: on the boundary per level of the simulated bisection; uniformly in the box of (68).
@@ -51,6 +54,11 @@ SIMULATED_BISECTIONS = 14
 #: and twice the time the linear loop's slowest mode takes to get there (:func:`settling_time`).
 SIMULATED_HORIZON = 5.0
 REACHED = 1e-3
+#: One core's seconds per RK4 step of :func:`simulate_errors` for SIMULATED_SAMPLES states of a chain of n links:
+#: SIMULATED_STEP_SECONDS + SIMULATED_STEP_SECONDS_PER_LINK2 n^2 (measured here at the models' own steps: 0.92,
+#: 1.0, 1.6, 4.1 and 10.6 ms at 3, 6, 12, 20 and 40 links).
+SIMULATED_STEP_SECONDS = 9e-4
+SIMULATED_STEP_SECONDS_PER_LINK2 = 6.5e-6
 
 
 @dataclass(frozen=True)
@@ -164,16 +172,18 @@ def fraction_inside(task: Task, S, rho, samples=BOX_SAMPLES, seed=0) -> dict:
     return {"fraction": float(np.mean(inside)), "samples": samples, "seed": seed}
 
 
-def simulate_errors(am: AnalyticModel, task: Task, K, u_max, dt, x0, horizon, S=None, stop_level=None):
+def simulate_errors(am: AnalyticModel, task: Task, K, u_max, dt, x0, horizon, S=None, stop_level=None, bar=None):
     """RK4 at ``dt`` [s] of (1) from errors ``x0`` (N, 2n), torque sat(-K x) held over each step [N m].
 
     Returns the errors at the end (N, 2n) (NaN where the state ran away). With ``S`` and ``stop_level``,
-    stops early once every V(x) is below ``stop_level``."""
+    stops early once every V(x) is below ``stop_level``. ``bar``, a progress bar, counts the steps."""
     goal, K = task.goal, np.asarray(K, float)
     limit = np.inf if u_max is None else np.asarray(u_max, float)
     n = goal.size
     x = np.array(x0, float)
-    for _ in range(int(round(horizon / dt))):
+    for step in range(int(round(horizon / dt))):
+        if bar is not None and step % 256 == 255:
+            bar.update(256)
         tau = np.clip(-x @ K.T, -limit, limit)
 
         def f(y):
@@ -202,31 +212,49 @@ def settling_time(am, task, K):
     return float(np.log(1.0 / REACHED) / sigma) if sigma > 0 else float("inf")
 
 
+def simulated_step_seconds(am: AnalyticModel, samples=SIMULATED_SAMPLES) -> float:
+    """An estimate of one core's seconds per step of :func:`simulate_errors` for ``samples`` states."""
+    per_step = SIMULATED_STEP_SECONDS + SIMULATED_STEP_SECONDS_PER_LINK2 * am.n_links ** 2
+    return per_step * max(1.0, 0.5 + 0.5 * samples / SIMULATED_SAMPLES)
+
+
 def simulated_level(am, task, K, S, u_max, dt, top, samples=SIMULATED_SAMPLES, seed=0,
-                    horizon=None, bisections=SIMULATED_BISECTIONS) -> dict:
+                    horizon=None, bisections=SIMULATED_BISECTIONS, progress=False) -> dict:
     """The ``sampling`` estimate: geometric bisection on rho in [1e-8 top, top] of "every one of ``samples``
     seeded states on x^T S x = rho comes within V < REACHED rho of the goal in ``horizon`` seconds"
     (:func:`simulate_errors`, the same seed at every level; default horizon the larger of SIMULATED_HORIZON and
-    :func:`settling_time`). 0.0 when the lowest level fails."""
+    :func:`settling_time`). 0.0 when the lowest level fails. Refused in one line where its steps would take more
+    than a day (:func:`simulated_step_seconds`); with ``progress``, a bar on stderr counts them."""
     rng_seed = np.random.SeedSequence(seed)
     if horizon is None:
         horizon = max(SIMULATED_HORIZON, settling_time(am, task, K))
     if not np.isfinite(horizon):
         return {"rho": 0.0, "at_top": False, "samples": samples, "seed": seed, "horizon": None}
 
+    steps, levels = int(round(horizon / dt)), bisections + 2
+    need = steps * levels * simulated_step_seconds(am, samples)
+    if not need <= MAX_SECONDS:
+        raise PaaError(f"the sampling estimate would simulate up to {levels} levels of {steps:.3g} steps of {dt:g} s"
+                       f" ({samples} states each), about {duration(need)} of computing (the limit is"
+                       f" {duration(MAX_SECONDS)})" + (f"; use --method sos (up to {sos.SOS_MAX_LINKS} links)"
+                                                       if am.n_links <= sos.SOS_MAX_LINKS else ""))
+    bar = progress_bar(desc="region of attraction, simulated levels", unit="step", total=steps * levels,
+                       enabled=progress)
+
     def reached(level):
         x0 = on_ellipsoid(S, level, samples, np.random.default_rng(rng_seed))
-        x = simulate_errors(am, task, K, u_max, dt, x0, horizon, S, REACHED * level)
+        x = simulate_errors(am, task, K, u_max, dt, x0, horizon, S, REACHED * level, bar)
         return bool(np.all(np.einsum("ki,ij,kj->k", x, S, x) < REACHED * level))
 
-    low, high = np.log(1e-8 * top), np.log(top)
-    if reached(top):
-        return {"rho": float(top), "at_top": True, "samples": samples, "seed": seed, "horizon": horizon}
-    if not reached(np.exp(low)):
-        return {"rho": 0.0, "at_top": False, "samples": samples, "seed": seed, "horizon": horizon}
-    for _ in range(bisections):
-        middle = 0.5 * (low + high)
-        low, high = (middle, high) if reached(np.exp(middle)) else (low, middle)
+    with bar:
+        low, high = np.log(1e-8 * top), np.log(top)
+        if reached(top):
+            return {"rho": float(top), "at_top": True, "samples": samples, "seed": seed, "horizon": horizon}
+        if not reached(np.exp(low)):
+            return {"rho": 0.0, "at_top": False, "samples": samples, "seed": seed, "horizon": horizon}
+        for _ in range(bisections):
+            middle = 0.5 * (low + high)
+            low, high = (middle, high) if reached(np.exp(middle)) else (low, middle)
     return {"rho": float(np.exp(low)), "at_top": False, "samples": samples, "seed": seed, "horizon": horizon}
 
 
@@ -272,7 +300,7 @@ def _sos_part(am, task, K, S, Q, R, rho_torque):
 
 def region_of_attraction(am: AnalyticModel, task: Task, K, S, Q, R, *, u_max=None, dt, method=None,
                          samples=SIMULATED_SAMPLES, seed=0, box_samples=BOX_SAMPLES,
-                         vdot_samples=VDOT_SAMPLES) -> RegionOfAttraction:
+                         vdot_samples=VDOT_SAMPLES, progress=False) -> RegionOfAttraction:
     """The inner estimate of the region of attraction of (67) with the torque limit ``u_max`` (module docstring).
 
     Parameters
@@ -290,6 +318,8 @@ def region_of_attraction(am: AnalyticModel, task: Task, K, S, Q, R, *, u_max=Non
         None: :func:`choose_method`.
     samples, seed : int
         States per level of the ``sampling`` method; the seed of every sample.
+    progress : bool
+        A progress bar on stderr while the ``sampling`` method simulates.
     """
     K, S = np.asarray(K, float), np.asarray(S, float)
     method = choose_method(method, am.n_links)
@@ -302,7 +332,8 @@ def region_of_attraction(am: AnalyticModel, task: Task, K, S, Q, R, *, u_max=Non
         rho, rho_sos, upper, certificate = _sos_part(am, task, K, S, Q, R, rho_torque)
     else:
         rho_sos, upper = None, None
-        simulation = simulated_level(am, task, K, S, limits, dt, angle_level(S, am.n_links), samples, seed)
+        simulation = simulated_level(am, task, K, S, limits, dt, angle_level(S, am.n_links), samples, seed,
+                                     progress=progress)
         rho = simulation["rho"]
         certificate = (f"none: an estimate from {samples} seeded states on the boundary of each level tried,"
                        f" simulated by RK4 at dt with the torque held and saturated")

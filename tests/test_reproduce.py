@@ -93,3 +93,25 @@ def test_results_json_and_runs(reproduction, results):
     assert results["sizes"]["sensitivity_runs"] == SMALL["sensitivity_runs"]  # the sizes the report states
     for run in ("gymnast_swingup", "gymnast_switch", "example2_swingup"):
         assert (reproduction / "runs" / run / "trajectory.npz").exists()
+
+
+def test_region_visits_count_a_start_inside_and_the_last_partial_interval():
+    """A made-up solution with q1 = cos(t) - 0.5 and a region |q1| < 0.6: inside from t = 0 to acos(-0.1), then again
+    from 2 pi - acos(-0.1), which falls in the last partial millisecond before the end."""
+    from types import SimpleNamespace
+
+    from paa_mj.studies.switching import region_visits
+
+    condition = SimpleNamespace(margin=lambda q, qd, t: np.abs(q[..., 0]) / 0.6 - 1.0)
+
+    def sol(t):
+        t = np.asarray(t, float)
+        return np.stack([np.cos(t) - 0.5] + [np.zeros_like(t)] * 5)
+
+    second = 2 * np.pi - np.arccos(-0.1)
+    t_end = np.floor(second * 1e3) / 1e3 + 0.0009  # between the last whole millisecond and the end
+    assert second < t_end
+    visits = region_visits(SimpleNamespace(t=np.array([0.0, t_end]), sol=sol), condition)
+    assert len(visits) == 2 and visits[0][0] == 0.0  # inside from the start
+    assert visits[0][1] == pytest.approx(np.arccos(-0.1), abs=1e-9)
+    assert visits[1][0] == pytest.approx(second, abs=1e-9) and visits[1][1] == t_end

@@ -30,21 +30,29 @@ def region_condition(x, t, params, memory, tau):
 _READING_LIMITS = (SWITCH_ANGLE, SWITCH_ANGLE, SWITCH_ANGLE, SWITCH_SPEED, SWITCH_SPEED, SWITCH_SPEED)
 
 
+#: What each ratio of :func:`reading_ratios` measures, in its order.
+READING_RATIOS = ("|q1| / (pi/6)", "|qd1| / (pi/6)", "(q2 + pi) / (pi/6)", "|qd2| / 0.5", "q3 / 0.5", "|qd3| / 0.5")
+
+
 @register_jitable
-def reading_margin(q1, q2, q3, d1, d2, d3):
-    """The margin of a candidate reading of the paper's Matlab switch (negative inside).
+def reading_ratios(q1, q2, q3, d1, d2, d3):
+    """The six ratios of a candidate reading of the paper's Matlab switch (:data:`READING_RATIOS`): all below 1
+    inside.
 
     Angles of x reduced into [0, 2 pi) (Matlab's ``mod(x, 2*pi)``) instead of (-pi, pi],
     and the limits [pi/6, pi/6, pi/6, 0.5, 0.5, 0.5] applied to [q1, qd1, q2 + pi, qd2, q3, qd3]:
     so qd1 is held to pi/6, q3 to 0.5, and every angle error must be >= 0.
     """
     two_pi = 2.0 * math.pi
-    v0 = np.abs(q1 % two_pi) / _READING_LIMITS[0]
-    v1 = np.abs(d1) / _READING_LIMITS[1]
-    v2 = np.abs((q2 + math.pi) % two_pi) / _READING_LIMITS[2]
-    v3 = np.abs(d2) / _READING_LIMITS[3]
-    v4 = np.abs(q3 % two_pi) / _READING_LIMITS[4]
-    v5 = np.abs(d3) / _READING_LIMITS[5]
+    return (np.abs(q1 % two_pi) / _READING_LIMITS[0], np.abs(d1) / _READING_LIMITS[1],
+            np.abs((q2 + math.pi) % two_pi) / _READING_LIMITS[2], np.abs(d2) / _READING_LIMITS[3],
+            np.abs(q3 % two_pi) / _READING_LIMITS[4], np.abs(d3) / _READING_LIMITS[5])
+
+
+@register_jitable
+def reading_margin(q1, q2, q3, d1, d2, d3):
+    """The margin of the candidate reading of :func:`reading_ratios` (negative inside): the largest ratio less 1."""
+    v0, v1, v2, v3, v4, v5 = reading_ratios(q1, q2, q3, d1, d2, d3)
     return np.maximum(np.maximum(np.maximum(v0, v1), np.maximum(v2, v3)), np.maximum(v4, v5)) - 1.0
 
 

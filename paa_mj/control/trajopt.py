@@ -33,6 +33,7 @@ from ..errors import PaaError
 from ..model import equations as eq
 from ..model.dynamics import AnalyticModel
 from ..task import Task
+from ..progress import progress
 from ..provenance import cache_key, cache_root
 
 OBJECTIVES = ("min-time", "min-effort")
@@ -308,6 +309,8 @@ def _solve(am, bound, objective, duration, intervals, x0, xN, max_iter, start=No
         if objective == "min-time":
             opti.set_initial(T, float(np.clip(start.duration, *TIME_RANGE)))
     opti.solver("ipopt", {"print_time": False}, {"print_level": 0, "sb": "yes", "max_iter": max_iter, "tol": 1e-9})
+    bar = progress(desc=f"planning the {objective} kip (IPOPT, {am.n_links} links)", unit="iteration", total=max_iter)
+    opti.callback(lambda _: bar.update(1))  # a solve of a long chain takes minutes: its iterations are its progress
     try:
         sol = opti.solve()
     except RuntimeError:
@@ -318,6 +321,8 @@ def _solve(am, bound, objective, duration, intervals, x0, xN, max_iter, start=No
                        f" {bound.round(3).tolist()} N m" + (f" and duration {duration:g} s" if objective == "min-effort"
                                                              else "") + "; try higher bounds, a longer duration or"
                        " more intervals") from None
+    finally:
+        bar.close()
     duration_found = float(sol.value(T)) if objective == "min-time" else float(duration)
     if objective == "min-time":
         _check_interior(duration_found, bound)

@@ -18,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..control.combined import CombinedController, ReadingCondition, RegionCondition
+from ..control.region import READING_RATIOS, reading_ratios
 from ..control.registry import make_controller
 from ..model.robot import Robot
 from ..task import Task
@@ -71,22 +72,19 @@ def region_visits(solution, condition, count=5, resolution=RESOLUTION):
     on a 1e-5 s grid.
     """
     t_end = solution.t[-1]
-    times = np.arange(0.0, t_end, resolution)
+    times = np.append(np.arange(0.0, t_end, resolution), t_end)  # the last partial interval too
     inside = _margin(condition, times, solution.sol(times)) < 0
-    changes = np.flatnonzero(np.diff(inside.astype(int)))
-    visits, k = [], 0
-    while k < len(changes) and len(visits) < count:
-        i = changes[k]
-        if not inside[i + 1]:
-            k += 1
-            continue
-        t_in = _crossing(condition, solution.sol, times[i], times[i + 1], True)
-        j = changes[k + 1] if k + 1 < len(changes) else None
-        t_out = t_end if j is None else _crossing(condition, solution.sol, times[j], times[j + 1], False)
+    entries = np.flatnonzero(inside & ~np.concatenate([[False], inside[:-1]]))  # the first sample of each visit
+    visits = []
+    for i in entries[:count]:
+        # a visit from the start enters at t = 0; the others between their last sample outside and first inside
+        t_in = 0.0 if i == 0 else _crossing(condition, solution.sol, times[i - 1], times[i], True)
+        left = np.flatnonzero(~inside[i:])
+        j = i + left[0] if left.size else None  # the first sample outside after it
+        t_out = t_end if j is None else _crossing(condition, solution.sol, times[j - 1], times[j], False)
         fine = np.linspace(t_in, t_out, max(3, int((t_out - t_in) / 1e-5)))
         depth = float(np.min(_margin(condition, fine, solution.sol(fine))))
         visits.append((t_in, t_out, depth, solution.sol(t_in)))
-        k += 2
     return visits
 
 
@@ -170,12 +168,9 @@ def candidate_reading(robot: Robot, solution=None, t_final=40.0, cases=INTEGRATO
         mid = np.linspace(t_in, t_out, 2001)
         deepest = mid[int(np.argmin(_margin(ReadingCondition(), mid, solution.sol(mid))))]
         x = solution.sol(deepest)
-        names = ("|q1| / (pi/6)", "|qd1| / (pi/6)", "(q2 + pi) / (pi/6)", "|qd2| / 0.5", "q3 / 0.5", "|qd3| / 0.5")
-        two_pi = 2 * np.pi
-        ratios = [(x[0] % two_pi) / (np.pi / 6), abs(x[3]) / (np.pi / 6), ((x[1] + np.pi) % two_pi) / (np.pi / 6),
-                  abs(x[4]) / 0.5, (x[2] % two_pi) / 0.5, abs(x[5]) / 0.5]
+        ratios = reading_ratios(x[0], x[1], x[2], x[3], x[4], x[5])
         out = {"t_switch": float(t_in), "duration": float(t_out - t_in), "min_margin": depth,
-               "binding": names[int(np.argmax(ratios))], "lqr_balances": lqr_balances_from(robot, state)}
+               "binding": READING_RATIOS[int(np.argmax(ratios))], "lqr_balances": lqr_balances_from(robot, state)}
     rows = []
     for integrator, dt in progress_bar(cases, desc="integrators", unit="run", enabled=progress):
         traj = simulate_mujoco(robot, _switched_controller(robot, "reading"), None, 60.0, task=paper_task(robot),

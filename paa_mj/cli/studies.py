@@ -269,7 +269,7 @@ def _register_compare(sub):
     p.add_argument("--trials", type=positive_int,
                    help=f"draws per random robustness factor (default {COMPARE_SIZES['full']['trials']},"
                         f" {COMPARE_SIZES['quick']['trials']} with --quick)")
-    p.add_argument("--t-final", type=positive, help="duration of each run [s] (default 30)")
+    p.add_argument("--t-final", type=positive, help=f"duration of each run [s] (default: {TASK_HORIZON})")
     p.add_argument("--grid", type=positive_int,
                    help=f"points per axis of the reach grid over (q1, q2) (default {COMPARE_SIZES['full']['grid']},"
                         f" {COMPARE_SIZES['quick']['grid']} with --quick)")
@@ -302,7 +302,8 @@ def _register_atlas(sub):
     p.add_argument("--simulate", action="store_true", help="also run the kip of every robot in MuJoCo")
     p.add_argument("--starts", type=whole_number,
                    help="random starts per robot with --simulate (default 4), besides (65)")
-    p.add_argument("--t-final", type=positive, help="duration of each simulated kip [s] with --simulate (default 30)")
+    p.add_argument("--t-final", type=positive,
+                   help=f"duration of each simulated kip [s] with --simulate (default: {TASK_HORIZON})")
     p.add_argument("--torque-limit", type=positive, metavar="T",
                    help="saturate each torque of every simulated kip at T [N m] with --simulate (default: none)")
     p.add_argument("--seed", type=seed, help="seed of the random starts with --simulate (default 0)")

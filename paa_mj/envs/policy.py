@@ -32,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import PaaError
+from .spaces import FRAME_SKIP
 
 #: How to install what a Stable-Baselines3 model needs.
 RL_INSTALL = 'pip install "paa_mj[rl]"'
@@ -112,7 +113,7 @@ class SB3Policy:
     episode = "balance"
     torque_limit = None
     normalize_actions = True
-    frame_skip = 10
+    frame_skip = FRAME_SKIP
     deterministic = True
     mode = 0
 

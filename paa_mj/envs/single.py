@@ -58,12 +58,10 @@ from gymnasium import spaces
 
 from ..model.robot import load_robot
 from ..task import as_task
-from .spaces import (EPISODES, MAX_EPISODE_STEPS, MAX_TORQUE_LIMIT, _check_options, _check_x0, _number, _real_array,
-                     _whole, action_to_torque, torque_limit_for, torque_limits_for, torque_to_action)
+from .spaces import (EPISODES, FRAME_SKIP, MAX_EPISODE_STEPS, MAX_TORQUE_LIMIT, _check_options, _check_x0, _number,
+                     _real_array, _whole, action_to_torque, torque_limit_for, torque_limits_for, torque_to_action)
 from .stepper import PHYSICS, REWARD_BALANCE, REWARD_KIP, REWARD_V0, Robots
 
-#: Physics steps per environment step in v1: a 10 ms control period on the 1 ms step of the models.
-FRAME_SKIP = 10
 _REWARD_KIND = {"kip": REWARD_KIP, "balance": REWARD_BALANCE}
 
 

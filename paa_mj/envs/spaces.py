@@ -25,6 +25,8 @@ from ..limits import physical_torque_scale
 #: instead of one.
 EPISODES = {"kip": dict(seconds=30.0, noise=0.05, speed_noise=0.0, margin=math.inf, torque_b1=2.0),
             "balance": dict(seconds=10.0, noise=0.05, speed_noise=0.05, margin=0.5, torque_b1=0.1)}
+#: Physics steps per environment step in v1: a 10 ms control period on the 1 ms step of the models.
+FRAME_SKIP = 10
 #: The largest torque limit [N m]: the action space is float32.
 MAX_TORQUE_LIMIT = 1e12
 #: The most environment steps of one episode.

@@ -39,9 +39,11 @@ def leaderboard_markdown(summary, written=True) -> str:
     limits = ", ".join(f"{v:.1f}" for v in summary["torque_limit"])
     peaks = ", ".join(f"\\|tau{k + 2}\\|" for k in range(len(summary["torque_limit"])))
     lines = [f"# Kip leaderboard: {summary['robot']}" + (f", {goal} goal" if goal != "folded" else ""), "",
-             f"From (65) in MuJoCo (RK4, 1 ms), {summary['t_final']:g} s, every controller under the torque limit"
+             f"From the task's start in {summary['engine']}, {summary['t_final']:g} s, every controller under the"
+             " torque limit"
              f" [{limits}] N m, in every run (reach included)."
-             f" Success, in every column: {summary['success_definition']}. Robustness from (65): {summary['trials']} independent"
+             f" Success, in every column: {summary['success_definition']}. Robustness from the task's start:"
+             f" {summary['trials']} independent"
              " draws per random factor, with a 95 % Wilson interval; one run per level of a swept deterministic factor,"
              " whose rate is the share of levels that succeed (no interval: nothing is drawn). Reach: the share of a"
              f" {summary['grid']} x {summary['grid']} grid of starts over (q1, q2) that succeed.", "",

@@ -43,6 +43,7 @@ from ..progress import stage
 from ..provenance import text_sha256
 from ..model.robot import Robot
 from ..sim.batch import kip_peak_torques, simulate_batch
+from ..sim.integrators import integrator_name
 from ..task import Task, as_task
 from .basin import basin
 from .robustness import MAX_TRIALS, robustness
@@ -58,14 +59,15 @@ def _spec(name, limit, task):
     return ControllerSpec(name, options=options, task=task)
 
 
-def _why(result, i, t_final):
+def _why(result, i, t_final, task: Task):
     if result.diverged[i]:
         return f"diverged at t = {result.t_end[i]:.3f} s"
     if not np.isfinite(result.t_region[i]):
         return f"never entered region (68) in {t_final:g} s"
     if not np.isfinite(result.switch_time[i]):
         return "entered region (68) but never switched to the balance controller"
-    return "not inside region (68) throughout the last second of the run"
+    where = "region (68)" if task.success_region == task.switch_region else "the success region"
+    return f"not inside {where} throughout the last {task.success_window:g} s of the run"
 
 
 def _none(value):
@@ -92,7 +94,7 @@ def performance(robot: Robot, controller, limit, task: Task, t_final=None):
                "max_tau": result.max_abs_tau[0].tolist(), "int_tau2": float(result.int_tau2[0]),
                "work": float(result.work[0]), "smoothness": float(result.smoothness[0]),
                "max_speed": float(result.max_speed[0]), "success": success, "balanced": bool(result.balanced[0]),
-               "why": None if success else _why(result, 0, t_final)}
+               "why": None if success else _why(result, 0, t_final, task)}
     return metrics, trajectory
 
 
@@ -180,6 +182,7 @@ def compare(robot: Robot, controllers=DEFAULT_CONTROLLERS, torque_limit=None, tr
     specs = _specs(robot, names, limit, task, progress)
     sweeps = {factor: sweep_levels(factor, quick) for factor in SWEEPS}
     summary = {"robot": robot.name, "robot_sha256": text_sha256(robot.xml), **task.describe(),
+               "engine": f"MuJoCo, {integrator_name(robot.model)} at {robot.model.opt.timestep * 1e3:g} ms",
                "torque_limit": limit.tolist(),
                "t_final": sizes["t_final"], "trials": sizes["trials"], "grid": sizes["grid"], "seed": seed,
                "intervals": "95 % Wilson intervals over the independent draws of a random factor (random: true);"

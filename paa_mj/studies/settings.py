@@ -46,9 +46,8 @@ FACTOR_LABELS = {"model_error": "model error 1-10 %", "noise": "noise 0.01",
                  "delay": "delay 1-10 ms", "pushes": "pushes 0.1 b1", "initial_state": "start +-0.1"}
 #: The order of the robustness columns.
 FACTOR_ORDER = ("model_error", "noise", "torque_noise", "delay", "pushes", "initial_state")
-#: Draws per random factor, points per axis of the reach grid, and the duration of each run [s].
-COMPARE_SIZES = {"quick": {"trials": 6, "grid": 6, "t_final": 30.0},
-                 "full": {"trials": 48, "grid": 16, "t_final": 30.0}}
+#: Draws per random factor and points per axis of the reach grid (each run lasts the task's horizon).
+COMPARE_SIZES = {"quick": {"trials": 6, "grid": 6}, "full": {"trials": 48, "grid": 16}}
 
 # --- the atlas (:mod:`paa_mj.studies.atlas`) -----------------------------------------------------------
 

@@ -16,9 +16,7 @@ def _torque_limits(robot, given):
     """Each motor's limit [N m]: the model's actuator ranges, capped by --torque-limit; None where none is finite."""
     import numpy as np
 
-    limits = np.array(robot.torque_limits, float)
-    if given is not None:
-        limits = np.minimum(limits, given)
+    limits = robot.capped_torque_limits(given)
     return limits if np.any(np.isfinite(limits)) else None
 
 

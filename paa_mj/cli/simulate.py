@@ -229,7 +229,7 @@ def cmd_view(args):
     x0 = initial_state(args, robot, task)
     n = robot.params.n_links
     model = mujoco_model_for(robot, args.dt, args.integrator)
-    limits = np.minimum(robot.torque_limits, np.inf if args.torque_limit is None else args.torque_limit)
+    limits = robot.capped_torque_limits(args.torque_limit)
     data = mujoco.MjData(model)
     data.qpos[:], data.qvel[:] = x0[:n], x0[n:]
     mujoco.mj_forward(model, data)

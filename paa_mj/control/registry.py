@@ -72,24 +72,8 @@ HEADROOM = 0.9
 EFFORT_DURATION = 3.0
 
 
-def _capped_limits(robot, limit):
-    """The motors' limits [N m] a run applies: the model's actuator ranges capped by the option ``limit`` (one
-    number or one per motor; None: the ranges alone)."""
-    if limit is not None:
-        try:
-            limit = np.asarray(limit, float)
-        except (TypeError, ValueError):
-            raise PaaError(f"the option limit must be a torque limit [N m], one number or (T2, T3), got {limit!r}") \
-                from None
-        motors = robot.torque_limits.shape
-        if limit.shape not in ((), (1,), motors):
-            raise PaaError(f"the option limit needs one number or one per motor ({motors[0]}) [N m], got shape"
-                           f" {limit.shape}")
-    return np.minimum(robot.torque_limits, np.inf if limit is None else limit)
-
-
 def _kip_bound(robot, limit):
-    limits = _capped_limits(robot, limit)
+    limits = robot.capped_torque_limits(limit, "the option limit")
     if not np.all(np.isfinite(limits)):
         raise PaaError("a planned kip needs a torque limit: give limit=(T2, T3) [N m] or a model with actuator ranges"
                        " (the command line uses the peak torques of vcl from (65))")
@@ -142,7 +126,7 @@ def _condition(robot, task, lqr_weights, switch, limit):
 
     n = robot.params.n_links
     Q, R = lqr_weight_matrices(n, *weights_of(n, lqr_weights))
-    S, rho = switch_level(robot.analytic, task, Q, R, u_max=_capped_limits(robot, limit),
+    S, rho = switch_level(robot.analytic, task, Q, R, u_max=robot.capped_torque_limits(limit, "the option limit"),
                           dt=float(robot.model.opt.timestep))
     return LevelCondition(task, S, rho)
 

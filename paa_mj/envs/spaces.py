@@ -109,7 +109,7 @@ def torque_limit_for(robot, episode="kip", torque_limit=None):
 def torque_limits_for(robot, episode="kip", torque_limit=None):
     """The torque limits T [N m], (n - 1,), of the environments: :func:`torque_limit_for` capped by the model's
     actuator ranges (:attr:`Robot.torque_limits <paa_mj.model.robot.Robot.torque_limits>`)."""
-    return np.minimum(torque_limit_for(robot, episode, torque_limit), np.asarray(robot.torque_limits, float))
+    return robot.capped_torque_limits(torque_limit_for(robot, episode, torque_limit))
 
 
 def action_to_torque(action, torque_limits, normalized=True):

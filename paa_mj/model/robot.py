@@ -72,6 +72,22 @@ class Robot:
                 raise PaaError(f"gain {k} must be a number, got {value!r}") from None
         return resolved
 
+    def capped_torque_limits(self, requested=None, what="the torque limit") -> np.ndarray:
+        """Each motor's torque limit a run applies [N m]: the model's actuator ranges capped by ``requested`` (one
+        number, one per motor, or one row per rollout (N, n - 1); None: the ranges alone). The one place the two
+        meet; a ``requested`` of another shape is refused in one line naming ``what``."""
+        if requested is None:
+            return self.torque_limits.copy()
+        try:
+            requested = np.asarray(requested, float)
+        except (TypeError, ValueError):
+            raise PaaError(f"{what} must be one number or one per motor ({self.torque_limits.shape[0]}) [N m], got"
+                           f" {requested!r}") from None
+        motors = self.torque_limits.shape[0]
+        if requested.shape not in ((), (1,), (motors,)) and not (requested.ndim == 2 and requested.shape[1] == motors):
+            raise PaaError(f"{what} must be one number or one per motor ({motors}) [N m], got shape {requested.shape}")
+        return np.minimum(requested, self.torque_limits)
+
     def with_params(self, params: RobotParams, name: str | None = None) -> "Robot":
         """The same robot with other parameters (same gains and limits), compiled from the template.
 

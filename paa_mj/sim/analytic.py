@@ -218,13 +218,7 @@ def _check_sizes(t_final, sample_dt, rtol, atol, event_resolution, n_links):
 
 def _limits(robot, torque_limit):
     """The torque limits of the run [N m]: ``torque_limit`` capped by the model's actuator ranges."""
-    n = robot.params.n_links
-    try:
-        requested = np.broadcast_to(np.inf if torque_limit is None else np.asarray(torque_limit, float), (n - 1,))
-    except (TypeError, ValueError):
-        raise PaaError(f"torque limit must be one number or one per motor ({n - 1}) [N m], got {torque_limit!r}") \
-            from None
-    limits = np.minimum(requested, robot.torque_limits)
+    limits = np.array(np.broadcast_to(robot.capped_torque_limits(torque_limit), robot.torque_limits.shape))
     if np.any(~(limits > 0)):
         raise PaaError("torque limits must be > 0")
     return limits

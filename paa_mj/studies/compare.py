@@ -135,7 +135,7 @@ def _limit(robot, task, torque_limit):
         limit = kip_peak_torques(robot, ControllerSpec("vcl", task=task), task)
         physical_torque_scale(np.max(limit), robot, f"the peak torque of vcl's run from the {task.name} task's start"
                                                     " (the leaderboard's default torque limit)", "give --torque-limit")
-    limit = np.minimum(limit, robot.torque_limits)
+    limit = robot.capped_torque_limits(limit)
     if not np.all(np.isfinite(limit)):
         raise PaaError("the leaderboard needs a finite torque limit: give --torque-limit (the default, vcl's peak"
                        " torques from the task's start, is not finite here)")

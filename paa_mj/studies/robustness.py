@@ -247,7 +247,7 @@ def robustness(robot: Robot, trials=64, t_final=None, seed=0, controller: Contro
     if {"torque_limit", "torque_noise"} & set(chosen):
         peak = float(torque_scale) if torque_scale is not None else nominal_peak(robot, spec, base_limit, t_final)
     levels = [v for v in chosen.get("torque_limit", {}).get("levels", ()) if math.isfinite(v)]
-    saturation = float(np.min(np.minimum(base_limit, robot.torque_limits)))  # --torque-limit and the actuator ranges
+    saturation = float(np.min(robot.capped_torque_limits(base_limit)))  # --torque-limit and the actuator ranges
     if levels and peak is not None and max(levels) * peak > saturation:
         raise PaaError(f"the torque_limit levels reach {max(levels) * peak:g} N m (fractions of the torque scale"
                        f" {peak:g} N m), above the saturation of every run at {saturation:g} N m: they would be"

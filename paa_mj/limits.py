@@ -49,6 +49,14 @@ def check_memory(nbytes: float, what: str, lower: str, budget: float | None = No
         raise PaaError(f"would need {_gib(nbytes)} of {what} ({where} can give {_gib(budget)}); lower {lower}")
 
 
+def duration(seconds) -> str:
+    """A duration in words: seconds, minutes, hours, days or years."""
+    for unit, size in (("years", 3.15e7), ("days", 86400.0), ("hours", 3600.0), ("minutes", 60.0)):
+        if seconds >= 2 * size:
+            return f"{seconds / size:.2g} {unit}"
+    return f"{seconds:.0f} s"
+
+
 def step_seconds(links: int = 3) -> float:
     """One core's seconds per physics step of a closed loop of ``links`` links (an estimate, module constants)."""
     return STEP_SECONDS + STEP_SECONDS_PER_LINK2 * links * links

@@ -125,9 +125,11 @@ def test_a_runs_torque_limits_are_the_actuator_ranges_capped_by_the_request():
     robot = load_robot("realaigym_acrobot")  # an actuator range of 6 N m on its one motor
     assert robot.capped_torque_limits().tolist() == [6.0] and robot.capped_torque_limits(4.0).tolist() == [4.0]
     assert robot.capped_torque_limits(9.0).tolist() == [6.0]
-    assert robot.capped_torque_limits(np.array([[2.0], [8.0]])).tolist() == [[2.0], [6.0]]  # one row per rollout
+    assert robot.capped_torque_limits(np.array([[2.0], [8.0]]), rollouts=2).tolist() == [[2.0], [6.0]]
+    assert robot.capped_torque_limits(3.0, rollouts=2).tolist() == [[3.0], [3.0]]  # one row per rollout
     gymnast = load_robot("gymnast")  # no ranges
     assert gymnast.capped_torque_limits().tolist() == [np.inf, np.inf]
     assert gymnast.capped_torque_limits([5.0, 7.0]).tolist() == [5.0, 7.0]
-    with pytest.raises(PaaError, match=r"the torque limit must be one number or one per motor \(2\)"):
-        gymnast.capped_torque_limits([1.0, 2.0, 3.0])
+    for wrong in ([1.0, 2.0, 3.0], [[1.0, 2.0], [3.0, 4.0]]):  # rows only for a batch of rollouts
+        with pytest.raises(PaaError, match=r"the torque limit must be one number or one per motor \(2\)"):
+            gymnast.capped_torque_limits(wrong)

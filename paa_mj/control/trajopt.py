@@ -32,9 +32,9 @@ import numpy as np
 from ..errors import PaaError
 from ..model import equations as eq
 from ..model.dynamics import AnalyticModel
-from ..task import Task
 from ..progress import progress
 from ..provenance import cache_key, cache_root
+from ..task import Task
 
 OBJECTIVES = ("min-time", "min-effort")
 #: Collocation intervals by default.

@@ -72,21 +72,20 @@ class Robot:
                 raise PaaError(f"gain {k} must be a number, got {value!r}") from None
         return resolved
 
-    def capped_torque_limits(self, requested=None, what="the torque limit") -> np.ndarray:
-        """Each motor's torque limit a run applies [N m]: the model's actuator ranges capped by ``requested`` (one
-        number, one per motor, or one row per rollout (N, n - 1); None: the ranges alone). The one place the two
-        meet; a ``requested`` of another shape is refused in one line naming ``what``."""
-        if requested is None:
-            return self.torque_limits.copy()
-        try:
-            requested = np.asarray(requested, float)
-        except (TypeError, ValueError):
-            raise PaaError(f"{what} must be one number or one per motor ({self.torque_limits.shape[0]}) [N m], got"
-                           f" {requested!r}") from None
+    def capped_torque_limits(self, requested=None, what="the torque limit", rollouts=None) -> np.ndarray:
+        """Each motor's torque limit a run applies [N m], (n - 1,), or one row per rollout (``rollouts``, n - 1)
+        where ``rollouts`` is given: the model's actuator ranges capped by ``requested`` (one number, one per motor,
+        or with ``rollouts`` one row per rollout; None: the ranges alone). The one place the two meet; a
+        ``requested`` of another shape is refused in one line naming ``what``."""
         motors = self.torque_limits.shape[0]
-        if requested.shape not in ((), (1,), (motors,)) and not (requested.ndim == 2 and requested.shape[1] == motors):
+        shape = (motors,) if rollouts is None else (rollouts, motors)
+        try:
+            requested = np.asarray(np.inf if requested is None else requested, float)
+        except (TypeError, ValueError):
+            raise PaaError(f"{what} must be one number or one per motor ({motors}) [N m], got {requested!r}") from None
+        if requested.shape not in ((), (1,), (motors,), shape):
             raise PaaError(f"{what} must be one number or one per motor ({motors}) [N m], got shape {requested.shape}")
-        return np.minimum(requested, self.torque_limits)
+        return np.minimum(np.broadcast_to(requested, shape), self.torque_limits)
 
     def with_params(self, params: RobotParams, name: str | None = None) -> "Robot":
         """The same robot with other parameters (same gains and limits), compiled from the template.

@@ -218,7 +218,7 @@ def _check_sizes(t_final, sample_dt, rtol, atol, event_resolution, n_links):
 
 def _limits(robot, torque_limit):
     """The torque limits of the run [N m]: ``torque_limit`` capped by the model's actuator ranges."""
-    limits = np.array(np.broadcast_to(robot.capped_torque_limits(torque_limit), robot.torque_limits.shape))
+    limits = robot.capped_torque_limits(torque_limit)
     if np.any(~(limits > 0)):
         raise PaaError("torque limits must be > 0")
     return limits

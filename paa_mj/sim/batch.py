@@ -217,7 +217,7 @@ def build_plan(robot: Robot, task: Task, x0, t_final, controllers, *, dt=None, i
         raise PaaError("torque limits must be > 0")
     if not isinstance(disturbances, Disturbances):
         raise PaaError(f"disturbances must be a Disturbances (or None), got {type(disturbances).__name__}")
-    settings = disturbances.settings(n, links, robot.capped_torque_limits(limits))
+    settings = disturbances.settings(n, links, robot.capped_torque_limits(limits, rollouts=n))
     disturbed = disturbances.disturbed(settings)
     # one certificate per distinct (plant, controller): a study's million rollouts share a handful
     for (plant, _), rows in groups.items():

@@ -226,7 +226,7 @@ def _spec_dict(spec: ControllerSpec):
 def applied_limit(robot, torque_limit):
     """The torque limits a study's runs get [N m]: ``torque_limit`` capped by the model's actuator ranges,
     as a list of one per motor, or None when neither limits."""
-    limits = np.broadcast_to(robot.capped_torque_limits(torque_limit), robot.torque_limits.shape)
+    limits = robot.capped_torque_limits(torque_limit)
     return None if np.all(np.isinf(limits)) else limits.tolist()
 
 

@@ -31,7 +31,7 @@ import numpy as np
 
 from ..errors import PaaError
 from ..io import write_json
-from ..limits import MAX_SECONDS
+from ..limits import MAX_SECONDS, duration
 from ..provenance import cache_key, cache_root
 from .bounds import box_bounds, centre_matrices, gradient, values_into
 from .maxima import Maximum, branch_and_bound
@@ -226,11 +226,3 @@ def keep_search(am, E_r, kd: Maximum, budget_cpu_s):
     if kd.boxes or kd.certified:  # not the global bound, which costs nothing again
         with contextlib.suppress(PaaError):  # an unwritable cache costs a search next time, nothing else
             write_json(_certificate_path(am, E_r, kd.tol), {**dataclasses.asdict(kd), "budget_cpu_s": budget_cpu_s})
-
-
-def duration(seconds) -> str:
-    """A duration in words: seconds, minutes, hours, days or years."""
-    for unit, size in (("years", 3.15e7), ("days", 86400.0), ("hours", 3600.0), ("minutes", 60.0)):
-        if seconds >= 2 * size:
-            return f"{seconds / size:.2g} {unit}"
-    return f"{seconds:.0f} s"

@@ -33,13 +33,12 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from ..errors import PaaError
-from ..limits import MAX_SECONDS
+from ..limits import MAX_SECONDS, duration
 from ..model.dynamics import AnalyticModel
 from ..model.states import wrap
 from ..progress import progress as progress_bar
 from ..task import Task
 from . import sos
-from .kd_search import duration
 from .linear import sampled_spectral_radius
 
 METHODS = ("sos", "sampling")
@@ -298,6 +297,12 @@ def _sos_part(am, task, K, S, Q, R, rho_torque):
     return rho, rho_sos, upper, certificate
 
 
+def _finite_limits(u_max, n_links):
+    """Each motor's torque limit (n - 1,) [N m], or None where ``u_max`` is None or limits none of them."""
+    limits = None if u_max is None else np.broadcast_to(np.asarray(u_max, float), (n_links - 1,))
+    return limits if limits is not None and np.any(np.isfinite(limits)) else None
+
+
 def region_of_attraction(am: AnalyticModel, task: Task, K, S, Q, R, *, u_max=None, dt, method=None,
                          samples=SIMULATED_SAMPLES, seed=0, box_samples=BOX_SAMPLES,
                          vdot_samples=VDOT_SAMPLES, progress=False) -> RegionOfAttraction:
@@ -323,9 +328,7 @@ def region_of_attraction(am: AnalyticModel, task: Task, K, S, Q, R, *, u_max=Non
     """
     K, S = np.asarray(K, float), np.asarray(S, float)
     method = choose_method(method, am.n_links)
-    limits = None if u_max is None else np.broadcast_to(np.asarray(u_max, float), (K.shape[0],))
-    if limits is not None and not np.any(np.isfinite(limits)):
-        limits = None
+    limits = _finite_limits(u_max, am.n_links)
     rho_torque = torque_level(S, K, limits)
     simulation = None
     if method == "sos":
@@ -352,9 +355,7 @@ def switch_level(am: AnalyticModel, task: Task, Q, R, *, u_max=None, dt, method=
     from .linear import lqr_solution
 
     method = choose_method(method, am.n_links)
-    limits = None if u_max is None else np.broadcast_to(np.asarray(u_max, float), (am.n_links - 1,))
-    if limits is not None and not np.any(np.isfinite(limits)):
-        limits = None
+    limits = _finite_limits(u_max, am.n_links)
     Q, R = np.asarray(Q, float), np.asarray(R, float)
     key = (am.key(), task, Q.tobytes(), R.tobytes(), None if limits is None else limits.tobytes(), float(dt), method)
     if key not in _SWITCH_LEVELS:

@@ -373,6 +373,12 @@ def switch_margin_of(params, angle_max, speed_max):
     return max(angle_max / params[P_SWITCH_ANGLE], speed_max / params[P_SWITCH_SPEED]) - 1.0
 
 
+def entered_times(books, dt):
+    """The first entry into the switch region of each book (..., len(BOOK)) judged every ``dt`` [s], NaN if never."""
+    entered = np.asarray(books)[..., B_ENTERED]
+    return np.where(entered >= 0, entered * dt, np.nan)
+
+
 @register_jitable
 def book_start(book):
     """A fresh book: nothing seen yet."""

@@ -165,3 +165,25 @@ def test_a_gain_just_below_its_bound_is_not_written_as_equal_to_it():
     assert apart(4503.38, 4503.3819) == ("4503.38", "4503.382")
     assert apart(4503.3819, 4503.38195) == ("4503.3819", "4503.38195")
     assert apart(2.0, 2.0) == ("2", "2") and apart(1e300, 2e300) == ("1e+300", "2e+300")
+
+
+def test_the_outcome_reads_the_engine_s_entry_into_region_68_not_the_samples():
+    """Sparse samples miss the entry; the sentence states the step the engine judged, on both engines."""
+    from paa_mj.sim.analytic import simulate_analytic
+    from paa_mj.sim.batch import simulate_batch
+    from paa_mj.sim.rollout import simulate_mujoco
+
+    gymnast = load_robot("gymnast")
+    folded = Task.named("folded", gymnast)
+    traj = simulate_mujoco(gymnast, "vcl-only", t_final=20.0, task=folded, sample_dt=5.0)
+    entered = float(simulate_batch(gymnast, folded.start[None], 20.0, controller="vcl-only", task=folded).t_region[0])
+    assert np.isfinite(entered) and not folded.in_switch_region(traj.q, traj.qd).any()  # the samples never show it
+    assert traj.meta["t_region"] == entered
+    assert traj.outcome() == f"entered region (68) at t = {entered:.4f} s but never handed over to (67)"
+    # the analytic engine (continuous control) follows its own chaotic swing: judged against its dense samples
+    sparse, dense = (simulate_analytic(gymnast, "vcl-only", t_final=10.0, task=folded, sample_dt=every)
+                     for every in (5.0, 0.001))
+    inside = folded.in_switch_region(dense.q, dense.qd)
+    assert inside.any() and not folded.in_switch_region(sparse.q, sparse.qd).any()
+    assert sparse.meta["t_region"] == dense.meta["t_region"] == pytest.approx(dense.t[np.argmax(inside)], abs=1e-3)
+    assert sparse.outcome().startswith(f"entered region (68) at t = {dense.meta['t_region']:.4f} s")

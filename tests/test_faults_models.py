@@ -175,7 +175,7 @@ def test_made_models_edited_within_the_shape_run_as_written(what, old, new, expe
 
 BAD_OPTIONS = [
     # simulate: numbers
-    (["simulate", "--t-final", "1e-9"], "--sample-dt 0.01 s is longer than --t-final 1e-09 s"),
+    (["simulate", "--t-final", "1e-9"], "final time 1e-09 s is shorter than one time step (0.001 s)"),
     (["simulate", "--t-final", "-1e3"], "argument --t-final: must be a positive finite number, got -1e3"),
     (["simulate", "--t-final", "-inf"], "argument --t-final: must be a positive finite number, got -inf"),
     (["simulate", "--t-final", "infinity"], "must be a positive finite number, got infinity"),

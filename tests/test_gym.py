@@ -15,6 +15,8 @@ from paa_mj.task import Task  # noqa: E402
 from paa_mj.envs import BALANCE_ID, ENV_ID, KIP_ID, GymnastEnv, GymnastKipEnv  # noqa: E402
 from paa_mj.envs.vector import GymnastVectorEnv  # noqa: E402
 
+from .helpers import cli  # noqa: E402
+
 
 def test_passes_gymnasiums_checker():
     env = gym.make(f"paa_mj.envs:{ENV_ID}")
@@ -200,6 +202,24 @@ def test_balance_terminates_when_it_leaves_region_68_by_the_margin():
     kip.reset(seed=0)
     results = [kip.step(np.zeros(2, np.float32)) for _ in range(50)]
     assert not any(r[2] for r in results) and results[-1][3]
+
+
+def test_an_episode_cut_short_is_no_success_even_inside_a_wide_success_region():
+    """A success region wider than region (68)'s margin: the episode that leaves (68) ends early, unfinished, and
+    is no success in either environment, as a run cut short is none for the engines."""
+    from paa_mj.task import Region
+
+    wide = Task.named("folded", 3, success_region=Region(2.0, 10.0))
+    for env in (GymnastEnv(episode="balance", task=wide), GymnastVectorEnv(num_envs=2, episode="balance", task=wide)):
+        env.reset(seed=0)
+        push = np.tile([1.0, -1.0], (2, 1)).astype(np.float32)
+        action = push if isinstance(env, GymnastVectorEnv) else push[0]
+        for _ in range(500):
+            _, _, terminated, _, info = env.step(action)
+            if np.all(terminated):
+                break
+        assert np.all(terminated) and not np.any(info["is_success"]) and not np.any(info["diverged"])
+        env.close()
 
 
 def test_the_lqr_balances_every_start_of_the_balance_task():
@@ -452,6 +472,16 @@ def test_a_policy_adapter_through_simulate(policy_file, tmp_path, capsys):
     assert code == 0 and summary["balanced"]
 
 
+def test_the_analytic_engine_refuses_a_policy_held_over_its_period(policy_file):
+    """A policy holds each action for its period: the analytic engine, which integrates continuous laws, would
+    re-evaluate it wherever its solver steps, in silence."""
+    result = cli("simulate", "--engine", "analytic", "--controller", f"{policy_file}:Trained", "--x0",
+                 *map(str, X0_NEAR_UDD), "--t-final", "1")
+    assert result.returncode == 2 and result.stderr == (
+        "paa-mj: error: the analytic engine integrates laws continuous in time, and mine.py:Trained holds each torque"
+        " for 10 ms (a sampled-data controller); use --engine mujoco\n")
+
+
 def test_a_policy_file_without_stable_baselines3_is_one_line(policy_file, capsys):
     try:
         import stable_baselines3  # noqa: F401
@@ -579,3 +609,15 @@ def test_the_analytic_physics_steps_as_mujoco_does_to_rounding(robot, goal):
 def test_an_unknown_physics_is_one_line():
     with pytest.raises(ValueError, match="physics must be 'mujoco' or 'analytic', got 'bullet'"):
         GymnastEnv(physics="bullet")
+
+
+def test_the_analytic_physics_refuses_a_model_of_another_integrator(tmp_path):
+    """It steps RK4: on an Euler model it would silently differ from MuJoCo's steps (5.6e-4 after 200 steps)."""
+    from pathlib import Path
+
+    euler = tmp_path / "euler.xml"
+    source = (Path(__file__).resolve().parent.parent / "models" / "gymnast.xml").read_text()
+    euler.write_text(source.replace('integrator="RK4"', 'integrator="Euler"'))
+    with pytest.raises(ValueError, match="physics 'analytic' steps RK4, and this model's integrator is Euler"):
+        GymnastEnv(robot=str(euler), physics="analytic")
+    GymnastEnv(robot=str(euler))  # MuJoCo's physics steps the model's own integrator

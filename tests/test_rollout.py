@@ -83,6 +83,14 @@ def test_save_and_load_round_trip(gymnast_balanced, tmp_path):
     assert summary["balanced"] is True
     csv = np.loadtxt(tmp_path / "trajectory.csv", delimiter=",", skiprows=1)
     np.testing.assert_allclose(csv[:, 1:4], gymnast_balanced.q, rtol=1e-15)
+    np.testing.assert_allclose(csv[:, 0], gymnast_balanced.t, rtol=1e-12, atol=0)
+
+
+def test_the_csv_keeps_sample_times_below_a_microsecond(gymnast, tmp_path):
+    traj = simulate_mujoco(gymnast, "passive", t_final=6.25e-4, dt=6.25e-5, sample_dt=6.25e-5)
+    traj.save(tmp_path)
+    times = [line.split(",")[0] for line in (tmp_path / "trajectory.csv").read_text().splitlines()[1:4]]
+    assert times == ["0", "6.25e-05", "0.000125"]
 
 
 @pytest.mark.parametrize("kwargs, message", [

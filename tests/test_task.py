@@ -150,3 +150,23 @@ def test_a_users_controller_that_runs_another_robots_controller_is_one_line(tmp_
                "--t-final", "0.1", cwd=tmp_path)
     assert proc.returncode == 2 and "Traceback" not in proc.stderr
     assert len(proc.stderr.strip().splitlines()) == 1 and "4 angles" in proc.stderr, proc.stderr
+
+
+def test_a_given_t_final_is_the_horizon_the_run_states():
+    """--t-final is the run's length and the task's horizon in what the run states; without it, the task's."""
+    import json
+
+    given = json.loads(cli("simulate", "--t-final", "0.2", "--json").stdout)
+    assert given["t_final"] == given["task"]["horizon"] == 0.2
+    study = cli("basin", "--grid", "2", "--t-final", "0.05", "--scheduler", "inline", "--json")
+    assert json.loads(study.stdout)["task"]["horizon"] == 0.05, study.stderr
+
+
+@pytest.mark.parametrize("command", [["basin", "--grid", "2", "--scheduler", "inline"], ["simulate", "--engine",
+                                                                                         "analytic"]])
+def test_a_t_final_between_two_steps_is_refused_by_every_command(command):
+    """Every engine ends at the nearest step: a time between two is refused, as MuJoCo's simulate refuses it."""
+    result = cli(*command, "--t-final", "0.0015")
+    assert result.returncode == 2 and result.stderr == (
+        "paa-mj: error: final time 0.0015 s is not a whole number of time steps (dt = 0.001 s): give 0.001 or"
+        " 0.002\n")

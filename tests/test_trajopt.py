@@ -140,6 +140,9 @@ def test_compare_quick_json_has_every_key(capsys, monkeypatch):
         # every run, reach and robustness included, under the one torque limit
         assert all(t <= lim + 1e-9 for t, lim in zip(row["max_abs_tau"], summary["torque_limit"]))
     assert "region (68)" in summary["success_definition"]
+    # the labels state the levels run: --quick's every other one (0 and 5 of 1, 0, 3, 5 here)
+    assert [summary["factors"][f]["label"] for f in ("model_error", "delay")] == ["model error 0, 5 %",
+                                                                                   "delay 2, 5 ms"]
     vcl, kip = summary["controllers"]["vcl"], summary["controllers"]["trajopt-effort"]
     assert vcl["success"] and kip["success"]
     assert vcl["plan"] is None and kip["plan"]["objective"] == "min-effort"

@@ -169,7 +169,16 @@ def task_from_args(args, robot):
     from ..task import Task
 
     task = Task.named(getattr(args, "goal", "folded"), robot)
-    if getattr(args, "t_final", False) is None:  # an option whose default is the task's horizon
+    if getattr(args, "t_final", None) is not None:  # the run's length is the task's horizon, and stated as such
+        from ..sim.inputs import check_whole_steps
+
+        # every engine ends at the step nearest the time asked and judges there: the time asked must be one (a
+        # time too long to count is the command's own refusal, which says what it would need)
+        step = getattr(args, "dt", None) or float(robot.model.opt.timestep)
+        if args.t_final / step < 1e15:
+            check_whole_steps(args.t_final, step)
+        return task.with_(horizon=args.t_final)
+    if hasattr(args, "t_final"):  # an option whose default is the task's horizon
         args.t_final = task.horizon
     return task
 
@@ -293,9 +302,9 @@ def spec_from_args(args, robot, task, name=None):
             raise PaaError(f"--switch applies to the controllers {', '.join(SWITCHED)}, not to {name}")
         if switch != "region":  # region (68) is the default hand-over: the spec stays the plain one
             options.append(("switch", switch))
-    from ..control.catalog import ROA_SWITCHED, SWITCHED
+    from ..control.catalog import hands_over_on_roa
 
-    if getattr(args, "torque_limit", None) is not None and (switch == "roa" or name in set(ROA_SWITCHED) - set(SWITCHED)):
+    if getattr(args, "torque_limit", None) is not None and hands_over_on_roa(name, switch):
         options.append(("limit", (args.torque_limit,) * len(robot.torque_limits)))  # the level of the run's limits
     given = {k: getattr(args, k, None) for k in ("kD", "kP", "kV")}
     if all(v is None for v in given.values()):

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 from ..errors import PaaError
+from .studies import check_engine_args
 from .common import (check_fresh, controller_parent, finish, folder, finite, initial_state, output_lock, print_json, robot_parent,
                      seed, spec_from_args)
 
@@ -15,6 +16,7 @@ def cmd_realaigym(args):
     check_fresh(args)
     if args.seed is not None and args.protocol == "performance-v2":
         raise PaaError("--seed applies to the protocols robustness-v2 and global-v3: performance-v2 draws nothing")
+    engine = check_engine_args(args)
     robot = load_robot(args.robot)
     task = Task.named(args.goal, robot)
     spec = spec_from_args(args, robot, task)
@@ -22,7 +24,7 @@ def cmd_realaigym(args):
     with output_lock(args.out, "realaigym"):
         drawn = {} if args.seed is None else {"seed": args.seed}  # else the protocols' own default
         summary, arrays = run_protocol(args.protocol, robot, spec, task, x0, out_dir=args.out, fresh=args.fresh,
-                                       progress=not args.json, **drawn)
+                                       progress=not args.json, **engine, **drawn)
         if args.out and not summary["interrupted"]:
             write_realaigym(args.out, summary, arrays)
     if args.json:
@@ -52,7 +54,7 @@ def _print(summary, out):
 
 
 def register(sub, parser_class):
-    from ..studies.settings import REALAIGYM_PROTOCOLS as PROTOCOLS
+    from ..studies.settings import REALAIGYM_ENGINES as ENGINES, REALAIGYM_PROTOCOLS as PROTOCOLS
 
     p = sub.add_parser("realaigym", parents=[robot_parent("realaigym_acrobot"), controller_parent()],
                        help="RealAIGym's benchmark protocols, as their code computes them",
@@ -74,5 +76,12 @@ def register(sub, parser_class):
     p.add_argument("--out", type=folder, metavar="DIR", help="folder for realaigym.json, the CSV or the charts"
                    " (robustness: the finished runs too, a rerun resumes)")
     p.add_argument("--fresh", action="store_true", help="forget the runs kept in --out")
+    p.add_argument("--engine", choices=ENGINES, default="cpu",
+                   help="cpu: their simulator compiled on this machine's CPU; warp: every run a thread of a Warp"
+                        " device, the controller on the device too (pip install 'paa_mj[gpu]'; float64; controllers"
+                        " vcl, vc, vcl-only, vc-only, lqr, passive)")
+    p.add_argument("--device", metavar="NAME",
+                   help="the Warp device of --engine warp: cpu, cuda:0, ... (default: $PAA_MJ_WARP_DEVICE, else the"
+                        " first GPU, else cpu)")
     p.add_argument("--json", action="store_true", help="print the summary as one JSON object on stdout")
     p.set_defaults(func=cmd_realaigym)

@@ -64,10 +64,6 @@ def run_from_args(args, progress=True):
     # the analytic engine has no time step; its cost is counted at 1 ms as in its own check
     step = args.dt or (1e-3 if args.engine == "analytic" else float(robot.model.opt.timestep))
     check_duration(args.t_final, step)
-    if args.engine != "analytic":
-        from ..sim.inputs import check_whole_steps
-
-        check_whole_steps(args.t_final, step)
     spec = spec_from_args(args, robot, task)
     controller = spec.build(robot)
     x0 = initial_state(args, robot, task)

@@ -250,7 +250,7 @@ def _register_robustness(sub):
 
 
 def _register_compare(sub):
-    from ..studies.settings import COMPARE_CONTROLLERS, COMPARE_SIZES, FACTOR_LABELS, FACTOR_ORDER
+    from ..studies.settings import COMPARE_CONTROLLERS, COMPARE_SIZES, FACTOR_ORDER, factor_label
 
     p = sub.add_parser("compare", parents=[robot_parent(), goal_parent(), study_parent(),
                                            output_parent("leaderboard.md, leaderboard.json, the charts, kips.npz,"
@@ -259,7 +259,7 @@ def _register_compare(sub):
                        description="Score kip controllers from (65) the way RealAIGym scores swing-ups: time, torque,"
                                    " effort, smoothness and speed of the kip, success under model error, noise,"
                                    " torque noise, delay, pushes and perturbed starts, and reach over a grid of"
-                                   " starts. Robustness: " + ", ".join(FACTOR_LABELS[k] for k in FACTOR_ORDER)
+                                   " starts. Robustness: " + ", ".join(factor_label(k) for k in FACTOR_ORDER)
                                    + ".")
     p.add_argument("--controllers", default=",".join(COMPARE_CONTROLLERS), metavar="A,B,...",
                    help="built-in names or FILE.py:Class, comma-separated")

@@ -187,7 +187,9 @@ class Controller:
 
     Subclasses set ``name`` and implement :meth:`law`; :meth:`torque` checks the width of the states against
     the controller's :attr:`binding` first. A stateless controller needs nothing else. ``mode`` is 0 unless
-    the controller switches.
+    the controller switches. A controller that holds each torque over a period (sampled data, as a policy held
+    over an environment step) states it as ``period`` [s], and the analytic engine, which integrates laws continuous
+    in time, refuses it.
     """
 
     name = "controller"

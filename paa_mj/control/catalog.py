@@ -32,6 +32,14 @@ SWITCHED = ("vcl", "vc")
 #: Controllers that can hand over on the LQR's region of attraction, whose level takes the run's torque limits
 #: (option limit: the model's actuator ranges capped by it).
 ROA_SWITCHED = SWITCHED + ("vcl-roa", "vc-roa")
+
+
+def hands_over_on_roa(name, switch=None) -> bool:
+    """Whether the controller ``name`` (with the option ``switch``) hands over on the LQR's region of attraction,
+    whose level depends on the run's torque limits (its option ``limit``)."""
+    return name in set(ROA_SWITCHED) - set(SWITCHED) or (name in SWITCHED and switch == "roa")
+
+
 #: Controllers that take options, and which.
 OPTIONS = {name: (("limit", "duration", "intervals") if name in PLANNERS else ())
            + (("lqr_weights",) if name in LQR_CONTROLLERS else ()) + (("switch",) if name in SWITCHED else ())

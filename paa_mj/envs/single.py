@@ -26,8 +26,8 @@ Dynamics
     step, 1 ms for the stored robots): a control period of 10 ms in v1, 1 ms in v0 at 1 ms. The physics runs in compiled code
     (``mj_step`` called from numba, as :mod:`paa_mj.sim.engine` does), the same code for one
     environment and for the vector environment. ``physics="analytic"`` steps the robot's own equations
-    of motion by the same RK4 instead (:mod:`paa_mj.sim.rk4`): the same equations, states that agree
-    with MuJoCo's to rounding, at under a tenth of the cost (``paa-mj bench``).
+    of motion by the same RK4 instead (:mod:`paa_mj.sim.rk4`; a model of another integrator is refused): the
+    same equations, states that agree with MuJoCo's to rounding, at under a tenth of the cost (``paa-mj bench``).
 Termination and truncation
     Terminated when the state diverges (non-finite, speeds above 1e4 rad/s, MuJoCo warnings); the
     episode then ends on the last good state. Balance also terminates when the state after a step has
@@ -223,7 +223,7 @@ class GymnastEnv(gym.Env):
     def _info(self):
         r = self._robots
         return {"q": r.q[0].copy(), "qd": r.qd[0].copy(), "time": float(r.time()[0]),
-                "diverged": bool(r.episodes.diverged[0]), "is_success": bool(r.success()[0])}
+                "diverged": bool(r.episodes.diverged[0]), "is_success": bool(r.success(self.terminate_margin)[0])}
 
     def reset(self, *, seed=None, options=None):
         """Back to :attr:`start` (or ``options["x0"]``), angles and speeds perturbed uniformly by up to

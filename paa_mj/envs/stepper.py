@@ -33,6 +33,7 @@ from numba import carray, njit, types
 from numba.extending import intrinsic, register_jitable
 
 from ..mujoco_log import mujoco_log_off
+from ..sim.integrators import integrator_name
 from ..sim.mujoco_lib import mj_step as _mj_step
 from ..sim.rk4 import rk4_constants, rk4_step, work_size
 from ..sim.step import _WARNINGS, MAX_SPEED
@@ -206,10 +207,13 @@ def start_episode(rules, episodes, i):
 
 
 @njit(cache=True)
-def success_now(episodes, window, out):
-    """Each robot's success (:func:`~paa_mj.task.book_succeeded`) as if its episode ended now."""
+def success_now(episodes, window, terminate_margin, out):
+    """Each robot's success (:func:`~paa_mj.task.book_succeeded`) as if its episode ended now: an episode that
+    diverged or left region (68) by ``terminate_margin`` did not finish, and is no success, as a run cut short is
+    none for the engines."""
     for i in range(out.size):
-        out[i] = book_succeeded(episodes.book[i], episodes.phys_step[i], not episodes.diverged[i], False, window)
+        finished = not episodes.diverged[i] and episodes.margin[i] < terminate_margin
+        out[i] = book_succeeded(episodes.book[i], episodes.phys_step[i], finished, False, window)
 
 
 class EpisodeRecords:
@@ -250,10 +254,10 @@ class EpisodeRecords:
         """Simulated time since reset [s], as the engines give it to controllers (steps x time step)."""
         return self.episodes.phys_step * self.model.opt.timestep
 
-    def success(self):
+    def success(self, terminate_margin):
         """Each episode's success so far, as if it ended now (:func:`success_now`)."""
         out = np.empty(len(self.episodes.q), bool)
-        success_now(self.episodes, self.window, out)
+        success_now(self.episodes, self.window, float(terminate_margin), out)
         return out
 
 
@@ -261,6 +265,9 @@ class Robots(EpisodeRecords):
     """N copies of one robot's state and their episode counters, stepped by :func:`advance` (module docstring)."""
 
     def __init__(self, model, n, frame_skip, kind, torque_limits, task, physics="mujoco", analytic=None):
+        if physics != "mujoco" and integrator_name(model) != "RK4":
+            raise ValueError(f"physics 'analytic' steps RK4, and this model's integrator is"
+                             f" {integrator_name(model)}: use physics 'mujoco' (or the model with integrator RK4)")
         self.model, self.physics_name, self.task = model, physics, task
         self._new_episodes(model, n, kind, torque_limits, task)
         if physics == "mujoco":

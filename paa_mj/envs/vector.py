@@ -140,7 +140,7 @@ def _vector_finish(lo, hi, restart, episodes, counters, out):
             out.q[i, j], out.qd[i, j] = episodes.q[i, j], episodes.qd[i, j]
         out.time[i] = episodes.phys_step[i] * counters.timestep
         out.diverged[i] = episodes.diverged[i]
-        out.success[i] = book_succeeded(episodes.book[i], episodes.phys_step[i], not episodes.diverged[i], False,
+        out.success[i] = book_succeeded(episodes.book[i], episodes.phys_step[i], not terminated, False,
                                         counters.window)
 
 
@@ -403,7 +403,7 @@ class GymnastVectorEnv(VectorEnv):
         """The information of the sub-environments in ``mask`` (all by default), batched with masks."""
         robots = self._robots
         values = {"q": robots.q, "qd": robots.qd, "time": robots.time(), "diverged": robots.episodes.diverged,
-                  "is_success": robots.success()}
+                  "is_success": robots.success(self._counters.terminate_margin)}
         info = {}
         for key, value in values.items():
             if mask is None:

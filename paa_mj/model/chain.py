@@ -173,7 +173,7 @@ def solve_into(matrix, rhs, out):
 def _solve_in_place(a, x):
     """:func:`solve_into` on ``a`` (n, n) and ``x`` (n, k) themselves: ``x`` becomes the solution and ``a`` is
     overwritten; False (``x`` left partly eliminated) where a pivot is exactly zero."""
-    n, k = x.shape
+    n, k = x.shape[0], x.shape[1]
     for col in range(n):
         pivot = col
         for row in range(col + 1, n):

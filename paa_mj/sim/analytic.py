@@ -17,19 +17,19 @@ import numpy as np
 from numba import njit, types
 from tqdm import tqdm
 
-from ..control.base import (KERNEL_TYPE, CompiledForm, KernelAddress, check_binding, mode_of, reset_controller,
-                            torque_of)
+from ..control.base import (KERNEL_TYPE, CompiledForm, KernelAddress, check_binding, controller_name, mode_of,
+                            reset_controller, torque_of)
 from ..control.combined import CombinedController
 from ..errors import PaaError, SimulationDiverged
 from ..limits import check_memory, check_steps, positive_finite
 from ..model.robot import Robot
-from ..task import BOOK, Task, as_task, book_rows
+from ..task import BOOK, Task, as_task, book_rows, entered_times
 from .batch import controllers_for
 from .inputs import check_initial_state, check_robot, sample_interval, steps_for
 from .rk4 import acceleration_into, rk4_constants, work_size
 from .rollout import describe_controller, trajectory_quantities
 from .step import MAX_SPEED, NONFINITE_TORQUE, RUNAWAY, STATUS_TEXT
-from .trajectory import Trajectory
+from .trajectory import Trajectory, seconds_or_none
 
 
 #: Smallest step of the adaptive integrator [s]; a smooth closed loop of this model takes steps of 1e-5 s or more.
@@ -118,6 +118,11 @@ def _phases(controller):
         if not callable(getattr(controller.condition, "margin", None)):
             raise PaaError("the analytic engine needs a switching condition with a margin (an ODE event)")
         return [controller.first, controller.second], controller.condition
+    period = getattr(controller, "period", None)
+    if isinstance(period, (int, float, np.integer, np.floating)) and period > 0:
+        raise PaaError(f"the analytic engine integrates laws continuous in time, and {controller_name(controller)}"
+                       f" holds each torque for {float(period) * 1e3:g} ms (a sampled-data controller); use --engine"
+                       " mujoco")
     mode_of(controller, (1,))  # a mode that cannot be read, or is not an integer, is refused in one line
     if not isinstance(getattr(controller, "mode", 0), (int, np.integer)):
         raise PaaError(f"the analytic engine cannot integrate {type(controller).__name__}: it keeps a state that"
@@ -363,6 +368,7 @@ class _Integration:
         finished = not failed and not self.interrupted
         end = steps_for(t_final, self.judge_dt) if finished else self.judged
         traj.meta["success"] = bool(self.task.succeeded(self.book[None], end, finished, False, self.judge_dt)[0])
+        traj.meta["t_region"] = seconds_or_none(entered_times(self.book, self.judge_dt))
         if failed:
             when = float(t[-1]) if len(t) else 0.0
             why = self.failure or "non-finite state"

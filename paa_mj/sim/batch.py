@@ -25,7 +25,7 @@ from ..limits import check_memory, check_seed, check_steps
 from ..model.params import RobotParams
 from ..model.robot import Robot
 from ..progress import progress as progress_bar
-from ..task import B_ENTERED, B_LAST_FAR, Task, as_task
+from ..task import B_LAST_FAR, Task, as_task, entered_times
 from . import engine
 from .engine import DIVERGED, FINISHED, RETIRED, RUNNING, STATUS_TEXT, STOPPED, run as run_engine
 from .inputs import check_initial_states, check_robot, per_rollout, sample_interval, steps_for
@@ -273,8 +273,7 @@ def outcome_arrays(plan: engine.Plan, outcome: engine.Outcome, controllers, plan
     balanced = task.balanced(final[:, :links], final[:, links:]) & ended
     steps = rollouts["step"].copy()
     switch = np.where(rollouts["switch"] >= 0, rollouts["switch"] * dt, np.nan)
-    entered = state.book[:, B_ENTERED]
-    region = np.where(entered >= 0, entered * dt, np.nan)
+    region = entered_times(state.book, dt)
     t_balanced = np.where(balanced, (state.book[:, B_LAST_FAR] + 1) * dt, np.nan)
     e_err, V = np.empty(len(final)), np.empty(len(final))
     for rows in _groups(plan.model_index, controllers).values():

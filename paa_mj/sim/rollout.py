@@ -20,7 +20,7 @@ from . import engine
 from .batch import NO_DISTURBANCES, Disturbances, _lyapunov, build_plan, controllers_for, outcome_arrays
 from .inputs import check_initial_state, check_robot, sample_interval
 from .integrators import integrator_name, mujoco_model_for
-from .trajectory import Trajectory
+from .trajectory import Trajectory, seconds_or_none
 
 __all__ = ["simulate_mujoco", "describe_controller", "trajectory_quantities", "divergence_reason"]
 
@@ -99,6 +99,7 @@ def simulate_mujoco(robot: Robot, controller="vcl", x0: ArrayLike | None = None,
                       robot_xml=robot.xml)
     when = float(out["t_end"][0])
     traj.meta["success"] = bool(out["success"][0])
+    traj.meta["t_region"] = seconds_or_none(out["t_region"][0])
     gain = balance_gain_of(controllers[0])
     if gain is not None:
         traj.meta["balance_sampling"] = sampled_balance(robot.analytic, gain, dt, task)

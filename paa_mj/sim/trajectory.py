@@ -27,6 +27,12 @@ def _try(remedies) -> str:
     return "; try " + (", ".join(remedies[:-1]) + " or " if len(remedies) > 1 else "") + remedies[-1]
 
 
+def seconds_or_none(value):
+    """A time [s] as a float, None where it is NaN (never happened)."""
+    value = float(value)
+    return None if np.isnan(value) else value
+
+
 @dataclass
 class Trajectory:
     """Samples of one rollout.
@@ -113,13 +119,20 @@ class Trajectory:
             return f"reached the {self.goal} goal and held it (the task's success){switched}{saturated}"
         longer = ["a longer --t-final"] + ["other gains (paa-mj gain-search compares rules of gains)"] * gains
         if self.switch_time is None:
-            inside = self.task.in_switch_region(self.q, self.qd) if len(self) else np.zeros(0, bool)
-            if not inside.any():
+            entered = self._entered_region()
+            if entered is None:
                 return (f"never entered region (68) in {self.meta.get('t_final', 0.0):g} s{saturated}{_try(longer)}")
-            return (f"entered region (68) at t = {float(self.t[np.argmax(inside)]):.4f} s but never handed over to"
-                    f" (67){saturated}")
+            return f"entered region (68) at t = {entered:.4f} s but never handed over to (67){saturated}"
         return f"not balanced at the {self.goal} goal at the end{switched}{saturated}" + (
             unstable or _try(["--switch roa (a certified hand-over)"] * region + ["a longer --t-final"]))
+
+    def _entered_region(self):
+        """The first entry into region (68) [s] as the engine judged it at every step (``meta["t_region"]``), else
+        as the recorded samples show it; None if never."""
+        if "t_region" in self.meta:
+            return self.meta["t_region"]
+        inside = self.task.in_switch_region(self.q, self.qd) if len(self) else np.zeros(0, bool)
+        return float(self.t[np.argmax(inside)]) if inside.any() else None
 
     def _unstable_balance(self) -> str:
         """Where the run switched to a balance that is unstable when sampled at its step: that, and what to do."""
@@ -170,8 +183,10 @@ class Trajectory:
         table = np.column_stack([self.t, self.q, self.qd, self.tau, self.E_minus_Er, self.V, self.mode])
 
         def csv(path):
+            # 12 digits: a sample time of k dt is written as the step's time (6.25e-05, 0.03), never rounded to a
+            # microsecond (steps of 62.5 us and less) nor shown as k dt's rounding (0.030000000000000002)
             np.savetxt(path, table, delimiter=",", header=header, comments="",
-                       fmt=["%.6f"] + ["%.17g"] * (3 * n + 1) + ["%d"])
+                       fmt=["%.12g"] + ["%.17g"] * (3 * n + 1) + ["%d"])
 
         return write_set(out_dir, {
             f"{stem}.npz": npz_writer(**arrays, switch_time=np.nan if self.switch_time is None else self.switch_time,

@@ -53,7 +53,7 @@ from .step import RUNNING, account, add_effort_work, apply_pushes, call_controll
     measure_into, state_status, verdict
 from .warp_device import device_name, load_warp
 
-__all__ = ["DEVICE_LAWS", "device_controllers", "device_data", "device_model", "device_worlds", "run"]
+__all__ = ["DEVICE_LAWS", "device_controllers", "device_law", "device_data", "device_model", "device_worlds", "run"]
 
 #: Steps between two looks from Python (progress, Ctrl-C, every rollout ended).
 SEGMENT = 256
@@ -77,20 +77,16 @@ def _device_laws():
 #: What ``--engine warp`` runs: the controllers whose laws have a device form (module docstring).
 DEVICE_LAWS = ("vcl", "vc", "vcl-only", "vc-only", "lqr", "passive")
 _REFUSAL = ("controller {name} has no law on the device (the warp engine runs vcl, vc, vcl-only and vc-only on the"
-            " gymnast at its folded goal, lqr and passive on any robot); use --engine mujoco")
+            " gymnast at its folded goal, lqr and passive on any robot); use {instead}")
 
 
 def device_controllers(plan: engine.Plan, controllers):
     """Each rollout's packed compiled form, checked to have a device law and to share its kernels with the others:
     (the kernels (first, second, condition), params (N, P), memory (N, S)); one-line refusals otherwise."""
-    laws = _device_laws()
     forms, keys = engine.packed_controllers(plan, controllers)
     kernels = None
     for key in dict.fromkeys(keys):
-        p = forms[key]
-        triple = None if p is None else (p.first, p.second, p.condition)
-        if triple is None or any(k not in laws for k in triple):
-            raise PaaError(_REFUSAL.format(name=controller_name(controllers[keys.index(key)])))
+        triple = device_law(forms[key], controller_name(controllers[keys.index(key)]))
         if kernels is not None and triple != kernels:
             raise PaaError("the warp engine runs one controller law for every rollout of a batch (gains and models"
                            " may differ): split the batch, or use --engine mujoco")
@@ -105,6 +101,17 @@ def device_controllers(plan: engine.Plan, controllers):
         memory[k, :p.memory.size] = p.memory
     which = np.fromiter((position[key] for key in keys), dtype=np.int64, count=len(keys))
     return kernels, params[which], memory[which]
+
+
+def device_law(packed, name, instead="--engine mujoco"):
+    """The kernels (first, second, condition) of a packed compiled controller (None: it has no compiled form), or a
+    one-line refusal naming the controller ``name`` where one of them has no device form (and the engine to use
+    ``instead``)."""
+    laws = _device_laws()
+    triple = None if packed is None else (packed.first, packed.second, packed.condition)
+    if triple is None or any(k not in laws for k in triple):
+        raise PaaError(_REFUSAL.format(name=name, instead=instead))
+    return triple
 
 
 def _check_plan(plan: engine.Plan):

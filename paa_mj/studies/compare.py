@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..control.catalog import PLANNERS
+from ..control.catalog import PLANNERS, hands_over_on_roa
 from ..control.registry import ControllerSpec
 from ..errors import PaaError
 from ..limits import physical_torque_scale
@@ -49,13 +49,15 @@ from .basin import basin
 from .robustness import MAX_TRIALS, robustness
 from .runner import CHUNK
 from .settings import (BASIN_MAX_GRID, COMPARE_CONTROLLERS as DEFAULT_CONTROLLERS, COMPARE_FACTORS as FACTORS,
-                       COMPARE_SIZES as SIZES, COMPARE_SWEEPS as SWEEPS, FACTOR_LABELS, FACTOR_ORDER)
+                       COMPARE_SIZES as SIZES, COMPARE_SWEEPS as SWEEPS, FACTOR_ORDER, factor_label)
 
 METRICS = ("t_region", "t_balanced", "max_tau", "int_tau2", "work", "smoothness", "max_speed", "success")
 
 
 def _spec(name, limit, task):
-    options = (("limit", tuple(limit)),) if name in PLANNERS else ()
+    """The spec of ``name`` run under the board's torque ``limit``: a planner plans its kip for it, a hand-over on the
+    region of attraction takes its level at it."""
+    options = (("limit", tuple(limit)),) if name in PLANNERS or hands_over_on_roa(name) else ()
     return ControllerSpec(name, options=options, task=task)
 
 
@@ -189,7 +191,7 @@ def compare(robot: Robot, controllers=DEFAULT_CONTROLLERS, torque_limit=None, tr
                             " a swept deterministic factor's rate is the share of its levels that succeed, one run"
                             " each (random: false), without an interval",
                "torque_noise_scale": float(np.max(limit)),
-               "factors": {k: {"label": FACTOR_LABELS[k], "random": k in FACTORS,
+               "factors": {k: {"label": factor_label(k, sweeps.get(k)), "random": k in FACTORS,
                                **({"level": FACTORS[k]} if k in FACTORS else {"levels": list(sweeps[k])})}
                            for k in FACTOR_ORDER},
                "interrupted": False, "controllers": {}}

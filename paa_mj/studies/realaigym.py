@@ -34,7 +34,7 @@ import math
 
 import numpy as np
 
-from ..control.base import reset_controller, torque_of
+from ..control.base import controller_name, reset_controller, torque_of
 from ..errors import PaaError
 from ..model.robot import Robot
 from ..model.states import wrap
@@ -42,7 +42,7 @@ from ..sim import protocol
 from ..sim.engine import pack
 from ..task import Task, as_task
 from . import realaigym_scores as scores
-from .settings import REALAIGYM_PROTOCOLS as PROTOCOLS
+from .settings import REALAIGYM_ENGINES as ENGINES, REALAIGYM_PROTOCOLS as PROTOCOLS
 from .store import ChunkStore, study_key
 
 #: Their simulation settings (``sim_parameters.py`` of the three leaderboards).
@@ -54,6 +54,15 @@ REPETITIONS, PERTURBATION_RUNS = 10, 50
 EPSILON = (0.35, 1.0)
 RESETS, RESET_LENGTH = 15, 0.2
 CHUNK = 32
+#: Chunks run at once on a Warp device (a finished batch is kept chunk by chunk).
+DEVICE_CHUNKS = 32
+
+
+def check_engine(engine):
+    """``engine``, one of :data:`ENGINES`, or a one-line refusal."""
+    if engine not in ENGINES:
+        raise PaaError(f"the realaigym engine is one of {', '.join(ENGINES)}, not {engine!r}")
+    return engine
 
 
 def their_times(t_final, dt=DT, t0=0.0):
@@ -147,25 +156,57 @@ def perturbations(rng, n, t_final=T_FINAL, dt=DT, per_joint=3, min_gap=1.0, sigm
 
 
 class Runs:
-    """One controller, run again and again under their simulator: compiled when it has a compiled form."""
+    """One controller, run again and again under their simulator: compiled when it has a compiled form; with
+    ``engine="warp"``, many runs at once on a Warp ``device`` (:mod:`paa_mj.sim.protocol_warp`). Starts are in
+    paa_mj's angles, the states of a run in theirs (:func:`their_angles`), as their simulator keeps them."""
 
-    def __init__(self, robot: Robot, controller):
+    def __init__(self, robot: Robot, controller, engine="cpu", device=None):
         self.robot, self.controller, self.n = robot, controller, robot.params.n_links
         form = controller.compiled() if hasattr(controller, "compiled") else None
         self.packed = None if form is None else pack(form)
+        self.engine, self.device = check_engine(engine), device
+        if engine == "warp":
+            from ..sim.warp_engine import device_law
 
-    def run(self, P, x0, T, *, delay=0.0, sigma_meas=None, responsiveness=1.0, sigma_u=None, normals=None,
-            perturbation=None, reset=None):
-        """States X (K, 2n) and applied torques U (K - 1, n) of one run on the plant ``P`` over the times T (K,)."""
+            device_law(self.packed, controller_name(controller), "--engine cpu")  # refused before any run
+
+    def disturbances(self, delay=0.0, sigma_meas=None, responsiveness=1.0, sigma_u=None, normals=None,
+                     perturbation=None, reset=None):
+        """One run's disturbances as the simulator takes them: the delay in steps, the measurement's and the
+        motor's sigmas, the responsiveness, the normals (N, 5n), the pulses (n, K) and the reset record (None:
+        none of that kind)."""
+        n = self.n
+        return (int(delay / DT) + 1, np.zeros(2 * n) if sigma_meas is None else np.asarray(sigma_meas, float),
+                float(responsiveness), np.zeros(n) if sigma_u is None else np.asarray(sigma_u, float), normals,
+                None if perturbation is None else np.ascontiguousarray(perturbation), reset)
+
+    def run(self, P, x0, T, **disturbances):
+        """States X (K, 2n) (their angles) and applied torques U (K - 1, n) of one run from ``x0`` (paa_mj's angles)
+        on the plant ``P`` over the times T (K,); ``disturbances``: :meth:`disturbances`'s keywords."""
+        return self.run_many([(P, x0, disturbances)], T)[0]
+
+    def run_many(self, runs, T, advanced=None):
+        """(X, U) of each run of ``runs`` ((P, x0, disturbances) each, as :meth:`run` takes them), all over the
+        times T; ``advanced(steps)`` is told of the steps run as they go. Ctrl-C raises KeyboardInterrupt."""
+        T = np.ascontiguousarray(T, float)
+        steps = len(T) - 1
+        runs = [(P, their_angles(np.reshape(x0, (1, -1)))[0], d) for P, x0, d in runs]
+        if self.engine == "warp":
+            return self._run_on_device(runs, T, advanced)
+        out = []
+        for P, x0, disturbances in runs:
+            out.append(self._run_one(P, x0, T, *self.disturbances(**disturbances)))
+            if advanced is not None:
+                advanced(steps)
+        return out
+
+    def _run_one(self, P, x0, T, delay_steps, sigma_meas, responsiveness, sigma_u, normals, perturbation, reset):
         n, steps = self.n, len(T) - 1
         X, U = np.full((steps + 1, 2 * n), np.nan), np.full((steps, n), np.nan)
         X[0] = x0
-        args = (P, X, U, np.ascontiguousarray(T, float), DT, int(delay / DT) + 1,
-                np.zeros(2 * n) if sigma_meas is None else np.asarray(sigma_meas, float), float(responsiveness),
-                np.zeros(n) if sigma_u is None else np.asarray(sigma_u, float),
+        args = (P, X, U, T, DT, delay_steps, sigma_meas, responsiveness, sigma_u,
                 np.zeros((steps, 5 * n)) if normals is None else normals,
-                np.zeros((n, 0)) if perturbation is None else np.ascontiguousarray(perturbation),
-                np.zeros(0) if reset is None else reset)
+                np.zeros((n, 0)) if perturbation is None else perturbation, np.zeros(0) if reset is None else reset)
         if self.packed is not None:
             k = self.packed
             done = protocol.rollout_compiled(k.first, k.second, k.condition, k.params, k.memory.copy(), *args)
@@ -173,24 +214,44 @@ class Runs:
             done = self._run_python(*args)
         return X[:done + 1], U[:done]
 
+    def _run_on_device(self, runs, T, advanced):
+        from ..sim import protocol_warp
+
+        batch = protocol_warp.Rollouts(self.n, T, DT)
+        for P, x0, disturbances in runs:
+            batch.add(P, x0, *self.disturbances(**disturbances))
+        X, U, done, interrupted = protocol_warp.run(batch, self.packed, controller_name(self.controller),
+                                                    device=self.device, advanced=advanced)
+        if interrupted:
+            raise KeyboardInterrupt
+        return [(X[r, :d + 1], U[r, :d]) for r, d in enumerate(done)]
+
     def _run_python(self, P, X, U, T, dt, delay_steps, sigma_meas, responsiveness, sigma_u, normals, perturbation,
                     reset):
+        """:func:`~paa_mj.sim.protocol.rollout_compiled`'s loop with the controller called from Python."""
         n = self.n
         reset_controller(self.controller)
-        work, x_meas, u = np.empty(protocol.work_size(n)), np.empty(2 * n), np.zeros(n)
+        A, (work, mass, force) = protocol.inertia_constants(P, n), protocol.scratch(n)
+        x_meas, seen, u = np.empty(2 * n), np.empty(2 * n), np.zeros(n)
+        resetting, pulses = reset.size > 0, perturbation.shape[1]
         for k in range(U.shape[0]):
-            protocol.measure(X, k, delay_steps, sigma_meas, normals[k], x_meas)
-            if reset.size == 0 or not protocol.reset_command(reset, P, x_meas, T[k], u):
-                u[0] = 0.0
-                u[1:] = torque_of(self.controller, x_meas[:n], x_meas[n:], float(T[k]))
-            if not protocol.advance(P, X, U, k, T, dt, u, responsiveness, sigma_u, normals[k], perturbation, work):
+            if protocol.measure_or_reset_compiled(A, P, X, k, T, delay_steps, sigma_meas, normals[k], reset, resetting,
+                                                  x_meas, seen, u, work):
+                tau = torque_of(self.controller, seen[:n], seen[n:], float(T[k]))
+                protocol.command(u, np.asarray(tau, float))
+            if not protocol.advance_compiled(A, P, X, U, k, T, dt, u, responsiveness, sigma_u, normals[k],
+                                             perturbation, pulses, work, mass, force):
                 return k + 1
         return U.shape[0]
 
 
+def their_goal(robot, task):
+    """The task's goal state (2n) in their angles."""
+    return their_angles(np.concatenate([task.goal, np.zeros(robot.params.n_links)])[None, :])[0]
+
+
 def _goal_height(robot, task):
-    goal = np.concatenate([task.goal, np.zeros(robot.params.n_links)])[None, :]
-    return float(scores.tip_height(their_angles(goal), robot.params.l)[0])
+    return float(scores.tip_height(their_goal(robot, task)[None, :], robot.params.l)[0])
 
 
 def up_threshold(robot, task):
@@ -202,14 +263,15 @@ def up_threshold(robot, task):
 
 
 def up_rows(robot, task, X):
-    """Rows of paa_mj's states X (K, 2n) counted as up by the swing-up time (v2) and the time up (v3): their tip
+    """Rows of states X (K, 2n) in their angles counted as up by the swing-up time (v2) and the time up (v3): their tip
     rule where :func:`up_threshold` gives one; otherwise the goal's pose, every angle within the task's switch
     angle of the goal (the angles of region (68))."""
     threshold = up_threshold(robot, task)
     if threshold is not None:
-        return scores.tip_height(their_angles(X), robot.params.l) > threshold
+        return scores.tip_height(X, robot.params.l) > threshold
     n = robot.params.n_links
-    return np.all(np.abs(wrap(np.asarray(X, float)[:, :n] - task.goal)) < task.switch_region.angle, axis=1)
+    return np.all(np.abs(wrap(np.asarray(X, float)[:, :n] - their_goal(robot, task)[:n])) < task.switch_region.angle,
+                  axis=1)
 
 
 def _saved_rows(T, X, U):
@@ -217,12 +279,12 @@ def _saved_rows(T, X, U):
     return T[:len(U)], X[:len(U)], U
 
 
-def performance_v2(robot: Robot, controller, task: Task, x0=None) -> dict:
-    """Their simulation_v2 run and scores (module docstring)."""
-    runs = Runs(robot, controller)
+def performance_v2(robot: Robot, controller, task: Task, x0=None, engine="cpu", device=None) -> dict:
+    """Their simulation_v2 run and scores (module docstring); ``engine``, ``device``: :class:`Runs`'s."""
+    runs = Runs(robot, controller, engine, device)
     T = their_times(T_FINAL)
     X, U = runs.run(plant(robot), hanging(runs.n) if x0 is None else x0, T)
-    rows = _saved_rows(T[:len(X)], their_angles(X), U)
+    rows = _saved_rows(T[:len(X)], X, U)
     result = scores.performance(*rows, up_rows(robot, task, X[:len(U)]), T_FINAL)
     summary = {"criteria": result, "score": result["score_v2"], "steps": len(U)}
     if len(X) < len(T):
@@ -230,20 +292,19 @@ def performance_v2(robot: Robot, controller, task: Task, x0=None) -> dict:
     return summary, dict(zip("TXU", rows))
 
 
-def global_v3(robot: Robot, controller, task: Task, x0=None, seed=777) -> dict:
-    """Their simulation_v3 run (the global policy test) and its score (module docstring)."""
-    runs = Runs(robot, controller)
+def global_v3(robot: Robot, controller, task: Task, x0=None, seed=777, engine="cpu", device=None) -> dict:
+    """Their simulation_v3 run (the global policy test) and its score (module docstring); ``engine``, ``device``:
+    :class:`Runs`'s."""
+    runs = Runs(robot, controller, engine, device)
     n = runs.n
     rng = np.random.RandomState(seed)
     targets = rng.uniform(0.0, 2 * np.pi, (10 * RESETS + 1, 2 * n)) - np.pi
     average = T_FINAL_GLOBAL / (RESETS + 1.0)
     times = np.linspace(average, T_FINAL_GLOBAL - average, RESETS) + 2.0 * (rng.rand(RESETS) - 0.5)
-    angles = targets[:RESETS + 1, :n].copy()
-    angles[:, 0] -= np.pi  # their targets are in their angles
     T = their_times(T_FINAL_GLOBAL)
-    record = protocol.reset_record(times, angles, RESET_LENGTH)
+    record = protocol.reset_record(times, targets[:RESETS + 1, :n], RESET_LENGTH)
     X, U = runs.run(plant(robot, global_test=True), hanging(n) if x0 is None else x0, T, reset=record)
-    Tr, Xr, _ = _saved_rows(T[:len(X)], their_angles(X), U)
+    Tr, Xr, _ = _saved_rows(T[:len(X)], X, U)
     up = up_rows(robot, task, X[:len(U)])
     time_up = scores.uptime(Tr, up)
     summary = {"time_up": time_up, "score": time_up / T_FINAL_GLOBAL, "reset_times": times.tolist(),
@@ -266,59 +327,70 @@ def robustness_cases(robot: Robot):
     return cases
 
 
-def _case_run(runs, robot, nominal, case, x0, T, seed):
-    """One run of robustness v2 (``case`` of :func:`robustness_cases`); ``nominal``: the robot's plant."""
+def _case_inputs(runs, robot, nominal, case, T, seed):
+    """The plant and the disturbances (:meth:`Runs.disturbances`'s keywords) of one run of robustness v2 (``case`` of
+    :func:`robustness_cases`); ``nominal``: the robot's plant."""
     criterion, name, level, rep, value = case
     n = runs.n
     code = scores.ROBUSTNESS_CRITERIA.index(criterion)
     rng = np.random.RandomState([seed, code, level, rep])
     motors = (protocol.limits(nominal, n) != 0.0).astype(float)
     if criterion == "model":
-        return runs.run(plant(robot, (name, value)), x0, T)
+        return plant(robot, (name, value)), {}
     if criterion == "perturbation":
-        return runs.run(nominal, x0, T, perturbation=perturbations(rng, n))
+        return nominal, {"perturbation": perturbations(rng, n)}
     if criterion == "u_responsiveness":
-        return runs.run(nominal, x0, T, responsiveness=value)
+        return nominal, {"responsiveness": value}
     if criterion == "delay":
-        return runs.run(nominal, x0, T, delay=value)
+        return nominal, {"delay": value}
     normals = rng.standard_normal((len(T) - 1, 5 * n))
     if criterion == "measurement_noise":
-        return runs.run(nominal, x0, T, sigma_meas=np.r_[np.zeros(n), np.full(n, value)], normals=normals)
-    return runs.run(nominal, x0, T, sigma_u=value * motors, normals=normals)
+        return nominal, {"sigma_meas": np.r_[np.zeros(n), np.full(n, value)], "normals": normals}
+    return nominal, {"sigma_u": value * motors, "normals": normals}
 
 
 def robustness_v2(robot: Robot, controller, task: Task, x0=None, seed=777, *, out_dir=None, fresh=False,
-                  progress=True, key_definition=None) -> dict:
+                  progress=True, key_definition=None, engine="cpu", device=None) -> dict:
     """Their robustness_v2 benchmark (module docstring): each run's final state and success, each level's success,
-    the six scores and the overall one. Finished chunks are kept in ``out_dir`` (resumable)."""
+    the six scores and the overall one. Finished chunks are kept in ``out_dir`` (resumable); ``engine``, ``device``:
+    :class:`Runs`'s (a Warp device runs :data:`DEVICE_CHUNKS` chunks at once)."""
     from ..progress import progress as bar
 
-    runs = Runs(robot, controller)
+    runs = Runs(robot, controller, engine, device)
     n = runs.n
     x0 = hanging(n) if x0 is None else np.asarray(x0, float)
     T = their_times(T_FINAL)
     cases = robustness_cases(robot)
     nominal = plant(robot)
-    key = study_key({"study": "realaigym-robustness-v2", "x0": x0, "seed": seed, **(key_definition or {})})
+    # the device's rounding is not the CPU's: its runs are kept apart (the CPU's key is as it was before the engine)
+    on_device = {} if engine == "cpu" else {"engine": engine}
+    key = study_key({"study": "realaigym-robustness-v2", "x0": x0, "seed": seed, "states": "their angles",
+                     **(key_definition or {}), **on_device})
     store = ChunkStore(out_dir, key, fresh, "realaigym")
     final, steps = np.full((len(cases), 2 * n), np.nan), np.zeros(len(cases), int)
     chunks = range(0, len(cases), CHUNK)
+    per_batch = 1 if runs.engine == "cpu" else DEVICE_CHUNKS
     interrupted = False
     with bar(total=len(cases), desc="robustness-v2 runs", unit="run", enabled=progress) as shown:
         try:
-            for index, start in enumerate(chunks):
-                part = slice(start, start + CHUNK)
-                kept = store.load(index)
-                if kept is None:
-                    X_last, done = [], []
-                    for case in cases[part]:
-                        X, _ = _case_run(runs, robot, nominal, case, x0, T, seed)
-                        X_last.append(X[-1])
-                        done.append(len(X) - 1)
-                    kept = {"final": np.array(X_last), "steps": np.array(done)}
-                    store.save(index, kept)
-                final[part], steps[part] = kept["final"], kept["steps"]
-                shown.update(len(kept["steps"]))
+            for first in range(0, len(chunks), per_batch):
+                batch = range(first, min(first + per_batch, len(chunks)))
+                kept = {index: store.load(index) for index in batch}
+                todo = [index for index in batch if kept[index] is None]
+                inputs = [_case_inputs(runs, robot, nominal, case, T, seed) for index in todo
+                          for case in cases[chunks[index]:chunks[index] + CHUNK]]
+                results = iter(runs.run_many([(P, x0, d) for P, d in inputs], T,
+                                             advanced=lambda s: shown.update(s / (len(T) - 1))))
+                for index in batch:
+                    part = slice(chunks[index], chunks[index] + CHUNK)
+                    if kept[index] is None:
+                        rows = [next(results) for _ in cases[part]]
+                        kept[index] = {"final": np.array([X[-1] for X, _ in rows]),
+                                       "steps": np.array([len(X) - 1 for X, _ in rows])}
+                        store.save(index, kept[index])
+                    else:
+                        shown.update(len(kept[index]["steps"]))
+                    final[part], steps[part] = kept[index]["final"], kept[index]["steps"]
         except KeyboardInterrupt:
             interrupted = True
     return _robustness_summary(robot, task, cases, final, steps, len(T) - 1, interrupted), {}
@@ -327,7 +399,7 @@ def robustness_v2(robot: Robot, controller, task: Task, x0=None, seed=777, *, ou
 def _robustness_summary(robot, task, cases, final, steps, n_steps, interrupted):
     """Per criterion and parameter: the levels' values, every run's success and the level's success as their score
     counts it; the six scores and the overall one once every run has finished."""
-    goal = np.concatenate([task.goal, np.zeros(robot.params.n_links)])
+    goal = their_goal(robot, task)  # the final states are in their angles
     finished = steps > 0
     success = np.array([bool(f) and s == n_steps and scores.final_state_success(x, goal, EPSILON)
                         for x, s, f in zip(final, steps, finished)])
@@ -355,30 +427,44 @@ def _robustness_summary(robot, task, cases, final, steps, n_steps, interrupted):
 
 
 def run_protocol(protocol_name: str, robot: Robot, spec, task, x0=None, seed=777, *, out_dir=None, fresh=False,
-                 progress=True):
+                 progress=True, engine="cpu", device=None):
     """One protocol (``PROTOCOLS``) for the controller that ``spec`` (a
-    :class:`~paa_mj.control.registry.ControllerSpec`) builds: the summary and the arrays its files need."""
+    :class:`~paa_mj.control.registry.ControllerSpec`) builds, on ``engine`` (:data:`ENGINES`; ``device``: the Warp
+    device of ``warp``): the summary and the arrays its files need."""
     if protocol_name not in PROTOCOLS:
         raise PaaError(f"--protocol must be one of {', '.join(PROTOCOLS)}, not {protocol_name!r}")
+    check_engine(engine)
+    if device is not None and engine != "warp":
+        raise PaaError("a Warp device is chosen for the engine warp only")
     task = as_task(task, robot)
     controller = spec.for_task(task).build(robot)
     n = robot.params.n_links
     x0 = hanging(n) if x0 is None else np.asarray(x0, float)
     if protocol_name == "performance-v2":
-        result, arrays = performance_v2(robot, controller, task, x0)
+        result, arrays = performance_v2(robot, controller, task, x0, engine, device)
     elif protocol_name == "global-v3":
-        result, arrays = global_v3(robot, controller, task, x0, seed)
+        result, arrays = global_v3(robot, controller, task, x0, seed, engine, device)
     else:
         definition = {"robot": robot.xml, "controller": spec.short_name, "source": spec.source_digest(),
                       "recipe": repr(spec), "goal": task.name}
         result, arrays = robustness_v2(robot, controller, task, x0, seed, out_dir=out_dir, fresh=fresh,
-                                       progress=progress, key_definition=definition)
+                                       progress=progress, key_definition=definition, engine=engine, device=device)
     summary = {"protocol": protocol_name, "robot": robot.name, "controller": spec.short_name, "goal": task.name,
                "x0": x0.tolist(), "seed": seed if protocol_name != "performance-v2" else None,
-               "their_code": "dfki-ric-underactuated-lab/double_pendulum 1e8544e6", "result": result,
+               "their_code": "dfki-ric-underactuated-lab/double_pendulum 1e8544e6", "engine": engine,
+               "device": device_of(engine, device), "result": result,
                "interrupted": bool(result.get("interrupted", False)),
                "completed_fraction": float(result.get("completed_fraction", 1.0))}
     return summary, arrays
+
+
+def device_of(engine, device):
+    """The device a run of ``engine`` ran on: ``cpu`` for the CPU engine, else the Warp device's name."""
+    if engine == "cpu":
+        return "cpu"
+    from ..sim.warp_device import device_name, load_warp
+
+    return device_name(load_warp()[0], device)
 
 
 def board(robot: Robot, specs: dict, task, seed=777, progress=False) -> list[dict]:

@@ -41,9 +41,25 @@ COMPARE_FACTORS = {"noise": 0.01, "torque_noise": 0.03, "pushes": 0.1, "initial_
 #: The levels of each deterministic factor, swept (full size; --quick takes every second one).
 COMPARE_SWEEPS = {"model_error": tuple(float(v) for v in range(1, 11)),
                   "delay": tuple(float(v) for v in range(1, 11))}
-FACTOR_LABELS = {"model_error": "model error 1-10 %", "noise": "noise 0.01",
+#: The factors' labels; a swept factor's states its levels in its unit (:func:`factor_label`).
+FACTOR_LABELS = {"model_error": "model error {levels}", "noise": "noise 0.01",
                  "torque_noise": "torque noise 3 % of the limit",
-                 "delay": "delay 1-10 ms", "pushes": "pushes 0.1 b1", "initial_state": "start +-0.1"}
+                 "delay": "delay {levels}", "pushes": "pushes 0.1 b1", "initial_state": "start +-0.1"}
+SWEEP_UNITS = {"model_error": "%", "delay": "ms"}
+
+
+def factor_label(factor, levels=None):
+    """The label of a leaderboard factor, a swept one's with its ``levels`` (default: the full sweep): "1-10 %" for
+    evenly spaced levels one apart, "2-10 %, every 2 %" for those of ``--quick``, else the list."""
+    if factor not in SWEEP_UNITS:
+        return FACTOR_LABELS[factor]
+    levels, unit = COMPARE_SWEEPS[factor] if levels is None else tuple(levels), SWEEP_UNITS[factor]
+    text = ", ".join(f"{v:g}" for v in levels) + f" {unit}"
+    steps = {round(b - a, 12) for a, b in zip(levels, levels[1:])}
+    if len(levels) > 2 and len(steps) == 1:
+        step = steps.pop()
+        text = f"{levels[0]:g}-{levels[-1]:g} {unit}" + ("" if step == 1 else f", every {step:g} {unit}")
+    return FACTOR_LABELS[factor].format(levels=text)
 #: The order of the robustness columns.
 FACTOR_ORDER = ("model_error", "noise", "torque_noise", "delay", "pushes", "initial_state")
 #: Draws per random factor and points per axis of the reach grid (each run lasts the task's horizon).
@@ -65,3 +81,5 @@ ATLAS_MAX_GRID = 256
 
 #: RealAIGym's protocols that ``paa-mj realaigym`` runs (:mod:`paa_mj.studies.realaigym`).
 REALAIGYM_PROTOCOLS = ("performance-v2", "robustness-v2", "global-v3")
+#: The engines of RealAIGym's protocols: their simulator compiled on the CPU, or on a Warp device.
+REALAIGYM_ENGINES = ("cpu", "warp")

@@ -482,6 +482,19 @@ def test_the_analytic_engine_refuses_a_policy_held_over_its_period(policy_file):
         " for 10 ms (a sampled-data controller); use --engine mujoco\n")
 
 
+def test_the_analytic_engine_refuses_a_held_policy_inside_a_switched_controller(policy_file, gymnast):
+    from paa_mj.control.combined import CombinedController
+    from paa_mj.control.registry import make_controller
+    from paa_mj.errors import PaaError
+    from paa_mj.sim.analytic import simulate_analytic
+
+    policy = make_controller(f"{policy_file}:Trained", gymnast)
+    vcl = make_controller("vcl", gymnast)
+    switched = CombinedController(policy, vcl.second, vcl.condition)
+    with pytest.raises(PaaError, match="holds each torque for 10 ms"):
+        simulate_analytic(gymnast, switched, t_final=0.05)
+
+
 def test_a_policy_file_without_stable_baselines3_is_one_line(policy_file, capsys):
     try:
         import stable_baselines3  # noqa: F401

@@ -2,7 +2,7 @@
 
 The device runs the translations of the very functions the CPU's rollout calls, in float64: held here, each kind
 of run of the three protocols (the model's changes, both noises, responsiveness, delay, pulses, the global test's
-resets) follows the CPU's to 1e-9 over 250 steps, and a whole robustness protocol on fewer levels gives the CPU's
+resets, a blow-up) follows the CPU's to 1e-9 over 300 steps, and a whole robustness protocol on fewer levels gives the CPU's
 summary. Skipped where Warp is not installed, except the refusals, which need no device.
 """
 import json
@@ -37,7 +37,10 @@ def _runs_of_every_kind(robot, T):
     normals = rng.standard_normal((len(T) - 1, 5 * n))
     targets = np.array([[-2.0, 0.5, -0.5], [-1.0, 0.2, 0.1]])
     reset = protocol.reset_record([0.1], targets, 0.2)
+    blow_up = np.zeros((n, len(T) - 1))
+    blow_up[1, 249] = np.inf  # at the last step of the device's first segment
     return [
+        (nominal, near, {"perturbation": blow_up}),
         (nominal, rg.hanging(n), {}),
         (nominal, near, {}),
         (rg.plant(robot, ("Ir", 8e-5)), near, {}),
@@ -56,7 +59,7 @@ def _runs_of_every_kind(robot, T):
 @needs_warp
 def test_every_kind_of_run_follows_the_cpu(gymnast, gymnast_vcl):
     _, controller = gymnast_vcl
-    T = rg.their_times(0.5)
+    T = rg.their_times(0.6)
     runs = _runs_of_every_kind(gymnast, T)
     # each run's own record: the reset's is written as the run goes
     cpu = rg.Runs(gymnast, controller).run_many([(P, x, {k: (v.copy() if k == "reset" else v) for k, v in d.items()})
@@ -65,12 +68,14 @@ def test_every_kind_of_run_follows_the_cpu(gymnast, gymnast_vcl):
     device = rg.Runs(gymnast, controller, "warp", "cpu").run_many(runs, T, advanced=told.append)
     assert sum(told) == len(runs) * (len(T) - 1)
     for (Xc, Uc), (Xd, Ud) in zip(cpu, device):
-        assert Xc.shape == Xd.shape and Uc.shape == Ud.shape == (len(T) - 1, 3)
+        assert Xc.shape == Xd.shape and Uc.shape == Ud.shape
         np.testing.assert_allclose(Xd, Xc, rtol=0, atol=1e-9)
         np.testing.assert_allclose(Ud, Uc, rtol=0, atol=1e-9)
-    # the kinds did differ: the reset drove joint 1, the pulses and the delay moved the run off the nominal one
-    assert np.max(np.abs(cpu[-1][1][:, 0])) > 0 and np.all(cpu[1][1][:, 0] == 0)
-    assert all(np.max(np.abs(cpu[k][0] - cpu[1][0])) > 1e-6 for k in range(2, len(runs) - 1))
+    # the kinds did differ: the blow-up stopped its run at step 250, the reset drove joint 1, the pulses and the
+    # delay moved the run off the nominal one
+    assert len(cpu[0][1]) == 250 and all(len(U) == len(T) - 1 for _, U in cpu[1:])
+    assert np.max(np.abs(cpu[-1][1][:, 0])) > 0 and np.all(cpu[2][1][:, 0] == 0)
+    assert all(np.max(np.abs(cpu[k][0] - cpu[2][0])) > 1e-6 for k in range(3, len(runs) - 1))
 
 
 @needs_warp
@@ -92,6 +97,10 @@ def test_robustness_on_fewer_levels_is_the_cpu_s(gymnast, gymnast_vcl, monkeypat
     result = summaries["cpu"]["result"]
     assert result["runs"] == 15 * 2 + 2 + 2 + 2 + 2 + 1 and result["completed_fraction"] == 1.0
     assert json.dumps(summaries["warp"], sort_keys=True) == json.dumps(summaries["cpu"], sort_keys=True)
+    # a rerun finds every chunk kept and runs nothing
+    again = rg.run_protocol("robustness-v2", gymnast, spec, task, x0, seed=3, progress=False, engine="warp",
+                            device="cpu", out_dir=tmp_path)[0]
+    assert again["result"] == summaries["warp"]["result"]
 
 
 def test_a_controller_without_a_device_law_is_refused_in_one_line():

@@ -170,3 +170,15 @@ def test_a_t_final_between_two_steps_is_refused_by_every_command(command):
     assert result.returncode == 2 and result.stderr == (
         "paa-mj: error: final time 0.0015 s is not a whole number of time steps (dt = 0.001 s): give 0.001 or"
         " 0.002\n")
+
+
+def test_the_times_a_refusal_offers_are_whole_steps_as_written(tmp_path):
+    """A 62.5 us robot: the two times offered are k dt and (k + 1) dt to 12 digits, each accepted as given."""
+    robot = tmp_path / "fine.xml"
+    made = cli("make-model", "--links", "3", "--m", "1", "1", "1", "--l", "1", "1", "1", "--timestep", "6.25e-5",
+               "--out", str(robot))
+    assert made.returncode == 0, made.stderr
+    refused = cli("simulate", "--robot", str(robot), "--t-final", "0.30005", "--kD", "1e3", "--kP", "1e3", "--kV",
+                  "1e3")
+    assert refused.returncode == 2 and refused.stderr.endswith("give 0.3 or 0.3000625\n"), refused.stderr
+    assert "give 1000 or 1000.001" in cli("simulate", "--t-final", "1000.0005").stderr

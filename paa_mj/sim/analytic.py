@@ -112,17 +112,23 @@ def exact_field(robot: Robot, law, limits=None, on_nonfinite=None):
     return f
 
 
+def _check_continuous(law):
+    """Refuse a law held over a period (a sampled-data controller states its ``period``) in one line."""
+    period = getattr(law, "period", None)
+    if isinstance(period, (int, float, np.integer, np.floating)) and period > 0:
+        raise PaaError(f"the analytic engine integrates laws continuous in time, and {controller_name(law)} holds"
+                       f" each torque for {float(period) * 1e3:g} ms (a sampled-data controller); use --engine mujoco")
+
+
 def _phases(controller):
     """The laws of the run, in order, and the condition that ends the first (None: one law)."""
     if isinstance(controller, CombinedController):
         if not callable(getattr(controller.condition, "margin", None)):
             raise PaaError("the analytic engine needs a switching condition with a margin (an ODE event)")
+        for law in (controller, controller.first, controller.second):
+            _check_continuous(law)
         return [controller.first, controller.second], controller.condition
-    period = getattr(controller, "period", None)
-    if isinstance(period, (int, float, np.integer, np.floating)) and period > 0:
-        raise PaaError(f"the analytic engine integrates laws continuous in time, and {controller_name(controller)}"
-                       f" holds each torque for {float(period) * 1e3:g} ms (a sampled-data controller); use --engine"
-                       " mujoco")
+    _check_continuous(controller)
     mode_of(controller, (1,))  # a mode that cannot be read, or is not an integer, is refused in one line
     if not isinstance(getattr(controller, "mode", 0), (int, np.integer)):
         raise PaaError(f"the analytic engine cannot integrate {type(controller).__name__}: it keeps a state that"

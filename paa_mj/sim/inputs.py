@@ -101,9 +101,10 @@ def check_whole_steps(t_final, dt):
     at another time than the one asked (the engines take the nearest step)."""
     n_steps = steps_for(t_final, dt)
     if abs(t_final / dt - n_steps) > 1e-9 * n_steps:
-        below = math.floor(t_final / dt) * dt
-        raise PaaError(f"final time {t_final:g} s is not a whole number of time steps (dt = {dt:g} s): give"
-                       f" {below:.6g} or {below + dt:.6g}")
+        # 12 digits: the times offered are whole numbers of steps as written (6 would round 0.3000625 to 0.300063)
+        below = math.floor(t_final / dt)
+        raise PaaError(f"final time {t_final:.12g} s is not a whole number of time steps (dt = {dt:g} s): give"
+                       f" {below * dt:.12g} or {(below + 1) * dt:.12g}")
 
 
 def sample_interval(sample_dt, dt, t_final):

@@ -74,7 +74,8 @@ def _kernel(wp, triple, n_links):
 
 def _rollout_kernel(wp, law, measure_or_reset, command, advance):
     """The kernel: steps k0..k1 - 1 of each rollout still running, the loop of
-    :func:`~paa_mj.sim.protocol.rollout_compiled`; ``done`` counts each rollout's steps (fewer once it blew up)."""
+    :func:`~paa_mj.sim.protocol.rollout_compiled`; ``done`` counts each rollout's steps (fewer once it blew up, and
+    ``stopped`` marks it so)."""
     F64, F64_3 = wp.array2d(dtype=wp.float64), wp.array3d(dtype=wp.float64)
     V64, I32 = wp.array(dtype=wp.float64), wp.array(dtype=wp.int32)
 
@@ -82,10 +83,10 @@ def _rollout_kernel(wp, law, measure_or_reset, command, advance):
     def rollouts(A: F64_3, P: F64, X: F64_3, U: F64_3, T: V64, dt: wp.float64, delays: I32, sigma_meas: F64,
                  responsiveness: V64, sigma_u: F64, normals: F64_3, noise_rows: I32, perturbation: F64_3,
                  pulse_rows: I32, pulses: I32, reset: F64, resetting: I32, params: F64, memory: F64, work: F64,
-                 mass: F64_3, force: F64_3, x_meas: F64, seen: F64, u: F64, tau: F64, done: I32, k0: wp.int32,
-                 k1: wp.int32):
+                 mass: F64_3, force: F64_3, x_meas: F64, seen: F64, u: F64, tau: F64, done: I32, stopped: I32,
+                 k0: wp.int32, k1: wp.int32):
         r = wp.tid()
-        if done[r] < k0:  # blew up before this segment
+        if stopped[r] != 0:  # blew up in an earlier segment, perhaps at its last step
             return
         for k in range(k0, k1):
             normals_k = normals[noise_rows[r], k]
@@ -96,6 +97,7 @@ def _rollout_kernel(wp, law, measure_or_reset, command, advance):
             if not advance(A[r], P[r], X[r], U[r], k, T, dt, u[r], responsiveness[r], sigma_u[r], normals_k,
                            perturbation[pulse_rows[r]], pulses[r], work[r], mass[r], force[r]):
                 done[r] = k + 1
+                stopped[r] = 1
                 return
         done[r] = k1
 
@@ -141,7 +143,7 @@ def _inputs(batch: Rollouts, params, memory):
         reset=reset, resetting=resetting, params=np.tile(params, (R, 1)), memory=np.tile(memory, (R, 1)),
         work=np.zeros((R, work.size)), mass=np.zeros((R,) + mass.shape), force=np.zeros((R,) + force.shape),
         x_meas=np.zeros((R, 2 * n)), seen=np.zeros((R, 2 * n)), u=np.zeros((R, n)), tau=np.zeros((R, max(n - 1, 1))),
-        done=np.zeros(R, np.int32))
+        done=np.zeros(R, np.int32), stopped=np.zeros(R, np.int32))
 
 
 def _check_room(wp, arrays, device):

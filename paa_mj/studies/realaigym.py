@@ -188,6 +188,8 @@ class Runs:
     def run_many(self, runs, T, advanced=None):
         """(X, U) of each run of ``runs`` ((P, x0, disturbances) each, as :meth:`run` takes them), all over the
         times T; ``advanced(steps)`` is told of the steps run as they go. Ctrl-C raises KeyboardInterrupt."""
+        if not runs:  # every chunk of a study kept already
+            return []
         T = np.ascontiguousarray(T, float)
         steps = len(T) - 1
         runs = [(P, their_angles(np.reshape(x0, (1, -1)))[0], d) for P, x0, d in runs]
@@ -362,8 +364,9 @@ def robustness_v2(robot: Robot, controller, task: Task, x0=None, seed=777, *, ou
     T = their_times(T_FINAL)
     cases = robustness_cases(robot)
     nominal = plant(robot)
-    # the device's rounding is not the CPU's: its runs are kept apart (the CPU's key is as it was before the engine)
-    on_device = {} if engine == "cpu" else {"engine": engine}
+    # a device's rounding is not the CPU's nor another device's: its runs are kept apart (the CPU's key is as it was
+    # before the engine)
+    on_device = {} if engine == "cpu" else {"engine": engine, "device": device_of(engine, device)}
     key = study_key({"study": "realaigym-robustness-v2", "x0": x0, "seed": seed, "states": "their angles",
                      **(key_definition or {}), **on_device})
     store = ChunkStore(out_dir, key, fresh, "realaigym")

@@ -35,6 +35,9 @@ Termination and truncation
     an angle error of pi/4 rad or a speed of 0.75 rad/s. Truncated (when not terminated) after
     ``max_episode_seconds``; the registered ids wrap the environment in a ``TimeLimit`` of that horizon in
     environment steps (:func:`registered`), which wrappers read as ``env.spec.max_episode_steps``.
+    ``gym.make(id, max_episode_steps=k)`` adds Gymnasium's own ``TimeLimit`` outside, which the environment
+    cannot see: its task states its own horizon (``env.unwrapped.task.horizon``); give ``max_episode_seconds``
+    instead (the vector environment takes ``max_episode_steps`` as its horizon).
 Info
     ``q``, ``qd``: the raw state, angles unwrapped (controller (40) needs the unwrapped q2);
     ``time``: physics steps since reset x the model's time step [s] (the time the package's engines give controllers);

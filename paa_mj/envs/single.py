@@ -63,7 +63,7 @@ from ..model.robot import load_robot
 from ..task import as_task
 from .spaces import (EPISODES, FRAME_SKIP, MAX_EPISODE_STEPS, MAX_TORQUE_LIMIT, _check_options, _check_x0, _number,
                      _real_array, _whole, action_to_torque, torque_limit_for, torque_limits_for, torque_to_action)
-from .stepper import PHYSICS, REWARD_BALANCE, REWARD_KIP, REWARD_V0, Robots
+from .stepper import PHYSICS, REWARD_BALANCE, REWARD_KIP, REWARD_V0, Robots, ended_early
 
 _REWARD_KIND = {"kip": REWARD_KIP, "balance": REWARD_BALANCE}
 
@@ -269,7 +269,7 @@ class GymnastEnv(gym.Env):
         r.step(self._rows, tau[None])
         self._steps += 1
         e = r.episodes
-        terminated = bool(e.diverged[0] or e.margin[0] >= self.terminate_margin)
+        terminated = bool(ended_early(e, 0, self.terminate_margin))
         truncated = self._steps >= self.max_steps and not terminated
         return e.obs[0].copy(), float(e.reward[0]), terminated, truncated, self._info()
 

@@ -206,13 +206,19 @@ def start_episode(rules, episodes, i):
     episodes.margin[i] = switch_margin_of(rules.task, angle_max, speed_max)
 
 
+@register_jitable
+def ended_early(episodes, i, terminate_margin):
+    """Whether robot ``i``'s episode is over before its horizon: diverged, or left region (68) by
+    ``terminate_margin``."""
+    return episodes.diverged[i] or episodes.margin[i] >= terminate_margin
+
+
 @njit(cache=True)
 def success_now(episodes, window, terminate_margin, out):
-    """Each robot's success (:func:`~paa_mj.task.book_succeeded`) as if its episode ended now: an episode that
-    diverged or left region (68) by ``terminate_margin`` did not finish, and is no success, as a run cut short is
-    none for the engines."""
+    """Each robot's success (:func:`~paa_mj.task.book_succeeded`) as if its episode ended now: an episode
+    :func:`ended_early` did not finish, and is no success, as a run cut short is none for the engines."""
     for i in range(out.size):
-        finished = not episodes.diverged[i] and episodes.margin[i] < terminate_margin
+        finished = not ended_early(episodes, i, terminate_margin)
         out[i] = book_succeeded(episodes.book[i], episodes.phys_step[i], finished, False, window)
 
 

@@ -48,7 +48,7 @@ from ..sim.mujoco_lib import mj_step as _mj_step
 from ..task import book_succeeded
 from .single import GymnastEnv, perturbed
 from .spaces import _check_options, _check_x0, _real_array, _whole, action_to_torque
-from .stepper import _CTRL, _DATA, Robots, _float64_at, advance
+from .stepper import _CTRL, _DATA, Robots, _float64_at, advance, ended_early
 
 #: The most sub-environments of one vector environment.
 MAX_ENVS = 1_000_000
@@ -129,7 +129,7 @@ def _vector_finish(lo, hi, restart, episodes, counters, out):
             terminated, truncated, out.reward[i] = False, False, 0.0
         else:
             counters.steps[i] += 1
-            terminated = episodes.diverged[i] or episodes.margin[i] >= counters.terminate_margin
+            terminated = ended_early(episodes, i, counters.terminate_margin)
             truncated = counters.steps[i] >= counters.max_steps and not terminated
             out.reward[i] = episodes.reward[i]
         counters.ended[i] = terminated or truncated

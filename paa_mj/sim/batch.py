@@ -106,10 +106,11 @@ NO_DISTURBANCES = Disturbances()
 ENGINES = ("mujoco", "warp")
 
 
-def check_engine(engine, device=None):
-    """``engine`` is one of :data:`ENGINES` (and ``device`` goes with ``warp`` only), or a one-line error."""
-    if engine not in ENGINES:
-        raise PaaError(f"engine must be one of {', '.join(ENGINES)}, got {engine!r}")
+def check_engine(engine, device=None, engines=ENGINES):
+    """``engine`` is one of ``engines`` (default :data:`ENGINES`; ``device`` goes with ``warp`` only), or a one-line
+    error."""
+    if engine not in engines:
+        raise PaaError(f"engine must be one of {', '.join(engines)}, got {engine!r}")
     if device is not None and engine != "warp":
         raise PaaError("a Warp device is chosen for engine warp only")
 

@@ -39,6 +39,7 @@ from ..errors import PaaError
 from ..model.robot import Robot
 from ..model.states import wrap
 from ..sim import protocol
+from ..sim.batch import check_engine
 from ..sim.engine import pack
 from ..task import Task, as_task
 from . import realaigym_scores as scores
@@ -56,13 +57,6 @@ RESETS, RESET_LENGTH = 15, 0.2
 CHUNK = 32
 #: Chunks run at once on a Warp device (a finished batch is kept chunk by chunk).
 DEVICE_CHUNKS = 32
-
-
-def check_engine(engine):
-    """``engine``, one of :data:`ENGINES`, or a one-line refusal."""
-    if engine not in ENGINES:
-        raise PaaError(f"the realaigym engine is one of {', '.join(ENGINES)}, not {engine!r}")
-    return engine
 
 
 def their_times(t_final, dt=DT, t0=0.0):
@@ -164,7 +158,8 @@ class Runs:
         self.robot, self.controller, self.n = robot, controller, robot.params.n_links
         form = controller.compiled() if hasattr(controller, "compiled") else None
         self.packed = None if form is None else pack(form)
-        self.engine, self.device = check_engine(engine), device
+        check_engine(engine, device, ENGINES)
+        self.engine, self.device = engine, device
         if engine == "warp":
             from ..sim.warp_engine import device_law
 
@@ -436,9 +431,7 @@ def run_protocol(protocol_name: str, robot: Robot, spec, task, x0=None, seed=777
     device of ``warp``): the summary and the arrays its files need."""
     if protocol_name not in PROTOCOLS:
         raise PaaError(f"--protocol must be one of {', '.join(PROTOCOLS)}, not {protocol_name!r}")
-    check_engine(engine)
-    if device is not None and engine != "warp":
-        raise PaaError("a Warp device is chosen for the engine warp only")
+    check_engine(engine, device, ENGINES)  # before the controller is built
     task = as_task(task, robot)
     controller = spec.for_task(task).build(robot)
     n = robot.params.n_links

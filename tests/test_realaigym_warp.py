@@ -103,14 +103,18 @@ def test_robustness_on_fewer_levels_is_the_cpu_s(gymnast, gymnast_vcl, monkeypat
     assert again["result"] == summaries["warp"]["result"]
 
 
-def test_a_controller_without_a_device_law_is_refused_in_one_line():
-    result = cli("realaigym", "--protocol", "performance-v2", "--controller", "spong", "--engine", "warp", "--device",
-                 "cpu")
+def test_a_controller_without_a_device_law_is_refused_in_one_line(tmp_path):
+    """A user's Python controller has no compiled law to translate: one line naming it and the engine to use."""
+    mine = tmp_path / "mine.py"
+    mine.write_text("import numpy as np\n\nclass Mine:\n    def __init__(self, robot):\n        pass\n\n"
+                    "    def torque(self, q, qd, t):\n        return np.zeros(q.shape[:-1] + (2,))\n")
+    result = cli("realaigym", "--protocol", "performance-v2", "--controller", f"{mine}:Mine", "--engine", "warp",
+                 "--device", "cpu")
     if not warp_available():
         assert result.returncode == 2 and "pip install 'paa_mj[gpu]'" in result.stderr
         return
     assert result.returncode == 2 and result.stderr.count("\n") == 1, result.stderr
-    assert "controller spong has no law on the device" in result.stderr and "use --engine cpu" in result.stderr
+    assert "controller mine.py:Mine has no law on the device" in result.stderr and "use --engine cpu" in result.stderr
 
 
 def test_a_device_needs_the_warp_engine():

@@ -11,6 +11,7 @@ disturbance the records agree within float32's drift.
 import json
 import subprocess
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -145,55 +146,117 @@ def test_physics_agrees_with_mj_step_over_200_steps(gymnast, warp_modules):
     assert max(errors) < 1e-5, errors
 
 
+def _device_evaluate(wp, form, x, n_links, t=0.0):
+    """The packed compiled ``form`` translated to Warp (float64) and run at the states ``x`` (N, 2n) and the time
+    ``t`` on the CPU device: (torques, modes)."""
+    from paa_mj.sim.engine import pack
+    from paa_mj.sim.step import call_controller
+    from paa_mj.sim.translate import device_function
+
+    p = pack(form)
+    f64, size = wp.float64, 2 * n_links
+    triple = [device_function(wp, k, real=f64, state_size=size) for k in (p.first, p.second, p.condition)]
+    law = device_function(wp, call_controller, bind=dict(zip(("first", "second", "condition"), triple)), real=f64,
+                          state_size=size)
+
+    @wp.kernel(module="unique", enable_backward=False)
+    def evaluate_all(xs: wp.array2d(dtype=wp.float64), t: wp.float64, params: wp.array(dtype=wp.float64),
+                     memory: wp.array2d(dtype=wp.float64), tau: wp.array2d(dtype=wp.float64),
+                     mode: wp.array(dtype=wp.int32)):
+        r = wp.tid()
+        mode[r] = law(xs[r], t, params, memory[r], tau[r])
+
+    with wp.ScopedDevice(DEVICE):
+        tau = wp.zeros((len(x), n_links - 1), dtype=wp.float64)
+        mode = wp.zeros(len(x), dtype=wp.int32)
+        wp.launch(evaluate_all, dim=len(x), inputs=[wp.array(x, dtype=wp.float64), float(t),
+                                                    wp.array(p.params, dtype=wp.float64),
+                                                    wp.array(np.tile(p.memory, (len(x), 1)), dtype=wp.float64),
+                                                    tau, mode])
+        return tau.numpy(), mode.numpy()
+
+
+def _states_around(task, n_links, seed=1):
+    """64 states around the task's goal, the first 8 inside (68) (the balance law acts)."""
+    rng = np.random.default_rng(seed)
+    goal = np.r_[task.goal, np.zeros(n_links)]
+    x = goal + rng.uniform(-1.0, 1.0, (64, 2 * n_links)) * np.r_[np.full(n_links, 1.5), np.full(n_links, 2.0)]
+    x[:8] = goal + rng.uniform(-0.05, 0.05, (8, 2 * n_links))
+    return x
+
+
 @needs_warp
 def test_translated_laws_equal_numba_in_float64(gymnast, folded, warp_modules):
     """(40), (12), (67) and the switch (68), translated from the source numba compiles (paa_mj.sim.translate) and
     run by Warp in float64: the same torques and modes as the compiled forms, to rounding."""
     from paa_mj.control import make_controller
-    from paa_mj.sim.engine import evaluate, pack
-    from paa_mj.sim.step import call_controller
-    from paa_mj.sim.translate import device_function
+    from paa_mj.sim.engine import evaluate
 
     wp, _ = warp_modules
-    rng = np.random.default_rng(1)
-    goal = np.r_[folded.goal, np.zeros(3)]
-    x = goal + rng.uniform(-1.0, 1.0, (64, 6)) * np.r_[1.5, 1.5, 1.5, 2.0, 2.0, 2.0]
-    x[:8] = goal + rng.uniform(-0.05, 0.05, (8, 6))  # inside (68): the balance law acts
+    x = _states_around(folded, 3)
     for name in ("vcl", "vc", "lqr"):
         form = make_controller(name, gymnast, task=folded).compiled()
         expected, modes = evaluate(form, x[:, :3], x[:, 3:])
-        p = pack(form)
-        f64 = wp.float64
-        triple = [device_function(wp, k, real=f64) for k in (p.first, p.second, p.condition)]
-        law = device_function(wp, call_controller, bind=dict(zip(("first", "second", "condition"), triple)), real=f64)
-
-        @wp.kernel(module="unique", enable_backward=False)
-        def evaluate_all(xs: wp.array2d(dtype=wp.float64), params: wp.array(dtype=wp.float64),
-                         memory: wp.array2d(dtype=wp.float64), tau: wp.array2d(dtype=wp.float64),
-                         mode: wp.array(dtype=wp.int32)):
-            r = wp.tid()
-            mode[r] = law(xs[r], wp.float64(0.0), params, memory[r], tau[r])
-
-        with wp.ScopedDevice(DEVICE):
-            tau = wp.zeros((len(x), 2), dtype=wp.float64)
-            mode = wp.zeros(len(x), dtype=wp.int32)
-            wp.launch(evaluate_all, dim=len(x), inputs=[wp.array(x, dtype=wp.float64),
-                                                        wp.array(p.params, dtype=wp.float64),
-                                                        wp.array(np.tile(p.memory, (len(x), 1)), dtype=wp.float64),
-                                                        tau, mode])
-            got, got_modes = tau.numpy(), mode.numpy()
+        got, got_modes = _device_evaluate(wp, form, x, 3)
         np.testing.assert_array_equal(got_modes, modes, err_msg=name)
         np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-9, err_msg=name)
 
 
-def _grid_around_goal(task):
-    """16 starts around the folded goal: some inside (68) (the LQR balances, one exactly at the goal retires at once),
-    the others swinging under (40)."""
-    goal = np.r_[task.goal, np.zeros(3)]
+@needs_warp
+@pytest.mark.parametrize("robot_name, goal, name", [("chain4", "folded", "vcl"), ("gymnast", "stretched", "vc"),
+                                                    ("acrobot", "folded", "vcl"), ("acrobot", "stretched", "spong")])
+def test_the_chain_s_law_on_the_device_equals_numba(robot_name, goal, name, warp_modules):
+    """(40) and (12) on any chain and goal, and Spong's law (their scratch in the controller's memory, viewed as
+    matrices on the device): the same torques and modes as numba's, to rounding, and finite (the law ran, not a
+    NaN for a NaN); both modes among the states."""
+    from paa_mj.control import make_controller
+    from paa_mj.model import load_robot
+    from paa_mj.sim.engine import evaluate
+    from paa_mj.task import Task
+
+    wp, _ = warp_modules
+    robot = load_robot(robot_name)
+    task, n = Task.named(goal, robot.analytic), robot.analytic.n_links
+    x = _states_around(task, n)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the family rule's gains where the stored ones are below (41)
+        form = make_controller(name, robot, task=task).compiled()
+    expected, modes = evaluate(form, x[:, :n], x[:, n:])
+    assert np.isfinite(expected).all() and 0 < np.sum(modes) < len(x)
+    got, got_modes = _device_evaluate(wp, form, x, n)
+    np.testing.assert_array_equal(got_modes, modes)
+    np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-9)
+
+
+@needs_warp
+def test_the_tracking_law_on_the_device_equals_numba(gymnast, folded, warp_modules):
+    """trajopt's TVLQR (a table of references and gains, interpolated in time, its angles' errors wrapped): the
+    device's torques equal numba's to rounding at times on a sample, between samples and past the table's end."""
+    from paa_mj.control.base import CompiledForm
+    from paa_mj.control.tvlqr import tvlqr_kernel
+    from paa_mj.sim.engine import evaluate
+
+    wp, _ = warp_modules
+    rng = np.random.default_rng(4)
+    samples, dt = 7, 0.05
+    table = np.concatenate([[samples, dt], rng.normal(size=samples * 6) * 3.0, rng.normal(size=samples * 2) * 50.0,
+                            rng.normal(size=samples * 2 * 6) * 100.0])
+    form = CompiledForm(tvlqr_kernel, table)
+    x = _states_around(folded, 3)
+    for t in (0.0, 0.1, 0.1234, 0.2999, 5.0):
+        expected, _ = evaluate(form, x[:, :3], x[:, 3:], t=t)
+        got, _ = _device_evaluate(wp, form, x, 3, t=t)
+        np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-9, err_msg=str(t))
+
+
+def _grid_around_goal(task, n_links=3):
+    """16 starts around the task's goal: some inside (68) (the LQR balances, one exactly at the goal retires at
+    once), the others swinging under (40)."""
+    goal = np.r_[task.goal, np.zeros(n_links)]
     Q1, D1 = np.meshgrid([-0.6, -0.25, 0.0, 0.35], [-1.2, -0.4, 0.0, 0.8], indexing="ij")
     x0 = np.tile(goal, (16, 1))
     x0[:, 0] += Q1.ravel()
-    x0[:, 3] += D1.ravel()
+    x0[:, n_links] += D1.ravel()
     return x0
 
 
@@ -222,6 +285,30 @@ def test_small_basin_has_the_outcomes_of_the_mujoco_engine(gymnast, folded, warp
     np.testing.assert_allclose(dev.max_abs_tau, cpu.max_abs_tau, rtol=1e-4)
     np.testing.assert_allclose(dev.int_tau2, cpu.int_tau2, rtol=1e-4)
     assert dev.meta["engine"] == "warp" and dev.meta["device"] == DEVICE
+
+
+@needs_warp
+def test_a_chain_s_basin_has_the_outcomes_of_the_mujoco_engine(warp_modules):
+    """The 4-link chain under (40) on any chain (the chain's law, not the paper's closed forms) and its LQR, 0.3 s at
+    its 1 ms: every outcome, status, switch and end of the MuJoCo engine (success, lost, never and a switch from
+    (40) at 0.186 s among them), final states within float32's drift (measured at most 1.7e-5)."""
+    from paa_mj.model import load_robot
+    from paa_mj.sim import simulate_batch
+    from paa_mj.studies.basin import LOST, NEVER, SUCCESS, classify
+    from paa_mj.task import Task
+
+    chain = load_robot("chain4")
+    task = Task.named("folded", chain.analytic)
+    x0 = _grid_around_goal(task, 4)
+    cpu = simulate_batch(chain, x0, 0.3, task=task)
+    dev = simulate_batch(chain, x0, 0.3, task=task, engine="warp", device=DEVICE)
+    outcome = classify(cpu, task)
+    assert {SUCCESS, LOST, NEVER} <= set(outcome.tolist()) and np.any(cpu.switch_time > 0)
+    np.testing.assert_array_equal(classify(dev, task), outcome)
+    np.testing.assert_array_equal(dev.status, cpu.status)
+    np.testing.assert_array_equal(dev.switch_time, cpu.switch_time)
+    np.testing.assert_array_equal(dev.t_end, cpu.t_end)
+    np.testing.assert_allclose(dev.final_state, cpu.final_state, rtol=1e-5, atol=5e-5)
 
 
 def test_each_rollout_gets_its_own_controller_s_parameters(gymnast, folded):
@@ -358,7 +445,6 @@ def test_basin_command_on_the_warp_engine(tmp_path, warp_modules):
 
 @needs_warp
 def test_refusals_on_the_warp_engine(gymnast, folded, warp_modules):
-    from paa_mj.model import load_robot
     from paa_mj.sim import simulate_batch
 
     class Mine:
@@ -371,13 +457,19 @@ def test_refusals_on_the_warp_engine(gymnast, folded, warp_modules):
     x0 = np.r_[folded.goal, np.zeros(3)][None]
     with pytest.raises(PaaError, match=r"controller Mine has no law on the device .* use --engine mujoco"):
         simulate_batch(gymnast, x0, 0.01, controller=Mine(gymnast), engine="warp", device=DEVICE)
-    chain = load_robot("chain4")
-    with pytest.raises(PaaError, match="has no law on the device"):  # (40) on a chain: the chain's law, not compiled
-        simulate_batch(chain, np.zeros((1, 8)), 0.01, engine="warp", device=DEVICE)
     with pytest.raises(PaaError, match="records no trajectories"):
         simulate_batch(gymnast, x0, 0.01, record=True, engine="warp", device=DEVICE)
     with pytest.raises(PaaError, match="no Warp device 'cuda:7'"):
         simulate_batch(gymnast, x0, 0.01, engine="warp", device="cuda:7")
+
+
+def test_every_built_in_controller_has_a_device_law():
+    """The commands' help says the warp engine runs every built-in controller: the list of device laws is theirs
+    (each law's agreement with numba is tested above)."""
+    from paa_mj.control.registry import BUILTIN
+    from paa_mj.sim.warp_engine import DEVICE_LAWS
+
+    assert sorted(DEVICE_LAWS) == sorted(BUILTIN)
 
 
 def test_translation_refuses_what_it_does_not_cover():

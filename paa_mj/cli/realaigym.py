@@ -78,8 +78,8 @@ def register(sub, parser_class):
     p.add_argument("--fresh", action="store_true", help="forget the runs kept in --out")
     p.add_argument("--engine", choices=ENGINES, default="cpu",
                    help="cpu: their simulator compiled on this machine's CPU; warp: every run a thread of a Warp"
-                        " device, the controller on the device too (pip install 'paa_mj[gpu]'; float64; controllers"
-                        " vcl, vc, vcl-only, vc-only, lqr, passive)")
+                        " device, the controller on the device too (pip install 'paa_mj[gpu]'; float64; every built-in"
+                        " controller, not a Python one)")
     p.add_argument("--device", metavar="NAME",
                    help="the Warp device of --engine warp: cpu, cuda:0, ... (default: $PAA_MJ_WARP_DEVICE, else the"
                         " first GPU, else cpu)")

@@ -40,8 +40,8 @@ def engine_parent():
     p = argparse.ArgumentParser(add_help=False)
     p.add_argument("--engine", choices=("mujoco", "warp"), default="mujoco",
                    help="mujoco: MuJoCo and the compiled controllers on the CPU's cores; warp: every run a world of"
-                        " MuJoCo Warp, the controller on the device too (pip install 'paa_mj[gpu]'; float32;"
-                        " controllers vcl, vc, vcl-only, vc-only, lqr, passive; chunks inline unless --scheduler)")
+                        " MuJoCo Warp, the controller on the device too (pip install 'paa_mj[gpu]'; float32; every"
+                        " built-in controller, not a Python one; chunks inline unless --scheduler)")
     p.add_argument("--device", metavar="NAME",
                    help="the Warp device of --engine warp: cpu, cuda:0, ... (default: $PAA_MJ_WARP_DEVICE, else the"
                         " first GPU, else cpu)")

@@ -133,29 +133,36 @@ def chain_parameters(model: AnalyticModel, task: Task, kD, kP, kV, uses_vcl):
                            task.goal])
 
 
-@njit(cache=True)
-def _chain_unpack(params):
+@register_jitable
+def chain_work_size(n):
+    """Scratch numbers (40) on an n-link chain takes from its memory (:func:`chain_energy_torque`): two (n, n)
+    matrices, two (n - 1, n - 1), an (n - 1, 1), then vectors of n - 1 and 4 n."""
+    nu = n - 1
+    return 2 * n * n + 2 * nu * nu + 2 * nu + 4 * n
+
+
+@register_jitable
+def _chain_vectors(params):
+    """The chain's n and the views of its vectors in ``params`` (:func:`chain_parameters`): b, damping, armature,
+    goal (n each)."""
     n = int(params[_C_N])
-    at = _C_A
-    A = params[at:at + n * n].copy().reshape((n, n))
-    at += n * n
-    # contiguous copies, as every other caller of the chain's functions passes: those are compiled once
-    return n, A, params[at:at + n].copy(), params[at + n:at + 2 * n].copy(), params[at + 2 * n:at + 3 * n].copy(), \
-        params[at + 3 * n:at + 4 * n].copy()
+    at = _C_A + n * n
+    return (n, chain.vector_view(params, at, n), chain.vector_view(params, at + n, n),
+            chain.vector_view(params, at + 2 * n, n), chain.vector_view(params, at + 3 * n, n))
 
 
-@njit(cache=True)
+@register_jitable
 def chain_error(params, q, e, rate):
     """The error e of the actuated coordinates and Psi = de/dq_a into ``e`` (n - 1) and ``rate`` (n - 1, n - 1).
 
     (40): e = [q2 + theta - q2*, q3 - q3*, ...] with theta the angle of the virtual composite link of links
     2..n from link 2 (module docstring); (12): e = q_a - q_a*, Psi = I.
     """
-    n, _, b, _, _, goal = _chain_unpack(params)
+    n, b, _, _, goal = _chain_vectors(params)
     nu = n - 1
-    rate[:, :] = 0.0
     for i in range(nu):
-        rate[i, i] = 1.0
+        for j in range(nu):
+            rate[i, j] = 1.0 if i == j else 0.0
         e[i] = q[i + 1] - goal[i + 1]
     if params[_C_VCL] == 0.0:
         return
@@ -175,30 +182,33 @@ def chain_error(params, q, e, rate):
         rate[0, j - 1] = (c * tail_cos + s * tail_sin) / norm
 
 
-@njit(cache=True)
-def chain_energy_torque(params, x, tau):
+@register_jitable
+def chain_energy_torque(params, x, tau, work):
     """(40) (or (12)) on a chain of the family: tau = Lambda^-1 (kD B^T M^-1 (H + G + D qd) - kV qd_a - kP Psi^T e),
-    Lambda = (E - E_r) I + kD B^T M^-1 B, into ``tau`` (n - 1) [N m]."""
-    n, A, b, damping, armature, _ = _chain_unpack(params)
+    Lambda = (E - E_r) I + kD B^T M^-1 B, into ``tau`` (n - 1) [N m]; ``work``: scratch of :func:`chain_work_size`
+    numbers (nothing is allocated but one vector, so that a Warp device runs this very source). A singular M or
+    Lambda gives NaN torques, which the engines report."""
+    n, b, damping, armature, _ = _chain_vectors(params)
     nu = n - 1
     kD, kP, kV, E_r = params[_C_KD], params[_C_KP], params[_C_KV], params[_C_ER]
-    q, qd = x[:n].copy(), x[n:2 * n].copy()
-    M = np.empty((n, n))
-    chain.mass_matrix_into(A, armature, q, M)
-    rhs = np.zeros((n, n))  # [H + G + D qd, B]
-    force = np.empty(n)
-    chain.bias_into(A, b, q, qd, force)
-    for i in range(n):
-        rhs[i, 0] = force[i] + damping[i] * qd[i]
-    for i in range(nu):
-        rhs[i + 1, i + 1] = 1.0
-    solved = np.empty((n, n))  # [M^-1 (H + G + D qd), M^-1 B]
-    chain.solve_into(M, rhs, solved)
+    A = chain.matrix_view(params, _C_A, n, n)
+    q, qd = chain.vector_view(x, 0, n), chain.vector_view(x, n, n)
+    M, solved = chain.matrix_view(work, 0, n, n), chain.matrix_view(work, n * n, n, n)
+    lam, rate = chain.matrix_view(work, 2 * n * n, nu, nu), chain.matrix_view(work, 2 * n * n + nu * nu, nu, nu)
+    at = 2 * n * n + 2 * nu * nu
+    r, e = chain.matrix_view(work, at, nu, 1), chain.vector_view(work, at + nu, nu)
+    at += 2 * nu
+    phi, speed, force = chain.vector_view(work, at, n), chain.vector_view(work, at + n, n), \
+        chain.vector_view(work, at + 2 * n, n)
+    chain._mass_matrix_with(A, armature, q, M, phi)
+    chain._bias_with(A, b, q, qd, force, phi, speed)
+    for i in range(n):  # [H + G + D qd, B], solved in place into [M^-1 (H + G + D qd), M^-1 B]
+        solved[i, 0] = force[i] + damping[i] * qd[i]
+        for j in range(1, n):
+            solved[i, j] = 1.0 if i == j else 0.0
     de = chain.kinetic(M, qd) + chain.potential(b, q) - E_r
-    e, rate = np.empty(nu), np.empty((nu, nu))
+    regular = chain._solve_in_place(M, solved)
     chain_error(params, q, e, rate)
-    lam = np.empty((nu, nu))
-    r = np.empty((nu, 1))
     for i in range(nu):
         for j in range(nu):
             lam[i, j] = kD * solved[i + 1, j + 1] + (de if i == j else 0.0)
@@ -206,16 +216,17 @@ def chain_energy_torque(params, x, tau):
         for k in range(nu):
             pull += rate[k, i] * e[k]
         r[i, 0] = kD * solved[i + 1, 0] - kV * qd[i + 1] - kP * pull
-    out = np.empty((nu, 1))
-    chain.solve_into(lam, r, out)
+    if regular:
+        regular = chain._solve_in_place(lam, r)
     for i in range(nu):
-        tau[i] = out[i, 0]
+        tau[i] = r[i, 0] if regular else math.nan
 
 
 @kernel
 def chain_energy_kernel(x, t, params, memory, tau):
-    """Compiled (40) or (12) on any chain and goal; ``params`` of :func:`chain_parameters`."""
-    chain_energy_torque(params, x, tau)
+    """Compiled (40) or (12) on any chain and goal; ``params`` of :func:`chain_parameters`, ``memory`` its scratch
+    (:func:`chain_work_size`: nothing is carried from one step to the next)."""
+    chain_energy_torque(params, x, tau, memory)
     return 0
 
 
@@ -223,8 +234,9 @@ def chain_energy_kernel(x, t, params, memory, tau):
 # that the law and its helpers are compiled once for both.
 @njit(types.void(types.float64[:], types.float64[:, :], types.float64[:, :]), cache=True)
 def _chain_torque_rows(params, x, out):
+    work = np.empty(chain_work_size(int(params[_C_N])))
     for r in range(x.shape[0]):
-        chain_energy_torque(params, x[r], out[r])
+        chain_energy_torque(params, x[r], out[r], work)
 
 
 @njit(types.void(types.float64[:], types.float64[:, ::1], types.float64[:, ::1], types.float64[:, :, ::1]), cache=True)
@@ -267,6 +279,7 @@ class _ChainLaw:
 
     def __init__(self, model, kD, kP, kV, uses_vcl, task):
         self.params = chain_parameters(model, task, kD, kP, kV, uses_vcl)
+        self.n_links = model.params.n_links
         self.E_r = float(self.params[_C_ER])
 
     def torque(self, q, qd):
@@ -290,7 +303,7 @@ class _ChainLaw:
         return self._rows(q)[1]
 
     def compiled(self):
-        return CompiledForm(chain_energy_kernel, self.params)
+        return CompiledForm(chain_energy_kernel, self.params, memory=np.zeros(chain_work_size(self.n_links)))
 
 
 class EnergyVCLController(Controller):

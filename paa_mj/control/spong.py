@@ -83,13 +83,16 @@ def wrap_to(value, low, high):
     return value - span * math.floor((value - low) / span)
 
 
+#: Scratch numbers of :func:`spong_torque` (the mass matrix, the bias, two angle pairs), the controller's memory.
+_WORK = 10
+
+
 @register_jitable
-def spong_torque(params, x, tau):
+def spong_torque(params, x, tau, work):
     """Drake's Spong law at one state x = [q1, q2, qd1, qd2] (paa_mj's coordinates) into ``tau`` (1);
-    returns the mode, 1 where the LQR acts (cost-to-go below the threshold), else 0."""
-    q = np.empty(2)
-    qd = np.empty(2)
-    q[0], q[1], qd[0], qd[1] = x[0], x[1], x[2], x[3]
+    returns the mode, 1 where the LQR acts (cost-to-go below the threshold), else 0. ``work``: :data:`_WORK`
+    scratch numbers (nothing is allocated but one vector, so that a Warp device runs this very source)."""
+    q, qd = chain.vector_view(x, 0, 2), chain.vector_view(x, 2, 2)
     e = np.empty(4)
     e[0] = wrap_to(q[0] + math.pi, 0.0, 2.0 * math.pi) - math.pi
     e[1] = wrap_to(q[1], -math.pi, math.pi)
@@ -107,15 +110,12 @@ def spong_torque(params, x, tau):
             u -= params[_K + j] * e[j]
         mode = 1
     else:
-        A = np.empty((2, 2))
-        A[0, 0], A[0, 1], A[1, 0], A[1, 1] = params[_A], params[_A + 1], params[_A + 2], params[_A + 3]
-        M = np.empty((2, 2))
-        b = np.empty(2)
-        arm = np.empty(2)
-        b[0], b[1], arm[0], arm[1] = params[_B], params[_B + 1], params[_ARM], params[_ARM + 1]
-        chain.mass_matrix_into(A, arm, q, M)
-        bias = np.empty(2)
-        chain.bias_into(A, b, q, qd, bias)
+        A, b, arm = chain.matrix_view(params, _A, 2, 2), chain.vector_view(params, _B, 2), \
+            chain.vector_view(params, _ARM, 2)
+        M, bias = chain.matrix_view(work, 0, 2, 2), chain.vector_view(work, 4, 2)
+        phi, rate = chain.vector_view(work, 6, 2), chain.vector_view(work, 8, 2)
+        chain._mass_matrix_with(A, arm, q, M, phi)
+        chain._bias_with(A, b, q, qd, bias, phi, rate)
         bias[0] += params[_DAMP] * qd[0]
         bias[1] += params[_DAMP + 1] * qd[1]
         det = M[0, 0] * M[1, 1] - M[0, 1] * M[1, 0]
@@ -138,15 +138,16 @@ def spong_torque(params, x, tau):
 
 @kernel
 def spong_kernel(x, t, params, memory, tau):
-    """Compiled Spong law (:func:`spong_torque`); the mode is recomputed at every step (no memory)."""
-    return spong_torque(params, x, tau)
+    """Compiled Spong law (:func:`spong_torque`); the mode is recomputed at every step (the memory is scratch)."""
+    return spong_torque(params, x, tau, memory)
 
 
 # the layouts of KERNEL_SIG, which the kernel passes: the law is compiled once for both
 @njit(types.void(types.float64[:], types.float64[:, :], types.float64[:, :], types.int8[:]), cache=True)
 def _spong_rows(params, x, tau, mode):
+    work = np.empty(_WORK)
     for r in range(x.shape[0]):
-        mode[r] = spong_torque(params, x[r], tau[r])
+        mode[r] = spong_torque(params, x[r], tau[r], work)
 
 
 def spong_lqr(model: AnalyticModel, task: Task, Q=LQR_Q, R=LQR_R):
@@ -242,7 +243,7 @@ class SpongController(Controller):
         return tau.reshape(batch + (1,))
 
     def compiled(self) -> CompiledForm:
-        return CompiledForm(spong_kernel, self.params, balance_gain=self.K)
+        return CompiledForm(spong_kernel, self.params, memory=np.zeros(_WORK), balance_gain=self.K)
 
     def describe(self) -> dict:
         return {"controller": self.name, "k_e": self.k_e, "k_p": self.k_p, "k_d": self.k_d,

@@ -50,19 +50,17 @@ def tvlqr_torque(params, t, x, tau):
     dt = params[1]
     nx, nu = x.shape[0], tau.shape[0]
     s = t / dt
-    i = int(min(max(np.floor(s), 0.0), n - 2.0))
-    w = min(max(s - i, 0.0), 1.0)
+    i = int(min(max(np.floor(s), 0.0), float(n) - 2.0))
+    w = min(max(s - float(i), 0.0), 1.0)
     xr, ur, kr = _HEADER, _HEADER + nx * n, _HEADER + (nx + nu) * n
-    e = []
-    for j in range(nx):
-        ref = (1.0 - w) * params[xr + nx * i + j] + w * params[xr + nx * (i + 1) + j]
-        e.append(wrap(x[j] - ref) if j < nx // 2 else x[j] - ref)
     for row in range(nu):
         u = (1.0 - w) * params[ur + nu * i + row] + w * params[ur + nu * (i + 1) + row]
-        for j in range(nx):
+        for j in range(nx):  # the error of state j, again for each row: no list, so that a Warp device runs it too
+            ref = (1.0 - w) * params[xr + nx * i + j] + w * params[xr + nx * (i + 1) + j]
+            error = wrap(x[j] - ref) if j < nx // 2 else x[j] - ref
             gain = (1.0 - w) * params[kr + nu * nx * i + nx * row + j] \
                 + w * params[kr + nu * nx * (i + 1) + nx * row + j]
-            u = u - gain * e[j]
+            u = u - gain * error
         tau[row] = u
 
 

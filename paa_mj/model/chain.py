@@ -32,6 +32,7 @@ import math
 
 import numpy as np
 from numba import njit
+from numba.extending import register_jitable
 
 
 def chain_constants(params):
@@ -58,6 +59,20 @@ def input_matrix(n):
 
 
 # --- one state, compiled ---------------------------------------------------------------------------------
+
+@register_jitable
+def matrix_view(work, start, rows, cols):
+    """``work[start:start + rows cols]`` as a (rows, cols) matrix that shares its numbers: how a compiled law takes
+    its 2-d scratch from one flat float64 array, as :func:`paa_mj.sim.translate` runs it on a Warp device too.
+    ``work`` must be contiguous (a controller's memory is): NumPy would copy another silently."""
+    return np.ascontiguousarray(work[start:start + rows * cols]).reshape((rows, cols))
+
+
+@register_jitable
+def vector_view(work, start, length):
+    """``work[start:start + length]``, typed contiguous (so that the chain's functions compile once for it)."""
+    return np.ascontiguousarray(work[start:start + length])
+
 
 @njit(cache=True)
 def absolute_angles(q, out):
@@ -158,21 +173,11 @@ def gravity_jacobian_into(b, q, out):
 
 
 @njit(cache=True)
-def solve_into(matrix, rhs, out):
-    """Solve ``matrix`` X = ``rhs`` for a small square system, ``rhs`` and ``out`` of shape (n, k), by Gaussian
-    elimination with partial pivoting. A singular matrix (an exact zero pivot) gives NaN, so that a controller
-    that meets a singular point returns a non-finite torque, which the engine reports."""
-    x = rhs.copy()
-    solved = _solve_in_place(matrix.copy(), x)
-    for i in range(x.shape[0]):  # element by element: an array assignment compiles numba's shape checks, seconds
-        for j in range(x.shape[1]):
-            out[i, j] = x[i, j] if solved else np.nan
-
-
-@njit(cache=True)
 def _solve_in_place(a, x):
-    """:func:`solve_into` on ``a`` (n, n) and ``x`` (n, k) themselves: ``x`` becomes the solution and ``a`` is
-    overwritten; False (``x`` left partly eliminated) where a pivot is exactly zero."""
+    """Solve ``a`` X = ``x`` for a small square system, ``a`` (n, n) and ``x`` (n, k), by Gaussian elimination with
+    partial pivoting, in place: ``x`` becomes the solution and ``a`` is overwritten; False (``x`` left partly
+    eliminated) where a pivot is exactly zero, so that a law that meets a singular point can return a non-finite
+    torque, which the engines report."""
     n, k = x.shape[0], x.shape[1]
     for col in range(n):
         pivot = col
@@ -209,11 +214,10 @@ ACCELERATION_WORK = (1, 4)
 def acceleration_into(A, b, damping, armature, q, qd, tau, out, work):
     """qdd = M(q)^-1 (B tau - H - G - D qd) into ``out`` (n) [rad/s^2]; ``tau`` (n - 1) the motors' torques [N m];
     ``work``: scratch space of n^2 + 4 n numbers (:data:`ACCELERATION_WORK`; nothing is allocated). Solved as
-    :func:`solve_into` solves (NaN for a singular M, which a rigid chain never has)."""
+    :func:`_solve_in_place` solves (NaN for a singular M, which a rigid chain never has)."""
     n = q.size
-    mass = work[:n * n].reshape((n, n))
-    phi, rate = work[n * n:n * n + n], work[n * n + n:n * n + 2 * n]
-    force = work[n * n + 2 * n:n * n + 3 * n].reshape((n, 1))
+    mass, force = matrix_view(work, 0, n, n), matrix_view(work, n * n + 2 * n, n, 1)
+    phi, rate = vector_view(work, n * n, n), vector_view(work, n * n + n, n)
     _mass_matrix_with(A, armature, q, mass, phi)
     _bias_with(A, b, q, qd, out, phi, rate)
     for i in range(n):

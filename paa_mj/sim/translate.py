@@ -16,6 +16,8 @@ everything it calls, into a Warp function by rewriting its syntax tree, so that 
   constant a loop may not change), ``a % b`` is Python's floored remainder (Warp's ``%`` is C's), ``x.size`` of a
   vector is ``x.shape[0]``, ``a, b = f()`` into array elements goes through a temporary, ``x[:] = v`` is a loop
   and ``np.empty(k)`` a local vector of the state's size (``2 n``, the one length the laws allocate);
+- 2-d scratch is a view of a flat float64 array, :func:`paa_mj.model.chain.matrix_view`, which becomes Warp's
+  array made in the kernel from the flat array's address (``np.ascontiguousarray`` of a view is the view);
 - types are never converted implicitly: a function meant for arrays of several float types converts where they
   meet, as the noise's ``np.float64(...)`` does (a no-op where numba's arrays are float64 already);
 - every function called is translated the same way; arguments named in ``bind`` are fixed to given Warp
@@ -38,6 +40,7 @@ import typing
 import numpy as np
 
 from ..errors import PaaError
+from ..model import chain
 
 
 class TranslationError(PaaError):
@@ -81,6 +84,10 @@ class _Namespace:
                 if m != type(m)(0) and ((m < type(m)(0)) != (b < type(b)(0))):
                     m = m + b
                 return m
+            """))
+        self.globals["_matrix_view"] = self._define("_matrix_view", textwrap.dedent("""\
+            def _matrix_view(work: Any, start: int, rows: int, cols: int):
+                return wp.array(ptr=work.ptr + wp.uint64(start * 8), shape=(rows, cols), dtype=wp.float64)
             """))
 
     def _define(self, name, source):
@@ -409,6 +416,10 @@ class _Rewriter(ast.NodeTransformer):
             return ast.Attribute(ast.Name("wp", ast.Load()), _FUNCTIONS[obj], ast.Load())
         if obj is np.empty or obj is np.zeros:
             return ast.Name("_local_vector", ast.Load())
+        if obj is np.ascontiguousarray:
+            return ast.Name("_same", ast.Load())
+        if obj is chain.matrix_view:
+            return ast.Name("_matrix_view", ast.Load())
         if _python_function(obj) is not None:
             device = self.space.function(obj)
             name = self.space.done[(_python_function(obj), ())]
@@ -425,6 +436,11 @@ class _Rewriter(ast.NodeTransformer):
                                                                           ast.Load()),
                                                             [ast.Name("STATE_SIZE", ast.Load())], [])),
                              ast.keyword("dtype", ast.Name("REAL", ast.Load()))])
+        if isinstance(func, ast.Name) and func.id == "_same":
+            # np.ascontiguousarray(a): a view as it is (the package passes contiguous arrays; Warp's views are)
+            if len(node.args) != 1 or node.keywords:
+                self.fail(node, "np.ascontiguousarray of other than one array")
+            return self.visit(node.args[0])
         if node.keywords:
             self.fail(node, "keyword arguments")
         if any(isinstance(a, ast.Starred) for a in node.args):

@@ -33,12 +33,14 @@ float32: a rollout agrees with the CPU engine's float64 to about 1e-6 over 200 s
 within float32 rounding of it until the dynamics amplify the difference (``tests/test_warp.py`` states what it
 checks).
 
-What runs here: the controllers whose compiled laws translate (:data:`DEVICE_LAWS`: ``vcl``, ``vc``,
-``vcl-only`` and ``vc-only`` in the paper's closed forms (the gymnast at its folded goal), ``lqr``,
-``passive``, switched by region (68), the ROA level or time), the nominal plant for every rollout (per-rollout
-torque limits, disturbances (:class:`~paa_mj.sim.batch.Disturbances`: measurement and torque noise, the same
-draws as the CPU engine's, delay, pushes) and controller parameters allowed), no recorded trajectories: anything
-else is refused in one line before any work.
+What runs here: the controllers whose compiled laws translate (:data:`DEVICE_LAWS`: ``vcl``, ``vc`` and their
+``-only`` and ``-roa`` forms on every chain and goal (the paper's closed forms for the gymnast at its folded goal,
+the chain's law elsewhere, its scratch in the controller's memory), ``lqr``, ``passive``, switched by region (68),
+the ROA level or time; ``spong`` on the acrobot; ``trajopt`` and ``trajopt-effort``, their TVLQR then the LQR),
+the nominal plant for every rollout (per-rollout torque limits, disturbances
+(:class:`~paa_mj.sim.batch.Disturbances`: measurement and torque noise, the same draws as the CPU engine's, delay,
+pushes) and controller parameters allowed), no recorded trajectories: anything else is refused in one line before
+any work.
 """
 # No ``from __future__ import annotations``: the kernels' annotations are Warp's array types, made at run time
 # where the kernels are defined (:func:`_array_types`), and read by Warp as objects.
@@ -64,20 +66,24 @@ GRAPH_STEPS = 64
 def _device_laws():
     """The compiled kernels whose translation to Warp is tested, by the name of the controller they serve."""
     from ..control.combined import time_condition
-    from ..control.energy import conventional_kernel, vcl_kernel
+    from ..control.energy import chain_energy_kernel, conventional_kernel, vcl_kernel
     from ..control.lqr import lqr_kernel
     from ..control.passive import passive_kernel
     from ..control.region import level_condition, region_condition
+    from ..control.spong import spong_kernel
+    from ..control.tvlqr import tvlqr_kernel
 
-    return {vcl_kernel: "(40)", conventional_kernel: "(12)", lqr_kernel: "LQR (67)", passive_kernel: "passive",
+    return {vcl_kernel: "(40)", conventional_kernel: "(12)", chain_energy_kernel: "(40) or (12) on any chain",
+            lqr_kernel: "LQR (67)", passive_kernel: "passive",
+            spong_kernel: "Spong's swing-up and LQR", tvlqr_kernel: "TVLQR tracking",
             region_condition: "region (68)", level_condition: "ROA level", time_condition: "time",
             engine._never: "never"}
 
 
 #: What ``--engine warp`` runs: the controllers whose laws have a device form (module docstring).
-DEVICE_LAWS = ("vcl", "vc", "vcl-only", "vc-only", "lqr", "passive")
-_REFUSAL = ("controller {name} has no law on the device (the warp engine runs vcl, vc, vcl-only and vc-only on the"
-            " gymnast at its folded goal, lqr and passive on any robot); use {instead}")
+DEVICE_LAWS = ("vcl", "vc", "vcl-only", "vc-only", "vcl-roa", "vc-roa", "lqr", "passive", "spong", "trajopt",
+               "trajopt-effort")
+_REFUSAL = ("controller {name} has no law on the device (the warp engine runs {laws}); use {instead}")
 
 
 def device_controllers(plan: engine.Plan, controllers):
@@ -110,7 +116,7 @@ def device_law(packed, name, instead="--engine mujoco"):
     laws = _device_laws()
     triple = None if packed is None else (packed.first, packed.second, packed.condition)
     if triple is None or any(k not in laws for k in triple):
-        raise PaaError(_REFUSAL.format(name=name, instead=instead))
+        raise PaaError(_REFUSAL.format(name=name, laws=", ".join(DEVICE_LAWS), instead=instead))
     return triple
 
 

@@ -347,3 +347,25 @@ def test_users_controller_failures_are_one_line(tmp_path, capsys):
     assert main(["simulate", "--controller", f"{path}:Wrong", "--t-final", "0.1"]) == 2
     err = capsys.readouterr().err
     assert "returned shape (3,)" in err and len(err.strip().splitlines()) == 1
+
+
+def test_evaluate_from_a_given_switch_flag_keeps_the_laws_scratch():
+    """``evaluate(..., memory=[0.0])`` (swing-up) and ``[1.0]`` (switched) on the chain's law, whose matrices live in
+    the rest of the memory: the law's torques and the LQR's, and a memory longer than the controller's refused."""
+    import warnings
+
+    from paa_mj.model import load_robot
+    from paa_mj.sim.engine import evaluate
+
+    chain = load_robot("chain4")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        vcl = make_controller("vcl", chain)
+    form = vcl.compiled()
+    q, qd = np.array([[-3.0, -3.0, 0.1, 0.2]]), np.array([[0.1, 0.0, 0.0, 0.0]])
+    swing, mode = evaluate(form, q, qd, memory=[0.0])
+    assert mode[0] == 0 and np.array_equal(swing, vcl.first.torque(q, qd, 0.0))
+    balance, mode = evaluate(form, q, qd, memory=[1.0])
+    assert mode[0] == 1 and np.array_equal(balance, vcl.second.torque(q, qd, 0.0))
+    with pytest.raises(PaaError, match="memory of 1001 numbers given; this controller keeps"):
+        evaluate(form, q, qd, memory=np.zeros(1001))

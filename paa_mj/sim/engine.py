@@ -77,13 +77,23 @@ def pack(form) -> Packed:
 
 
 def evaluate(form, q, qd, t=0.0, memory=None):
-    """Torques (N, n - 1) and modes of a compiled form at states (N, n), (N, n), from ``memory`` (default: initial)."""
+    """Torques (N, n - 1) and modes of a compiled form at states (N, n), (N, n), each from the same memory.
+
+    ``memory`` (default: the initial one) is the packed memory of :func:`pack`, [switched?, the first's, the
+    second's]; given shorter, its first numbers (``[1.0]``: switched) and the initial rest, which holds the laws'
+    scratch (the chain's law and Spong's keep their matrices there)."""
     packed = pack(form)
     q, qd = np.atleast_2d(np.asarray(q, float)), np.atleast_2d(np.asarray(qd, float))
     tau, modes = np.empty((len(q), q.shape[1] - 1)), np.empty(len(q), np.int64)
     out = np.empty(q.shape[1] - 1)
+    start = packed.memory
+    if memory is not None:
+        given = np.asarray(memory, float).reshape(-1)
+        if given.size > start.size:
+            raise PaaError(f"memory of {given.size} numbers given; this controller keeps {start.size}")
+        start = np.concatenate([given, start[given.size:]])
     for i in range(len(q)):
-        mem = (packed.memory if memory is None else np.asarray(memory, float)).copy()
+        mem = start.copy()
         modes[i] = evaluate_once(packed.first, packed.second, packed.condition, np.concatenate([q[i], qd[i]]),
                                  float(t), packed.params, mem, out)
         tau[i] = out

@@ -269,3 +269,26 @@ def test_the_global_test_s_time_up_moves_with_a_rounding_of_the_start(acrobot):
     times = {rg.run_protocol("global-v3", acrobot, spec, task, x0=rg.hanging(2) + [0.0, shift, 0.0, 0.0],
                              progress=False)[0]["result"]["time_up"] for shift in (0.0, 1e-15, -1e-15)}
     assert len(times) > 1
+
+
+def test_runs_side_by_side_give_each_run_s_own_result(acrobot):
+    """Compiled rollouts run on a thread per core: a batch of runs with different plants, starts and noise gives
+    each run exactly what it gives alone, and Ctrl-C (here from the progress callback) reaches the caller."""
+    task = Task.named("stretched", acrobot)
+    runs = rg.Runs(acrobot, ControllerSpec("spong", task=task).build(acrobot))
+    T = rg.their_times(0.5)
+    rng = np.random.RandomState(2)
+    batch = [(rg.plant(acrobot, ("m2", (1.0 + 0.1 * k) * acrobot.params.m[1])), rng.uniform(-0.5, 0.5, 4),
+              {"sigma_meas": np.full(4, 0.01 * k), "normals": rng.standard_normal((len(T) - 1, 10))})
+             for k in range(6)]
+    together = runs.run_many(batch, T)
+    for (P, x0, d), (X, U) in zip(batch, together):
+        alone = runs.run(P, x0, T, **d)
+        assert np.array_equal(X, alone[0]) and np.array_equal(U, alone[1])
+    assert len({X[-1].tobytes() for X, _ in together}) == len(batch)  # the runs differ
+
+    def interrupt(steps):
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        runs.run_many(batch, T, advanced=interrupt)

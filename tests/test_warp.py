@@ -390,9 +390,11 @@ def test_step_kernels_call_only_the_translations_of_step(warp_modules):
                                                           step.verdict, step.apply_pushes)}
     expected_after = {translated(step.add_effort_work), translated(step.state_status)}
     for kernel, expected in ((control, expected_control), (after, expected_after)):
-        called = {cell.cell_contents for cell in kernel.func.__closure__ or ()
+        # by key (the translated function's module and name): Warp hands back the kernel it already built for the
+        # same code, so a kernel made for another chain length may hold that length's translations, the same code
+        called = {cell.cell_contents.key for cell in kernel.func.__closure__ or ()
                   if isinstance(cell.cell_contents, type(law))}
-        assert called == expected, kernel.key
+        assert called == {f.key for f in expected}, kernel.key
 
 
 @needs_warp

@@ -78,6 +78,7 @@ class _Namespace:
         self.globals = {"__name__": self.module, "wp": wp, "Any": typing.Any, "REAL": real,
                         "STATE_SIZE": state_size}
         self.done = {}  # (python function, bound names) -> name in globals
+        self.bindings = 0
         self.globals["_pymod"] = self._define("_pymod", textwrap.dedent("""\
             def _pymod(a: Any, b: Any):
                 m = wp.mod(a, b)
@@ -106,7 +107,9 @@ class _Namespace:
         key = (py, tuple(sorted((k, id(v)) for k, v in bind.items())))
         if key in self.done:
             return self.globals[self.done[key]]
-        suffix = f"__bound{len(self.done)}" if bind else ""
+        if bind:  # a new name for each binding: a count that never goes back (an entry is dropped on failure)
+            self.bindings += 1
+        suffix = f"__bound{self.bindings}" if bind else ""
         name = f"{py.__module__.replace('.', '_')}__{py.__name__}{suffix}"
         self.done[key] = name  # before the body: a recursive call would find it (Warp refuses recursion anyway)
         bound = {}

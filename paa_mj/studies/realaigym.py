@@ -31,6 +31,8 @@ angle within the task's switch angle of the goal (:func:`up_rows`).
 from __future__ import annotations
 
 import math
+import os
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
@@ -190,12 +192,21 @@ class Runs:
         runs = [(P, their_angles(np.reshape(x0, (1, -1)))[0], d) for P, x0, d in runs]
         if self.engine == "warp":
             return self._run_on_device(runs, T, advanced)
-        out = []
-        for P, x0, disturbances in runs:
-            out.append(self._run_one(P, x0, T, *self.disturbances(**disturbances)))
-            if advanced is not None:
-                advanced(steps)
-        return out
+        if self.packed is None:  # a Python controller: one run at a time (it may keep state between calls)
+            return [self._told(self._run_one(P, x0, T, *self.disturbances(**d)), advanced, steps) for P, x0, d in runs]
+        # compiled rollouts release the GIL: a thread per core, each run on its own arrays, so the same results
+        pool = ThreadPoolExecutor(max(1, min(os.cpu_count() or 1, len(runs))))
+        try:
+            futures = [pool.submit(self._run_one, P, x0, T, *self.disturbances(**d)) for P, x0, d in runs]
+            return [self._told(future.result(), advanced, steps) for future in futures]
+        finally:  # Ctrl-C: the runs not started are dropped, the running ones end within their few seconds
+            pool.shutdown(wait=True, cancel_futures=True)
+
+    @staticmethod
+    def _told(result, advanced, steps):
+        if advanced is not None:
+            advanced(steps)
+        return result
 
     def _run_one(self, P, x0, T, delay_steps, sigma_meas, responsiveness, sigma_u, normals, perturbation, reset):
         n, steps = self.n, len(T) - 1

@@ -279,7 +279,6 @@ class _ChainLaw:
 
     def __init__(self, model, kD, kP, kV, uses_vcl, task):
         self.params = chain_parameters(model, task, kD, kP, kV, uses_vcl)
-        self.n_links = model.params.n_links
         self.E_r = float(self.params[_C_ER])
 
     def torque(self, q, qd):
@@ -303,7 +302,7 @@ class _ChainLaw:
         return self._rows(q)[1]
 
     def compiled(self):
-        return CompiledForm(chain_energy_kernel, self.params, memory=np.zeros(chain_work_size(self.n_links)))
+        return CompiledForm(chain_energy_kernel, self.params, memory=np.zeros(chain_work_size(int(self.params[_C_N]))))
 
 
 class EnergyVCLController(Controller):

@@ -517,6 +517,28 @@ def _cold_cache_env(cache):
     return env
 
 
+@claim("kd_min_costs", kind="measured", full=True)
+def _kd_min_costs():
+    """CPU-seconds (all threads) and boxes of the certified search for kD_min (41), uniform rods, folded goal."""
+    from paa_mj.model.dynamics import AnalyticModel
+    from paa_mj.model.params import RobotParams
+    from paa_mj.task import Task
+    from paa_mj.theory.kd_search import kd_min_search
+
+    def search(n):
+        am = AnalyticModel.from_params(RobotParams.uniform_rods(np.ones(n), np.ones(n)))
+        start = time.process_time()
+        kd = kd_min_search(am, Task.named("folded", am).goal_energy(am))
+        assert kd.certified
+        return time.process_time() - start, kd.boxes
+
+    search(3)  # the kernels compiled (or loaded) first
+    (c6, b6), (c7, b7), (c8, b8) = (search(n) for n in (6, 7, 8))
+    return (f"{c6:.1f} CPU-s and {b6} boxes at 6 links, {c7:.0f} CPU-s and {b7} boxes at 7, {c8:.0f} CPU-s and {b8}"
+            f" boxes at 8 (rods of 1 kg and 1 m, the folded goal): the boxes grow {(b8 / b6) ** 0.5:.1f}-fold per"
+            " link")
+
+
 @claim("compile_cpu_seconds", kind="measured", full=True)
 def _compile_cpu_seconds():
     import resource

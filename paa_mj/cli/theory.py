@@ -182,8 +182,9 @@ def register(sub, parser_class):
                                    " closed loop at DUU.")
     p.add_argument("--kd-budget", type=positive, default=None, metavar="CPU_S",
                    help="CPU-seconds the certified search for kD_min (41) of a chain beyond the paper may take"
-                        " (default: 200, under 2 minutes on 2 cores; 8 links take 13 to 20): past it, or where a"
-                        " certificate is estimated at over 20 budgets, the report gives a bracket")
+                        " (default: 200, under 2 minutes on 2 cores; docs/model.md gives its cost by link count):"
+                        " past it, or where a certificate is estimated at over 20 budgets, the report gives a"
+                        " bracket")
     p.add_argument("--json", action="store_true", help="one JSON object on stdout")
     p.set_defaults(func=cmd_theory)
 

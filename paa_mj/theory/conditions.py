@@ -76,7 +76,7 @@ def chain_kd_min(am: AnalyticModel, task, budget_cpu_s=None, progress=True) -> M
     (E - E_r) I + kD B^T M^-1 B of (38) stays nonsingular for every state when kD exceeds the
     maximum over q_a of (E_r + mu) lambda_max((B^T M^-1 B)^-1). For the gymnast's UDD this is
     (41), (42) (:func:`kd_min`); elsewhere it is beyond the paper: the same definition, maximised by the branch and
-    bound of :func:`~paa_mj.theory.kd_search.kd_min_search`, certified to a relative 1e-6 (about 15 CPU-seconds
+    bound of :func:`~paa_mj.theory.kd_search.kd_min_search`, certified to a relative 1e-6 (15 to 30 CPU-seconds
     at 8 links, minutes at 9). Where its budget runs out first (from about 10 links) the result is a bracket:
     ``value <= kD_min <= upper``, ``certified`` False. Cached per robot and goal: a later call reuses the result
     when it is certified, when it asks for no budget of its own, or when it asks for no more than the first; it is

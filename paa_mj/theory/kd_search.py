@@ -10,8 +10,9 @@ boxes). :func:`kd_min_search` finds it in two steps:
    [0, pi] x [-pi, pi]^(n - 2) (f is even), with the bounds of :func:`~paa_mj.theory.bounds.box_bounds`, proves
    ``kD_min <= upper``; certified when ``upper - value <= tol |value|``.
 
-The boxes it needs grow about fivefold per link (:func:`estimated_cpu_s`): under a second at 6 links, about 15
-CPU-seconds at 8, one to two minutes at 9 (on two threads, half that in wall time). Past its budget
+The boxes it needs grow about fivefold per link (:func:`estimated_cpu_s`): under a second at 6 links, 15 to 30
+CPU-seconds at 8, two to three minutes at 9 (on two threads, half that in wall time; docs/model.md has the measured
+costs). Past its budget
 (:data:`BUDGET_CPU_S`) the search stops with the bracket ``value <= kD_min <= upper``: every kD > upper is still
 singularity-free. A chain whose certificate is estimated at more than :data:`HOPELESS` budgets skips the search:
 its ``upper`` is the global bound

@@ -210,14 +210,15 @@ def test_the_chain_law_is_the_papers_law_for_the_gymnast(gymnast, rng):
 
 
 def test_the_singularity_bound_by_its_definition_is_41_for_the_gymnast(gymnast, example2):
-    from paa_mj.theory.conditions import chain_kd_min, frozen_acrobot_controllable, kd_min, merged_acrobot_deltabar
+    from paa_mj.theory.conditions import chain_kd_min, frozen_acrobot_controllable, kd_min
+    from paa_mj.theory.merged import merged_acrobot
 
     for robot in (gymnast, example2):
         assert chain_kd_min(robot.analytic, Task.named("folded", robot)).value == pytest.approx(kd_min(robot.analytic).value, rel=1e-9)
         ok, low, high = frozen_acrobot_controllable(robot.analytic)
-        merged = merged_acrobot_deltabar(robot.analytic)
-        assert merged[0] == ok and merged[1] == pytest.approx(low, rel=1e-6) and merged[2] == pytest.approx(high,
-                                                                                                             rel=1e-6)
+        merged = merged_acrobot(robot.analytic)
+        assert merged.controllable == ok
+        assert merged.minimum == pytest.approx(low, rel=1e-6) and merged.maximum == pytest.approx(high, rel=1e-6)
 
 
 def test_gains_at_the_bound_are_refused_for_a_chain():

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from paa_mj.errors import PaaError
+from paa_mj.model import load_robot
 from paa_mj.task import Task
 from paa_mj.theory import roa, sos
 from paa_mj.theory.linear import sampled_spectral_radius
@@ -177,5 +178,37 @@ def test_a_sampling_estimate_beyond_a_day_is_refused_in_one_line(capsys, monkeyp
     monkeypatch.setattr(roa, "SIMULATED_STEP_SECONDS", 10.0)  # as a long chain at a tiny time step costs
     code = main(["roa", "--method", "sampling", "--json"])
     err = capsys.readouterr().err.strip()
-    assert code == 2 and len(err.splitlines()) == 1 and "the sampling estimate would simulate up to 16 levels" in err
+    assert code == 2 and len(err.splitlines()) == 1 and "the sampling estimate would simulate up to 17 levels" in err
     assert "days of computing (the limit is 24 hours); use --method sos (up to 4 links)" in err
+
+
+def test_the_sampling_estimate_drops_below_a_state_inside_that_fails(monkeypatch):
+    """A boundary whose states all return says nothing of the states within: a band inside that never returns (a
+    stand-in simulation) pulls the level below it."""
+    robot = load_robot("acrobot")
+    task = Task.named("stretched", robot)
+    S, K = np.eye(4), np.zeros((1, 4))
+    band = (0.4, 0.6)
+
+    def stand_in(am, task, K, u_max, dt, x0, horizon, S=None, stop_level=None, bar=None):
+        V = np.einsum("ki,ij,kj->k", x0, S, x0)
+        return np.where(((V > band[0]) & (V < band[1]))[:, None], np.nan, 0.0 * x0)
+
+    monkeypatch.setattr(roa, "simulate_errors", stand_in)
+    estimate = roa.simulated_level(robot.analytic, task, K, S, None, 1e-3, 1.0, samples=256, horizon=1.0)
+    assert 0.99 * 0.4 * 0.99 <= estimate["rho"] <= band[0] and not estimate["at_top"]
+    monkeypatch.setattr(roa, "simulate_errors", lambda *args, **kwargs: 0.0 * args[5])
+    assert roa.simulated_level(robot.analytic, task, K, S, None, 1e-3, 1.0, samples=16, horizon=1.0)["at_top"]
+
+
+def test_a_check_that_finds_states_inside_failing_says_so_on_stderr(capsys, monkeypatch):
+    from paa_mj.cli import main
+    from paa_mj.cli import roa as roa_command
+
+    monkeypatch.setattr(roa, "simulated_level", lambda *args, **kwargs: {"rho": 1.0, "at_top": False, "samples": 4,
+                                                                          "seed": 0, "horizon": 1.0})
+    monkeypatch.setattr(roa_command, "mujoco_check", lambda *args, **kwargs: ({"states": 5, "reached": 3}, []))
+    code = main(["roa", "--robot", "acrobot", "--method", "sampling", "--json"])
+    err = capsys.readouterr().err
+    assert code == 0 and "2 of 5 states inside x'Sx <= 1 did not reach the goal in MuJoCo" in err
+    assert "more --samples" in err

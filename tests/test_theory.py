@@ -62,6 +62,17 @@ def test_constraint_54_table1_holds_with_f_between_0_and_1(gymnast):
     assert 0 < c.f_min < c.f_max < 1  # the paper's Fig. 5
 
 
+def test_constraint_54_reports_the_least_distance_of_f_from_1(gymnast):
+    """closest_to_one is min |f - 1| over z (not the least of the residual Gamma beta2bar - (Eps cos z + Lam), whose
+    denominator is not f's): on Table 1, where f stays in (0, 1), it is 1 - max f."""
+    c = constraint_54(gymnast.analytic)
+    z = np.linspace(0, 2 * np.pi, 200001)
+    distance = np.abs(theory.f54(gymnast.analytic, z) - 1)
+    assert c.closest_to_one == pytest.approx(distance.min(), abs=1e-9) and c.closest_to_one <= distance.min()
+    assert c.closest_to_one == pytest.approx(1 - c.f_max, abs=1e-9)  # f_max is its grid's
+    assert abs(c.z_closest - z[np.argmin(distance)]) < 1e-3
+
+
 def test_constraint_54_table2_fails_at_z_0(example2):
     c = constraint_54(example2.analytic)
     assert not c.holds

@@ -5,7 +5,8 @@ import math
 import os
 
 from ..errors import PaaError
-from .common import file_path, goal_parent, positive, positive_int, print_json, robot_parent, seed, task_from_args
+from .common import file_path, goal_parent, note, positive, positive_int, print_json, robot_parent, seed, \
+    task_from_args
 
 #: States sampled in the set and simulated in MuJoCo by default, and trajectories drawn from its edge.
 CHECK_STATES = 50
@@ -76,6 +77,11 @@ def cmd_roa(args):
     rng = np.random.default_rng(args.seed)
     inside = uniform_in_ellipsoid(S, roa.rho, args.check, rng) if roa.rho > 0 else np.zeros((0, 2 * n))
     check, _ = mujoco_check(robot, task, args.lqr_weights, roa, limits, inside)
+    if check["reached"] < check["states"]:
+        note(f"{check['states'] - check['reached']} of {check['states']} states inside x'Sx <= {roa.rho:.6g} did not"
+             " reach the goal in MuJoCo: the set overstates the region of attraction"
+             + (" (more --samples gives a safer estimate)" if roa.method == "sampling" else
+                " (the certificate is for the Taylor model of the loop)"))
     summary = {"robot": robot.name, "goal": task.name, "controller": "lqr",
                "lqr_weights": list(args.lqr_weights) if args.lqr_weights else [LQR_WEIGHT, 1.0],
                "K": K.tolist(), **roa.to_dict(), "mujoco_check": check, **task.describe()}
@@ -118,7 +124,8 @@ def register(sub, parser_class):
     p.add_argument("--method", choices=("sos", "sampling"),
                    help="sos (Drake; the default where it imports, chains of up to 4 links) or sampling")
     p.add_argument("--samples", type=positive_int, default=None,
-                   help="sampling: states simulated on the boundary of each level tried (default 64)")
+                   help="sampling: states simulated on the boundary of each level tried, and inside the level"
+                        " kept (default 64)")
     p.add_argument("--check", type=positive_int, default=CHECK_STATES,
                    help="states sampled uniformly in the set and simulated in MuJoCo")
     p.add_argument("--seed", type=seed, default=0, help="seed of every sample")

@@ -134,7 +134,8 @@ def chain_theory_report(am: AnalyticModel, kD, kP, kV, task: Task, dt=None, kd_b
     """
     import control
 
-    from ..theory.conditions import chain_kd_min, merged_acrobot_deltabar
+    from ..theory.conditions import chain_kd_min
+    from ..theory.merged import merged_acrobot
     from ..theory.linear import goal_linearization, linear_controllability
 
     check_gain_range(kD, kP, kV)
@@ -146,7 +147,7 @@ def chain_theory_report(am: AnalyticModel, kD, kP, kV, task: Task, dt=None, kd_b
     with np.errstate(all="ignore"):  # unscaled, A^(2n - 1) B overflows on long chains
         unscaled = control.ctrb(A, B)
     rank = int(np.linalg.matrix_rank(unscaled)) if np.all(np.isfinite(unscaled)) else None
-    merged_ok, db_min, db_max = merged_acrobot_deltabar(am)
+    merged = merged_acrobot(am)
     K = lqr_gain(am, task)
     why = (f"this robot has {am.n_links} links" if am.n_links != 3 else "this robot has damping or armature") \
         if not am.paper_shape else f"the goal is {task.name}"
@@ -158,7 +159,9 @@ def chain_theory_report(am: AnalyticModel, kD, kP, kV, task: Task, dt=None, kd_b
         "state_dimension": int(A.shape[0]),
         "lqr_K": K.tolist(),
         **_sampled(am, K, dt, task, ctrb.controllable), "dt": dt,
-        "merged_acrobot_ud_controllable": merged_ok, "deltabar_min": db_min, "deltabar_max": db_max,
+        "merged_acrobot_ud_controllable": merged.controllable, "deltabar_min": merged.minimum,
+        "deltabar_max": merged.maximum, "deltabar_min_at": list(merged.argmin), "deltabar_max_at": list(merged.argmax),
+        "deltabar_method": merged.method,
         "gains": {"kD": kD, "kP": kP, "kV": kV},
         "theorem1": f"not covered: Theorem 1 and the bounds (54), (59), (60) are proved for the paper's 3-link gymnast"
                     f" without damping and its folded goal (UDD); {why}. kD_min (41) here is its definition"
@@ -182,8 +185,9 @@ def chain_theory_table(name, r) -> str:
         + ("- (it overflows)" if r["ctrb_rank"] is None else f"{r['ctrb_rank']}")
         + ("" if r["goal_controllability"]["rank"] == r["ctrb_rank"] == r["state_dimension"] else
            ": the powers of A are too ill-conditioned for a rank on this chain, PBH decides") + ")",
-        f"  merged acrobot (30)        deltabar in [{r['deltabar_min']:.6g}, {r['deltabar_max']:.6g}]:"
-        f" up-down controllable for every frozen posture: {_yes(r['merged_acrobot_ud_controllable'])}",
+        f"  merged acrobot (30)        deltabar in [{r['deltabar_min']:.6g}, {r['deltabar_max']:.6g}] (extremes found):"
+        f" up-down controllable for every frozen posture: {_decided(r['merged_acrobot_ud_controllable'])}",
+        f"      {r['deltabar_method']}",
         f"  LQR gain K at the goal     Q = 1e4 I{r['state_dimension']}, R = I{r['links'] - 1}",
     ]
     for row in r["lqr_K"]:
@@ -222,6 +226,10 @@ def _sampled_line(r):
 
 def _yes(flag):
     return "yes" if flag else "NO"
+
+
+def _decided(flag):
+    return "undecided" if flag is None else _yes(flag)
 
 
 def theory_table(name, r) -> str:

@@ -42,8 +42,8 @@ from ..model.dynamics import AnalyticModel
 from ..model.params import RobotParams
 from ..model.robot import Robot
 from ..task import Task, as_task
-from ..theory.conditions import chain_kd_min, constraint_54, eta1, eta2, frozen_acrobot_controllable, kd_min, \
-    merged_acrobot_deltabar
+from ..theory.conditions import chain_kd_min, constraint_54, eta1, eta2, frozen_acrobot_controllable, kd_min
+from ..theory.merged import merged_acrobot
 from ..control.closed_loop import duu_eigenvalues
 from ..control.gains import gain_rule, gain_rule_words
 from ..theory.linear import goal_controllability, lqr_gain, sampled_spectral_radius, theorem1_covers
@@ -145,7 +145,8 @@ def robot_theory(params: RobotParams, task: Task, base_gains=None, dt=1e-3) -> d
         bound = chain_kd_min(am, task, progress=False)
         kd, e1, e2 = bound.value, float("nan"), float("nan")
         holds, f_min, f_max = False, float("nan"), float("nan")
-        _, db_min, db_max = merged_acrobot_deltabar(am)
+        merged = merged_acrobot(am, budget_cpu_s=0.0)  # its extremes; the sign is not the atlas's to decide
+        db_min, db_max = merged.minimum, merged.maximum
         gains = gain_rule(kd if bound.certified else bound.upper, None, None, base_gains)  # above a bracket's top
         growth = float("nan")
     radius = sampled_spectral_radius(am, lqr_gain(am, task), dt, task) if controllable else float("inf")

@@ -4,7 +4,8 @@
 - :mod:`~paa_mj.theory.linear`: linearisation at UDD, controllability, the LQR gain of (67);
 - :mod:`~paa_mj.theory.maxima`: the coarse-grid-plus-zoom maxima these need, and a certified branch and bound;
 - :mod:`~paa_mj.theory.kd_search`: kD_min of (41) for any chain, certified (bounds in
-  :mod:`~paa_mj.theory.bounds` and :mod:`~paa_mj.theory.second_order`).
+  :mod:`~paa_mj.theory.bounds` and :mod:`~paa_mj.theory.second_order`);
+- :mod:`~paa_mj.theory.merged`: deltabar (30) of the merged acrobot over every frozen posture, its sign decided.
 
 The closed-loop analysis at DUU needs controller (40) and lives in
 :mod:`paa_mj.control.closed_loop`; the whole report is
@@ -32,6 +33,7 @@ _EXPORTS = {
     "udd_controllability": ".linear",
     "udd_linearization": ".linear",
     "kd_min_search": ".kd_search",
+    "merged_acrobot": ".merged",
     "Maximum": ".maxima",
     "branch_and_bound": ".maxima",
     "grid_maximum": ".maxima",
@@ -41,5 +43,5 @@ __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, globals())
 
 __all__ = ["Constraint54", "LQR_Q", "LQR_R", "Maximum", "branch_and_bound", "chain_kd_min", "constraint_54", "deltabar",
            "eta1", "eta1_function", "eta2", "eta2_function", "f54", "frozen_acrobot_controllable", "grid_maximum",
-           "kd_bound_function", "kd_min", "kd_min_search", "lqr_gain", "thresholds", "udd_controllability",
-           "udd_linearization"]
+           "kd_bound_function", "kd_min", "kd_min_search", "lqr_gain", "merged_acrobot", "thresholds",
+           "udd_controllability", "udd_linearization"]

@@ -205,30 +205,46 @@ class Constraint54:
 
 
 def constraint_54(am: AnalyticModel, n=40001) -> Constraint54:
-    """Check (54). f = 1 is treated as reached when :math:`|f - 1| \\le 10^{-9}` (rounding)."""
+    """Check (54). f = 1 is treated as reached when :math:`|f - 1| \\le 10^{-9}` (rounding).
+
+    Whether f reaches 1 is decided on h(z) = (Gamma beta2bar - (Eps cos z + Lam)) / scale, which vanishes exactly
+    where f = 1 and stays finite where the denominator of f vanishes; how close f comes to 1 is min abs(f - 1) itself
+    (h has another minimiser: its denominator is not f's).
+    """
     gamma, eps, lam = constraint_terms(am)
     z = np.linspace(0, TWO_PI, n)
-    # Work with h(z) = Gamma beta2bar - (Eps cos z + Lam): f = 1 exactly where h = 0, and h
-    # stays finite where the denominator of f vanishes.
     scale = abs(gamma) * (am.b2 + am.b3) + abs(eps) + abs(lam)
-    h = (gamma * beta2bar(am.b2, am.b3, z) - (eps * np.cos(z) + lam)) / scale
+
+    def residual(s):
+        return abs(gamma * beta2bar(am.b2, am.b3, s) - (eps * np.cos(s) + lam)) / scale
+
+    h = residual(z)
+    signed = gamma * beta2bar(am.b2, am.b3, z) - (eps * np.cos(z) + lam)
+    crosses = bool(np.any(np.sign(signed[:-1]) * np.sign(signed[1:]) < 0))
+    h_touch = _refined_minimum(residual, z, h)[1]
     denominator = eps * np.cos(z) + lam
-    f = f54(am, z) if np.all(denominator != 0) else None
-    crosses = bool(np.any(np.sign(h[:-1]) * np.sign(h[1:]) < 0))
-    i = int(np.argmin(np.abs(h)))
-    x_min, h_min = bounded_minimum(lambda s: abs(gamma * beta2bar(am.b2, am.b3, s) - (eps * np.cos(s) + lam)) / scale,
-                                   z[max(i - 1, 0)], z[min(i + 1, n - 1)], xatol=1e-13)
-    z_close, h_close = (float(x_min), float(h_min)) if h_min < abs(h[i]) else (float(z[i]), float(abs(h[i])))
-    sign_change = bool(np.any(np.sign(denominator[:-1]) * np.sign(denominator[1:]) < 0))
-    if f is None or sign_change:
-        f_min, f_max = -np.inf, np.inf
-    else:
-        f_min, f_max = float(f.min()), float(f.max())
-    f_close = float(f54(am, z_close))
+    sign_change = bool(np.any(np.sign(denominator[:-1]) * np.sign(denominator[1:]) < 0)) or not np.all(denominator)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        f = f54(am, z)
+
+        def distance(s):
+            value = abs(f54(am, s) - 1.0)
+            return value if np.isfinite(value) else np.inf
+
+        z_close, f_close_distance = _refined_minimum(distance, z, np.where(np.isfinite(f), np.abs(f - 1.0), np.inf))
+    f_min, f_max = (-np.inf, np.inf) if sign_change else (float(f.min()), float(f.max()))
     tolerance = 1e-9
-    holds = not crosses and abs(f_close - 1) > tolerance and h_close > tolerance
+    holds = not crosses and f_close_distance > tolerance and h_touch > tolerance
     return Constraint54(holds=bool(holds), f_min=f_min, f_max=f_max,
-                        closest_to_one=abs(f_close - 1), z_closest=z_close, tolerance=tolerance)
+                        closest_to_one=float(f_close_distance), z_closest=float(z_close), tolerance=tolerance)
+
+
+def _refined_minimum(func, z, values):
+    """The minimum of ``func`` over [0, 2 pi] from its ``values`` on the grid ``z``: Brent's method on the cells
+    beside the grid's least value, kept only where it does better. (z, func(z))."""
+    i = int(np.argmin(values))
+    x_min, v_min = bounded_minimum(func, z[max(i - 1, 0)], z[min(i + 1, len(z) - 1)], xatol=1e-13)
+    return (float(x_min), float(v_min)) if v_min < values[i] else (float(z[i]), float(values[i]))
 
 
 # --- (26)-(30) --------------------------------------------------------------------
@@ -269,40 +285,4 @@ def frozen_acrobot_controllable(am: AnalyticModel, n=20001) -> tuple[bool, float
     db = deltabar(am, np.linspace(0, TWO_PI, n))
     ok = bool(np.min(np.abs(db)) > 1e-9 * np.max(np.abs(db)) and (np.all(db > 0) or np.all(db < 0)))
     return ok, float(db.min()), float(db.max())
-
-
-def merged_acrobot_deltabar(am: AnalyticModel, n_samples=20001, seed=0):
-    """deltabar of (30) for the acrobot made by freezing joints 3..n at z (Sect. 2.4), over the frozen postures z.
-
-    The frozen links 2..n are one rigid link about joint 2: abar1 = A_11, abar2(z) its inertia about joint 2,
-    bbar2(z) the length of sum_{k>=2} b_k e(alpha_k) (alpha_k = q3 + ... + qk, alpha_2 = 0), abar3 = l1 bbar2 / g,
-    bbar1 = b1;
-    deltabar = (abar2 - abar3) bbar1 + (abar1 - abar3) bbar2, and the up-down point is linearly controllable iff
-    deltabar != 0 (Lemma 1). For the gymnast these are (26)-(30); for two links the acrobot is the robot itself
-    (no z); for more, z runs over a grid (n <= 4) or ``n_samples`` random postures.
-
-    Returns
-    -------
-    (controllable_everywhere, deltabar_min, deltabar_max)
-    """
-    A, b, p = am.inertia_constants, am.gravity_constants, am.params
-    frozen = am.n_links - 2
-    if frozen == 0:
-        z = np.zeros((1, 0))
-    elif frozen == 1:
-        z = np.linspace(0, TWO_PI, n_samples)[:, None]
-    elif frozen == 2:
-        axis = np.linspace(0, TWO_PI, 201)
-        z = np.stack(np.meshgrid(axis, axis, indexing="ij"), -1).reshape(-1, 2)
-    else:
-        z = np.random.default_rng(seed).uniform(0, TWO_PI, (n_samples, frozen))
-    alpha = np.concatenate([np.zeros((len(z), 1)), np.cumsum(z, axis=1)], axis=1)  # links 2..n, from link 2
-    tail = A[1:, 1:]
-    abar2 = np.einsum("ij,rij->r", tail, np.cos(alpha[:, :, None] - alpha[:, None, :]))
-    bbar2 = np.hypot(np.sum(b[1:] * np.cos(alpha), 1), np.sum(b[1:] * np.sin(alpha), 1))
-    abar3 = p.l[0] * bbar2 / p.g
-    values = (abar2 - abar3) * b[0] + (A[0, 0] - abar3) * bbar2
-    crosses = bool(np.any(np.sign(values[:-1]) * np.sign(values[1:]) < 0)) if frozen == 1 else False
-    everywhere = bool(np.all(values > 0) or np.all(values < 0)) and not crosses
-    return everywhere, float(values.min()), float(values.max())
 

@@ -18,8 +18,8 @@ of the closed loop :math:`\\tau = \\mathrm{sat}(-K x)` of (1). Two methods (:dat
   the set by sampling (:func:`vdot_check`);
 - ``sampling``: an estimate, not a certificate: the largest level, by bisection, from whose boundary every one
   of ``samples`` seeded states reaches the goal in a simulation of (1) by RK4 at the control step with the
-  torque held over each step and saturated (:func:`simulated_level`), as RealAIGym's simulation-based
-  estimates do.
+  torque held over each step and saturated, lowered below any of ``samples`` seeded states inside it that does
+  not (:func:`simulated_level`), as RealAIGym's simulation-based estimates do.
 
 Beside it: the spectral radius of the loop sampled with zero-order hold at the control step
 (:func:`~paa_mj.theory.linear.sampled_spectral_radius`; above 1 the sampled balance is unstable and the
@@ -222,15 +222,19 @@ def simulated_level(am, task, K, S, u_max, dt, top, samples=SIMULATED_SAMPLES, s
     """The ``sampling`` estimate: geometric bisection on rho in [1e-8 top, top] of "every one of ``samples``
     seeded states on x^T S x = rho comes within V < REACHED rho of the goal in ``horizon`` seconds"
     (:func:`simulate_errors`, the same seed at every level; default horizon the larger of SIMULATED_HORIZON and
-    :func:`settling_time`). 0.0 when the lowest level fails. Refused in one line where its steps would take more
-    than a day (:func:`simulated_step_seconds`); with ``progress``, a bar on stderr counts them."""
+    :func:`settling_time`), then ``samples`` seeded states uniform inside the level found: where some fail, the
+    level drops below the least V at which one started, and the inside is sampled again (up to ``bisections``
+    times), since a boundary that returns says nothing of the states within. 0.0 when the lowest level fails.
+    Refused in one line where its steps would take more than a day (:func:`simulated_step_seconds`); with
+    ``progress``, a bar on stderr counts them."""
     rng_seed = np.random.SeedSequence(seed)
+    inside_seed = np.random.SeedSequence([seed, 1])
     if horizon is None:
         horizon = max(SIMULATED_HORIZON, settling_time(am, task, K))
     if not np.isfinite(horizon):
         return {"rho": 0.0, "at_top": False, "samples": samples, "seed": seed, "horizon": None}
 
-    steps, levels = int(round(horizon / dt)), bisections + 2
+    steps, levels = int(round(horizon / dt)), bisections + 3
     need = steps * levels * simulated_step_seconds(am, samples)
     if not need <= MAX_SECONDS:
         raise PaaError(f"the sampling estimate would simulate up to {levels} levels of {steps:.3g} steps of {dt:g} s"
@@ -240,21 +244,39 @@ def simulated_level(am, task, K, S, u_max, dt, top, samples=SIMULATED_SAMPLES, s
     bar = progress_bar(desc="region of attraction, simulated levels", unit="step", total=steps * levels,
                        enabled=progress)
 
-    def reached(level):
-        x0 = on_ellipsoid(S, level, samples, np.random.default_rng(rng_seed))
+    def failed_from(x0, level):
+        """V at the start of each state of x0 that does not reach V < REACHED level."""
         x = simulate_errors(am, task, K, u_max, dt, x0, horizon, S, REACHED * level, bar)
-        return bool(np.all(np.einsum("ki,ij,kj->k", x, S, x) < REACHED * level))
+        missed = ~(np.einsum("ki,ij,kj->k", x, S, x) < REACHED * level)
+        return np.einsum("ki,ij,kj->k", x0, S, x0)[missed]
+
+    def reached(level):
+        return failed_from(on_ellipsoid(S, level, samples, np.random.default_rng(rng_seed)), level).size == 0
+
+    def inside(level):
+        """The level, lowered below every state inside it seen to fail."""
+        for _ in range(bisections):
+            failed = failed_from(uniform_in_ellipsoid(S, level, samples, np.random.default_rng(inside_seed)), level)
+            if failed.size == 0:
+                return level, True
+            level = 0.99 * float(np.min(failed))
+        return level, False
+
+    def estimate(level, at_top):
+        rho, checked = inside(level)
+        return {"rho": float(rho) if checked else 0.0, "at_top": at_top and rho == level, "samples": samples,
+                "seed": seed, "horizon": horizon}
 
     with bar:
         low, high = np.log(1e-8 * top), np.log(top)
         if reached(top):
-            return {"rho": float(top), "at_top": True, "samples": samples, "seed": seed, "horizon": horizon}
+            return estimate(float(top), True)
         if not reached(np.exp(low)):
             return {"rho": 0.0, "at_top": False, "samples": samples, "seed": seed, "horizon": horizon}
         for _ in range(bisections):
             middle = 0.5 * (low + high)
             low, high = (middle, high) if reached(np.exp(middle)) else (low, middle)
-    return {"rho": float(np.exp(low)), "at_top": False, "samples": samples, "seed": seed, "horizon": horizon}
+        return estimate(float(np.exp(low)), False)
 
 
 def angle_level(S, n):
@@ -338,8 +360,8 @@ def region_of_attraction(am: AnalyticModel, task: Task, K, S, Q, R, *, u_max=Non
         simulation = simulated_level(am, task, K, S, limits, dt, angle_level(S, am.n_links), samples, seed,
                                      progress=progress)
         rho = simulation["rho"]
-        certificate = (f"none: an estimate from {samples} seeded states on the boundary of each level tried,"
-                       f" simulated by RK4 at dt with the torque held and saturated")
+        certificate = (f"none: an estimate from {samples} seeded states on the boundary of each level tried and"
+                       f" {samples} inside the level kept, simulated by RK4 at dt with the torque held and saturated")
     return RegionOfAttraction(
         S=S, rho=float(rho), method=method, certified=method == "sos", certificate=certificate, rho_sos=rho_sos,
         rho_torque=rho_torque, rho_upper=upper, u_max=None if limits is None else limits.tolist(), dt=float(dt),

@@ -13,19 +13,25 @@ With alpha = (alpha_3, ..., alpha_n) the absolute angles of links 3..n from link
     \\bar\\delta = (\\bar a_2 - \\bar a_3) b_1 + (a_{11} - \\bar a_3) s
                = b_1 \\bar a_2 + (a_{11} - b_1 l_1 / g)\\, s - (l_1 / g)\\, s^2,
 
-deltabar [J kg m^2] even in alpha. On a box alpha = c + delta, abs(delta_j) <= r_j, it is bounded two ways
-(:func:`box_bounds`), the tighter kept:
+deltabar [J kg m^2] even in alpha. On a box alpha = c + delta, abs(delta_j) <= r_j, it is bounded three ways
+(:meth:`Deltabar.box_bounds`), the tightest kept:
 
 1. intervals: each cos(alpha_i - alpha_k) over its arc exactly, s between the projection of z(c + delta) on z(c)
    and abs(z(c)) + sum_k b_k abs(e^{i delta_k} - 1), the concave c s - kappa s^2 at the ends or the vertex;
 2. second order: deltabar(c) + G . delta, G its gradient, the linear part maximised exactly and each pair's
    cosine off its tangent by at most Omega^2 / 2 (Omega = r_i + r_k); s >= Re(z e^{-i theta_c}) and
-   s <= abs(z(c)) + Re((z - z(c)) e^{-i theta_c}) + abs(z - z(c))^2 / (2 abs(z(c))).
+   s <= abs(z(c)) + Re((z - z(c)) e^{-i theta_c}) + abs(z - z(c))^2 / (2 abs(z(c)));
+3. arcs: with eps_i = e^{i delta_i} - 1, a pair form sum_ik W_ik cos(alpha_i - alpha_k) changes by exactly
+   Re sum_i omega_i eps_i + eps^H C eps (omega_i = 2 u_i sum_k W_ik conj(u_k), C_ik = W_ik conj(u_i) u_k,
+   u = e^{i alpha(c)}); the same two bounds of s make c s such a form too (abs(z - z(c))^2 is one). The
+   off-diagonal part of eps^H C eps lies within sum_i D_i abs(eps_i)^2, D_i = sum_{k != i} abs(W_ik) e_k / e_i
+   (e_i = 2 sin(r_i / 2), the largest abs(eps_i)), and abs(eps_i)^2 = -2 Re(eps_i): the change is then
+   Re sum_i w_i eps_i, each term's extreme over its arc exact.
 
 :func:`merged_acrobot` finds the extremes from a grid or random postures and the straight and folded ones
 (alpha in {0, pi}), refined by gradient steps; a sign change found is a witness. Where none is found, the branch
-and bound of :func:`~paa_mj.theory.maxima.branch_and_bound` proves that deltabar keeps its sign, with at least half
-the smallest absolute value found, or stops at its budget undecided.
+and bound of :func:`~paa_mj.theory.maxima.branch_and_bound` proves that deltabar keeps its sign, with at least a
+tenth of the smallest absolute value found, or stops at its budget undecided.
 """
 from __future__ import annotations
 
@@ -144,7 +150,34 @@ class Deltabar:
         score = np.abs(grad) * radii + radii * radii * (np.abs(self.b1) * np.sum(np.abs(W[1:]), axis=1)
                                                           + self.b_tail[1:] * (abs(self.c) + self.kappa
                                                                                * np.sum(self.b_tail)))
-        return np.maximum(lower1, lower2) - scale, np.minimum(upper1, upper2) + scale, value, score
+        with np.errstate(divide="ignore", invalid="ignore"):  # where z(c) = 0 bound 3 is infinite on one side
+            lower3 = value + self._arcs(phi, rho, s, theta, -1.0)
+            upper3 = value + self._arcs(phi, rho, s, theta, 1.0)
+        lower, upper = np.maximum(np.maximum(lower1, lower2), lower3), np.minimum(np.minimum(upper1, upper2), upper3)
+        return lower - scale, upper + scale, value, score
+
+    def _arcs(self, phi, rho, s, theta, side):
+        """Bound 3 of the module's docstring: the largest (side 1) or least (side -1) change of deltabar on each
+        box, with eps_i = e^{i delta_i} - 1, as sum_i of the extreme of Re(w_i eps_i) over its arc."""
+        u = np.exp(1j * phi)
+        pair = self.b1 * self.tail - self.kappa * np.outer(self.b_tail, self.b_tail)  # deltabar's pair weights
+        omega = 2.0 * u * np.einsum("ik,rk->ri", pair, np.conj(u))  # P's linear part: Re sum_i omega_i eps_i
+        one = self.c * self.b_tail * u * np.exp(-1j * theta)[:, None]  # c s against its projection on z(c)
+        # c s beyond its projection, on the side that needs it: c |z - z(c)|^2 / (2 s(c)), a pair form as well
+        gamma = np.where(side * self.c > 0, self.c / (2.0 * s), 0.0)
+        weights = pair[None] + gamma[:, None, None] * np.outer(self.b_tail, self.b_tail)[None]
+        reach = 2.0 * np.sin(np.minimum(rho, math.pi) / 2.0)  # max |eps_i|
+        ratio = np.where(reach[:, None, :] > 0, reach[:, None, :] / reach[:, :, None], 0.0)
+        off = np.abs(weights) * ratio
+        off[:, np.arange(len(self.b_tail)), np.arange(len(self.b_tail))] = 0.0
+        gersh = np.sum(off, axis=2)  # |sum_{i != k} conj(eps_i) C_ik eps_k| <= sum_i gersh_i |eps_i|^2
+        diagonal = np.einsum("rii->ri", weights) + side * gersh  # times |eps_i|^2 = -2 Re(eps_i)
+        w = side * (omega + one - 2.0 * diagonal)
+        cos_r, sin_r = np.cos(np.minimum(rho, math.pi)), np.sin(np.minimum(rho, math.pi))
+        size = np.abs(w)
+        arc = np.where(w.real >= size * cos_r, size, w.real * cos_r + np.abs(w.imag) * sin_r)  # max over the arc
+        change = np.sum(np.where(rho > 0, arc - w.real, 0.0), axis=1)
+        return side * np.where(np.isfinite(change), change, np.inf)
 
     def _q(self, s):
         return self.c * s - self.kappa * s * s
@@ -231,7 +264,7 @@ def merged_acrobot(am: AnalyticModel, budget_cpu_s=BUDGET_CPU_S, seed=0) -> Merg
     lows, highs = np.full(m, -np.pi), np.full(m, np.pi)
     lows[0] = 0.0  # deltabar(-alpha) = deltabar(alpha)
     h, x_h, upper, boxes, finished = branch_and_bound(bound, lows, highs, -nearest, x,
-                                                      lambda point: _ascend(d, -sign, point), tol=0.5,
+                                                      lambda point: _ascend(d, -sign, point), tol=0.9,
                                                       budget_s=budget_cpu_s)
     if h >= 0.0:
         if sign > 0:

@@ -409,3 +409,57 @@ def test_simulate_does_not_overwrite_a_summary_it_did_not_write(tmp_path, run):
     assert (out / "summary.json").read_text() == '{"my": "notes"}'
     assert run("simulate", "--t-final", "0.05", "--out", tmp_path / "own").returncode == 0
     assert run("simulate", "--t-final", "0.05", "--out", tmp_path / "own").returncode == 0  # its own: replaced
+
+
+def _interrupting_engine(monkeypatch):
+    """The batch engine as after Ctrl-C: what it ran, marked interrupted."""
+    import dataclasses
+
+    from paa_mj.sim import batch
+
+    real = batch.run_engine
+    monkeypatch.setattr(batch, "run_engine",
+                        lambda *args, **kwargs: dataclasses.replace(real(*args, **kwargs), interrupted=True))
+
+
+def test_a_batch_cut_short_is_raised_unless_its_caller_keeps_partial_results(monkeypatch):
+    """No caller can take an interrupted batch for a whole one: only a study that keeps and resumes asks for it."""
+    from paa_mj.model import load_robot
+    from paa_mj.sim.batch import simulate_batch
+
+    _interrupting_engine(monkeypatch)
+    gymnast = load_robot("gymnast")
+    with pytest.raises(KeyboardInterrupt):
+        simulate_batch(gymnast, np.zeros((2, 6)), 0.05)
+    assert simulate_batch(gymnast, np.zeros((2, 6)), 0.05, partial=True).interrupted
+
+
+@pytest.mark.parametrize("args", [["gain-search", "--t-final", "0.05"],
+                                  ["roa", "--robot", "acrobot", "--method", "sampling", "--samples", "1", "--check", "2"]])
+def test_commands_that_ran_batches_stop_on_an_interrupt_instead_of_reporting_it(monkeypatch, capsys, args):
+    from paa_mj.cli import main
+    from paa_mj.theory import roa
+
+    _interrupting_engine(monkeypatch)
+    monkeypatch.setattr(roa, "simulated_level", lambda *a, **k: {"rho": 1.0, "at_top": False, "samples": 1,
+                                                                 "seed": 0, "horizon": 1.0})
+    code = main(args + ["--json"])
+    captured = capsys.readouterr()
+    assert code == 130 and "interrupted" in captured.err and captured.out == ""
+
+
+def test_a_bench_measurement_cut_short_is_no_measurement():
+    from dataclasses import dataclass
+
+    from paa_mj.studies.bench import _whole
+
+    @dataclass
+    class Run:
+        interrupted: bool = False
+        meta: dict | None = None
+
+    for cut in (Run(interrupted=True), Run(meta={"interrupted": True}), ({"interrupted": True}, {})):
+        with pytest.raises(KeyboardInterrupt):
+            _whole(cut)
+    whole = ({"interrupted": False}, {})
+    assert _whole(Run()) is not None and _whole(whole) is whole and _whole(None) is None

@@ -308,7 +308,7 @@ def simulate_batch(robot: Robot, x0: ArrayLike, t_final: float | None = None, *,
                    plants: list | None = None, torque_limit: ArrayLike | None = None,
                    disturbances: Disturbances | None = None, record: bool = False, sample_dt: float = 0.01,
                    retire: bool = True, nthread: int | None = None, progress: bool = False, engine: str = "mujoco",
-                   device: str | None = None) -> BatchResult:
+                   device: str | None = None, partial: bool = False) -> BatchResult:
     """Closed-loop rollouts of N initial states at once.
 
     Parameters
@@ -344,6 +344,10 @@ def simulate_batch(robot: Robot, x0: ArrayLike, t_final: float | None = None, *,
         (:mod:`paa_mj.sim.warp_engine`, ``pip install "paa_mj[gpu]"``; float32, what it runs is listed there).
     device : str, optional
         The Warp device of ``engine="warp"`` (``cpu``, ``cuda:0``; default ``$PAA_MJ_WARP_DEVICE`` or the first GPU).
+    partial : bool
+        After Ctrl-C or SIGTERM, return what finished with ``interrupted`` set (a study that keeps it and resumes);
+        by default the interruption is raised again (``KeyboardInterrupt``), so that no caller can take a batch cut
+        short for a whole one.
     """
     check_engine(engine, device)
     check_robot(robot)
@@ -368,6 +372,8 @@ def simulate_batch(robot: Robot, x0: ArrayLike, t_final: float | None = None, *,
         from ..model.dynamics import AnalyticModel
 
         plant_analytics = [robot.analytic if p is None else AnalyticModel.from_params(p) for p in plants]
+    if outcome.interrupted and not partial:
+        raise KeyboardInterrupt
     out = outcome_arrays(plan, outcome, controllers, plant_analytics)
     completed = ~np.isin(out["status"], (STOPPED, RUNNING))
     trajectories = None
@@ -386,8 +392,6 @@ def kip_peak_torques(robot: Robot, controller, task: Task, torque_limit=None, t_
     for the gymnast's kip), over every step: the scale of torque limits and torque noise."""
     result = simulate_batch(robot, task.start[None], t_final, task=task, controller=controller,
                             torque_limit=torque_limit, retire=False)
-    if result.interrupted:
-        raise KeyboardInterrupt
     if result.diverged[0]:
         name = controller if isinstance(controller, str) else getattr(controller, "short_name", None) or \
             controller_name(controller)

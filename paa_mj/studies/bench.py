@@ -106,9 +106,20 @@ def _best_of(fn, repeats, clock=time.perf_counter):
     best = np.inf
     for _ in range(repeats):
         start = clock()
-        fn()
+        _whole(fn())
         best = min(best, clock() - start)
     return best
+
+
+def _whole(result):
+    """``result`` of a measured run, or ``KeyboardInterrupt`` where Ctrl-C or SIGTERM cut it short: the time of a
+    run cut short is no measurement. Reads an engine's outcome, a trajectory's meta and a study's summary."""
+    summary = result[0] if isinstance(result, tuple) and result and isinstance(result[0], dict) else result
+    meta = getattr(result, "meta", None)
+    if getattr(result, "interrupted", False) or (isinstance(meta, dict) and meta.get("interrupted")) or \
+            (isinstance(summary, dict) and summary.get("interrupted")):
+        raise KeyboardInterrupt
+    return result
 
 
 def _cpu_best_of(fn, repeats):
@@ -221,14 +232,14 @@ def mujoco_batch_rows(robot, task, controller, x0, seconds, repeats) -> dict:
     controllers = [controller] * len(x0)
     plan = build_plan(robot, task, x0, seconds, controllers, retire=False)
     runs = {"engine": engine.run, "mujoco_batch": mujoco_batch.run}
-    outcomes = {name: fn(plan, controllers) for name, fn in runs.items()}  # compiled parts loaded first
+    outcomes = {name: _whole(fn(plan, controllers)) for name, fn in runs.items()}  # compiled parts loaded first
     cases = {(name, nthread): (fn, nthread) for nthread in (None, 1) for name, fn in runs.items()}
     best = dict.fromkeys(cases, np.inf)
     for _ in range(repeats):
         for key, (fn, nthread) in cases.items():
             clock = time.perf_counter if nthread is None else time.process_time
             start = clock()
-            fn(plan, controllers, nthread=nthread)
+            _whole(fn(plan, controllers, nthread=nthread))
             best[key] = min(best[key], clock() - start)
     state_steps = len(plan) * plan.n_steps
     return {"mujoco_batch_rollouts": len(plan), "mujoco_batch_t_final": plan.n_steps * plan.dt,
@@ -360,7 +371,7 @@ def _realaigym_rows(bare_step, progress) -> dict:
     spec = ControllerSpec("spong", task=as_task("stretched", acrobot))
     run_protocol("performance-v2", acrobot, spec, "stretched")  # compile (or load) the kernels first
     start = time.process_time()
-    summary, _ = run_protocol("robustness-v2", acrobot, spec, "stretched", progress=progress)
+    summary, _ = _whole(run_protocol("robustness-v2", acrobot, spec, "stretched", progress=progress))
     cpu = time.process_time() - start
     steps = summary["result"]["runs"] * (len(their_times(T_FINAL)) - 1)
     return {"realaigym_robustness_v2_cpu_s": cpu, "realaigym_robustness_v2_runs": summary["result"]["runs"],

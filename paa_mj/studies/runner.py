@@ -242,7 +242,7 @@ def _run_chunk(xml, name, kwargs, t_final, seed, nthread, retire, engine="mujoco
     robot = robot_from_xml(xml, name=name)
     kwargs = dict(kwargs, disturbances=replace(kwargs["disturbances"], seed=seed))
     result = simulate_batch(robot, t_final=t_final, nthread=nthread, retire=retire, engine=engine, device=device,
-                            progress=progress, **kwargs)
+                            progress=progress, partial=True, **kwargs)
     out = {key: getattr(result, key) for key in OUTCOMES}
     out["completed"] = result.meta["completed"]
     out["interrupted"] = result.interrupted  # read and dropped by map_chunks, never stored

@@ -463,3 +463,23 @@ def test_a_bench_measurement_cut_short_is_no_measurement():
             _whole(cut)
     whole = ({"interrupted": False}, {})
     assert _whole(Run()) is not None and _whole(whole) is whole and _whole(None) is None
+
+
+def test_a_single_run_cut_short_is_raised_unless_its_caller_keeps_it():
+    """Ctrl-C in a run (here raised by a Python controller at t = 0.1 s, where the engine catches it)."""
+    from paa_mj.model import load_robot
+    from paa_mj.sim.analytic import simulate_analytic
+    from paa_mj.sim.rollout import simulate_mujoco
+
+    class CtrlC:
+        def torque(self, q, qd, t):
+            if t > 0.1:
+                raise KeyboardInterrupt
+            return np.zeros(q.shape[:-1] + (2,))
+
+    gymnast = load_robot("gymnast")
+    for simulate in (simulate_mujoco, simulate_analytic):
+        with pytest.raises(KeyboardInterrupt):
+            simulate(gymnast, CtrlC(), None, 1.0)
+        kept = simulate(gymnast, CtrlC(), None, 1.0, partial=True)
+        assert kept.meta["interrupted"] and kept.meta["status"].startswith("interrupted at t =")

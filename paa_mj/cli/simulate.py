@@ -70,11 +70,11 @@ def run_from_args(args, progress=True):
     try:
         if args.engine == "analytic":
             traj = simulate_analytic(robot, controller, x0, args.t_final, task=task, sample_dt=args.sample_dt,
-                                     torque_limit=args.torque_limit, progress=progress)
+                                     torque_limit=args.torque_limit, progress=progress, partial=True)
         else:
             traj = simulate_mujoco(robot, controller, x0, args.t_final, task=task, dt=args.dt,
                                    integrator=args.integrator, sample_dt=args.sample_dt,
-                                   torque_limit=args.torque_limit, progress=progress)
+                                   torque_limit=args.torque_limit, progress=progress, partial=True)
     except SimulationDiverged as err:
         if err.trajectory is not None:
             err.trajectory.robot_xml = robot.xml  # what is kept of it names its robot too

@@ -162,7 +162,7 @@ def _first_entry(margin, dense, t_start, t_end, resolution):
 def simulate_analytic(robot: Robot, controller="vcl", x0=None, t_final: float | None = None, *,
                       task: Task | str | None = None, sample_dt: float = 0.01, rtol: float = 1e-10,
                       atol: float = 1e-10, method: str = "DOP853", torque_limit=None, event_resolution: float = 1e-3,
-                      progress: bool = False) -> Trajectory:
+                      progress: bool = False, partial: bool = False) -> Trajectory:
     """Integrate (1) closed by ``controller`` with continuous-time control.
 
     Parameters
@@ -181,6 +181,9 @@ def simulate_analytic(robot: Robot, controller="vcl", x0=None, t_final: float | 
     event_resolution : float
         The switching condition is watched on the integrator's dense output every this many
         seconds [s], so that no visit of the region longer than that is stepped over.
+    partial : bool
+        After Ctrl-C or SIGTERM, return the run integrated so far, ``meta["interrupted"]`` set; by default the
+        interruption is raised again (``KeyboardInterrupt``).
     """
     from scipy.integrate import DOP853, LSODA, RK45, Radau  # here: SciPy's integrate and optimize load slowly
 
@@ -201,7 +204,10 @@ def simulate_analytic(robot: Robot, controller="vcl", x0=None, t_final: float | 
     steps = steps_for(t_final, run.judge_dt)  # a run of t_final ends where the MuJoCo engine's does: the nearest step
     run.integrate(x0, t_final if abs(steps * run.judge_dt - t_final) < 1e-6 * run.judge_dt else steps * run.judge_dt,
                   sample_dt, progress)
-    return run.trajectory(x0, t_final, sample_dt, method, rtol)
+    traj = run.trajectory(x0, t_final, sample_dt, method, rtol)
+    if traj.meta.get("interrupted") and not partial:
+        raise KeyboardInterrupt
+    return traj
 
 
 def _check_sizes(t_final, sample_dt, rtol, atol, event_resolution, n_links):

@@ -41,7 +41,7 @@ def simulate_mujoco(robot: Robot, controller="vcl", x0: ArrayLike | None = None,
                     task: Task | str | None = None, dt: float | None = None, integrator: str | None = None,
                     sample_dt: float = 0.01, torque_limit: ArrayLike | None = None,
                     disturbances: Disturbances | None = None, retire: bool = False, progress: bool = False,
-                    stop_on_divergence: bool = True) -> Trajectory:
+                    stop_on_divergence: bool = True, partial: bool = False) -> Trajectory:
     """Run ``controller`` on the MuJoCo model for ``t_final`` seconds and record it.
 
     Parameters
@@ -66,12 +66,17 @@ def simulate_mujoco(robot: Robot, controller="vcl", x0: ArrayLike | None = None,
         Noise, delay, pushes and their seed (:class:`~paa_mj.sim.batch.Disturbances`, for one rollout).
     retire : bool
         Stop once the balance can no longer fail (as the batch engine does).
+    partial : bool
+        After Ctrl-C or SIGTERM, return the run recorded so far, ``meta["interrupted"]`` set (``paa-mj simulate``
+        keeps it); by default the interruption is raised again, so that no caller takes a part for the run.
 
     Raises
     ------
     SimulationDiverged
         Non-finite state or torque, runaway speeds or a MuJoCo warning; the
         exception carries the trajectory recorded up to the last good state.
+    KeyboardInterrupt
+        Ctrl-C or SIGTERM, without ``partial``.
     """
     check_robot(robot)
     task = as_task(task, robot)
@@ -114,6 +119,8 @@ def simulate_mujoco(robot: Robot, controller="vcl", x0: ArrayLike | None = None,
     elif status == engine.STOPPED:
         traj.meta["status"] = f"interrupted at t = {when:.4f} s"
         traj.meta["interrupted"] = True
+        if not partial:
+            raise KeyboardInterrupt
     else:
         traj.meta["status"] = "ok"
     return traj

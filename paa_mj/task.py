@@ -226,7 +226,8 @@ class Task:
         where = "region (68) around the goal" if region == self.switch_region else "the success region"
         return (f"balanced at the goal at the end: no divergence, and the true state (whatever the controller"
                 f" reports or measures) inside {where} ({self._goal_words()}), {region.describe()},"
-                f" throughout the last {self.success_window:g} s of the run (or stopped early as balanced for good)")
+                f" throughout the last {self.success_window:g} s of the run, or all of it when shorter (or stopped early"
+                f" as balanced for good)")
 
     def _goal_words(self):
         if self.name == "folded":

@@ -182,3 +182,16 @@ def test_the_times_a_refusal_offers_are_whole_steps_as_written(tmp_path):
                   "1e3")
     assert refused.returncode == 2 and refused.stderr.endswith("give 0.3 or 0.3000625\n"), refused.stderr
     assert "give 1000 or 1000.001" in cli("simulate", "--t-final", "1000.0005").stderr
+
+
+def test_a_run_shorter_than_the_success_window_is_judged_over_all_of_it_and_says_so():
+    """A 0.5 s run at 1 ms against a 1 s window: a success only if it never left the success region, as stated."""
+    from paa_mj.task import book_succeeded
+
+    task = Task.named("folded", 3)
+    assert "the last 1 s of the run, or all of it when shorter" in task.success_definition
+    window, end = task.window_steps(1e-3), 500
+    assert window == 1000
+    never_out, out_at_start = np.array([0, -1, -1]), np.array([0, 0, 0])
+    assert book_succeeded(never_out, end, True, False, window)
+    assert not book_succeeded(out_at_start, end, True, False, window)

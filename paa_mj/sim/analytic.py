@@ -204,7 +204,7 @@ def simulate_analytic(robot: Robot, controller="vcl", x0=None, t_final: float | 
     steps = steps_for(t_final, run.judge_dt)  # a run of t_final ends where the MuJoCo engine's does: the nearest step
     run.integrate(x0, t_final if abs(steps * run.judge_dt - t_final) < 1e-6 * run.judge_dt else steps * run.judge_dt,
                   sample_dt, progress)
-    traj = run.trajectory(x0, t_final, sample_dt, method, rtol)
+    traj = run.trajectory(x0, t_final, sample_dt, method, rtol)  # raises first where the run diverged
     if traj.meta.get("interrupted") and not partial:
         raise KeyboardInterrupt
     return traj

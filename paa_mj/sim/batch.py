@@ -367,13 +367,13 @@ def simulate_batch(robot: Robot, x0: ArrayLike, t_final: float | None = None, *,
         outcome = warp_engine.run(plan, controllers, device=device, progress=progress, desc=f"{n} rollouts")
     else:
         outcome = run_engine(plan, controllers, nthread=nthread, progress=progress, desc=f"{n} rollouts")
+    if outcome.interrupted and not partial:
+        raise KeyboardInterrupt
     plant_analytics = [robot.analytic if plants is None or plants[r] is None else None for r in range(n)]
     if plants is not None:
         from ..model.dynamics import AnalyticModel
 
         plant_analytics = [robot.analytic if p is None else AnalyticModel.from_params(p) for p in plants]
-    if outcome.interrupted and not partial:
-        raise KeyboardInterrupt
     out = outcome_arrays(plan, outcome, controllers, plant_analytics)
     completed = ~np.isin(out["status"], (STOPPED, RUNNING))
     trajectories = None

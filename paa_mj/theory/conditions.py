@@ -215,13 +215,12 @@ def constraint_54(am: AnalyticModel, n=40001) -> Constraint54:
     z = np.linspace(0, TWO_PI, n)
     scale = abs(gamma) * (am.b2 + am.b3) + abs(eps) + abs(lam)
 
-    def residual(s):
-        return abs(gamma * beta2bar(am.b2, am.b3, s) - (eps * np.cos(s) + lam)) / scale
+    def signed(s):
+        return (gamma * beta2bar(am.b2, am.b3, s) - (eps * np.cos(s) + lam)) / scale
 
-    h = residual(z)
-    signed = gamma * beta2bar(am.b2, am.b3, z) - (eps * np.cos(z) + lam)
-    crosses = bool(np.any(np.sign(signed[:-1]) * np.sign(signed[1:]) < 0))
-    h_touch = _refined_minimum(residual, z, h)[1]
+    h = signed(z)
+    crosses = bool(np.any(np.sign(h[:-1]) * np.sign(h[1:]) < 0))
+    h_touch = _refined_minimum(lambda s: abs(signed(s)), z, np.abs(h))[1]
     denominator = eps * np.cos(z) + lam
     sign_change = bool(np.any(np.sign(denominator[:-1]) * np.sign(denominator[1:]) < 0)) or not np.all(denominator)
     with np.errstate(divide="ignore", invalid="ignore"):

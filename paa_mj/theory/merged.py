@@ -86,6 +86,8 @@ class Deltabar:
         self.tail, self.b_tail, self.b1 = np.asarray(A[1:, 1:], float), np.asarray(b[1:], float), float(b[0])
         self.kappa = float(p.l[0]) / float(p.g)
         self.c = float(A[0, 0]) - self.b1 * self.kappa
+        self.bb = np.outer(self.b_tail, self.b_tail)
+        self.pair = self.b1 * self.tail - self.kappa * self.bb  # deltabar's pair weights, s^2 = sum bb cos
         total = float(np.sum(np.abs(self.b_tail)))
         #: The size of deltabar's terms [J kg m^2], for its rounding.
         self.scale = abs(self.b1) * float(np.sum(np.abs(self.tail))) + (abs(self.c) + self.kappa * total) * total
@@ -108,10 +110,12 @@ class Deltabar:
     def gradient(self, alpha):
         """deltabar and its gradient at each row of alpha: (K,), (K, m)."""
         phi, _, s, theta, value = self.parts(alpha)
+        return value, self._gradient(phi, s, theta)
+
+    def _gradient(self, phi, s, theta):
         dabar2 = -2.0 * np.einsum("jk,rjk->rj", self.tail, np.sin(phi[:, :, None] - phi[:, None, :]))
         ds = -self.b_tail * np.sin(phi - theta[:, None])
-        grad = self.b1 * dabar2 + (self.c - 2.0 * self.kappa * s)[:, None] * ds
-        return value, grad[:, 1:]
+        return (self.b1 * dabar2 + (self.c - 2.0 * self.kappa * s)[:, None] * ds)[:, 1:]
 
     def box_bounds(self, centres, radii):
         """(lower, upper) of deltabar on the boxes centres +- radii (K, m), its values at the centres, and each
@@ -134,11 +138,11 @@ class Deltabar:
         lower1, upper1 = self.b1 * a_lo + q_ends, self.b1 * a_hi + q_top
         if self.b1 < 0:
             lower1, upper1 = self.b1 * a_hi + q_ends, self.b1 * a_lo + q_top
-        _, grad = self.gradient(centres)
+        grad = self._gradient(phi, s, theta)
         linear = np.sum(np.abs(grad) * radii, axis=1)
         pairs = 0.5 * omega * omega
         rem_a = abs(self.b1) * np.einsum("ik,rik->r", np.abs(W), pairs)
-        rem_s2 = self.kappa * np.einsum("i,k,rik->r", self.b_tail, self.b_tail, pairs)
+        rem_s2 = self.kappa * np.einsum("ik,rik->r", self.bb, pairs)
         reach = np.sum(self.b_tail * rho, axis=1)
         s_down = 0.5 * np.sum(self.b_tail * rho * rho, axis=1)
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -151,45 +155,50 @@ class Deltabar:
                                                           + self.b_tail[1:] * (abs(self.c) + self.kappa
                                                                                * np.sum(self.b_tail)))
         with np.errstate(divide="ignore", invalid="ignore"):  # where z(c) = 0 bound 3 is infinite on one side
-            lower3 = value + self._arcs(phi, rho, s, theta, -1.0)
-            upper3 = value + self._arcs(phi, rho, s, theta, 1.0)
+            down, up = self._arcs(phi, rho, s, theta)
+        lower3, upper3 = value + down, value + up
         lower, upper = np.maximum(np.maximum(lower1, lower2), lower3), np.minimum(np.minimum(upper1, upper2), upper3)
         return lower - scale, upper + scale, value, score
 
-    def _arcs(self, phi, rho, s, theta, side):
-        """Bound 3 of the module's docstring: the largest (side 1) or least (side -1) change of deltabar on each
-        box, with eps_i = e^{i delta_i} - 1, as sum_i of the extreme of Re(w_i eps_i) over its arc."""
+    def _arcs(self, phi, rho, s, theta):
+        """Bound 3 of the module's docstring: the least and the largest change of deltabar on each box, with
+        eps_i = e^{i delta_i} - 1, as sums over i of the extremes of Re(w_i eps_i) over their arcs."""
         u = np.exp(1j * phi)
-        pair = self.b1 * self.tail - self.kappa * np.outer(self.b_tail, self.b_tail)  # deltabar's pair weights
-        omega = 2.0 * u * np.einsum("ik,rk->ri", pair, np.conj(u))  # P's linear part: Re sum_i omega_i eps_i
+        omega = 2.0 * u * np.einsum("ik,rk->ri", self.pair, np.conj(u))  # P's linear part: Re sum_i omega_i eps_i
         one = self.c * self.b_tail * u * np.exp(-1j * theta)[:, None]  # c s against its projection on z(c)
-        # c s beyond its projection, on the side that needs it: c |z - z(c)|^2 / (2 s(c)), a pair form as well
-        gamma = np.where(side * self.c > 0, self.c / (2.0 * s), 0.0)
-        weights = pair[None] + gamma[:, None, None] * np.outer(self.b_tail, self.b_tail)[None]
         reach = 2.0 * np.sin(np.minimum(rho, math.pi) / 2.0)  # max |eps_i|
         ratio = np.where(reach[:, None, :] > 0, reach[:, None, :] / reach[:, :, None], 0.0)
-        off = np.abs(weights) * ratio
-        off[:, np.arange(len(self.b_tail)), np.arange(len(self.b_tail))] = 0.0
-        gersh = np.sum(off, axis=2)  # |sum_{i != k} conj(eps_i) C_ik eps_k| <= sum_i gersh_i |eps_i|^2
-        diagonal = np.einsum("rii->ri", weights) + side * gersh  # times |eps_i|^2 = -2 Re(eps_i)
-        w = side * (omega + one - 2.0 * diagonal)
-        cos_r, sin_r = np.cos(np.minimum(rho, math.pi)), np.sin(np.minimum(rho, math.pi))
-        size = np.abs(w)
-        arc = np.where(w.real >= size * cos_r, size, w.real * cos_r + np.abs(w.imag) * sin_r)  # max over the arc
-        change = np.sum(np.where(rho > 0, arc - w.real, 0.0), axis=1)
-        return side * np.where(np.isfinite(change), change, np.inf)
+        m = len(self.b_tail)
+        changes = []
+        for side in (-1.0, 1.0):
+            # c s beyond its projection, on the side that needs it: c |z - z(c)|^2 / (2 s(c)), a pair form as well
+            gamma = np.where(side * self.c > 0, self.c / (2.0 * s), 0.0)
+            weights = self.pair[None] + gamma[:, None, None] * self.bb[None]
+            off = np.abs(weights) * ratio
+            off[:, np.arange(m), np.arange(m)] = 0.0
+            gersh = np.sum(off, axis=2)  # |sum_{i != k} conj(eps_i) C_ik eps_k| <= sum_i gersh_i |eps_i|^2
+            diagonal = np.einsum("rii->ri", weights) + side * gersh  # times |eps_i|^2 = -2 Re(eps_i)
+            w = side * (omega + one - 2.0 * diagonal)
+            change = np.sum(np.where(rho > 0, _arc_max(w, rho) - w.real, 0.0), axis=1)
+            changes.append(side * np.where(np.isfinite(change), change, np.inf))
+        return changes
 
     def _q(self, s):
         return self.c * s - self.kappa * s * s
 
 
+def _arc_max(w, rho):
+    """max over abs(t) <= rho of Re(w e^{i t}), elementwise (:func:`paa_mj.theory.bounds._arc_max` over arrays):
+    abs(w) where the arc reaches the direction of w, else at the nearer end."""
+    rho = np.minimum(rho, math.pi)
+    size = np.abs(w)
+    return np.where(w.real >= size * np.cos(rho), size, w.real * np.cos(rho) + np.abs(w.imag) * np.sin(rho))
+
+
 def _cos_range(theta, omega):
-    """(max, min) of cos over [theta - omega, theta + omega], omega in [0, pi]."""
-    ends = np.cos(theta - omega), np.cos(theta + omega)
-    off = np.abs(np.angle(np.exp(1j * theta)))  # |theta| wrapped to [0, pi]
-    top = np.where(off <= omega, 1.0, np.maximum(*ends))
-    bottom = np.where(math.pi - off <= omega, -1.0, np.minimum(*ends))
-    return top, bottom
+    """(max, min) of cos over [theta - omega, theta + omega]."""
+    u = np.exp(1j * theta)
+    return _arc_max(u, omega), -_arc_max(-u, omega)
 
 
 def _ascend(d: Deltabar, sign, alpha, iters=60):

@@ -9,6 +9,8 @@ import math
 import numbers
 import os
 
+import numpy as np
+
 from .errors import PaaError
 
 #: Fraction of the available memory one request may take.
@@ -90,10 +92,34 @@ def positive_finite(name: str, value, allow_none=True):
     return number
 
 
+#: The seeds each random generator of the package takes, [0, limit): NumPy's legacy ``RandomState`` (RealAIGym's
+#: protocols draw from it as their code does) seeds from 32-bit words; the noise streams of the batch engines key
+#: their draws with an int64; ``numpy.random.default_rng`` takes any whole number >= 0.
+SEED_LIMITS = {"numpy.random.RandomState": int(np.iinfo(np.uint32).max) + 1,
+               "the noise streams (int64)": int(np.iinfo(np.int64).max) + 1,
+               "numpy.random.default_rng": math.inf}
+#: The one range of every seed, every ``--seed`` of every command and every ``seed=`` of the studies: the narrowest
+#: of :data:`SEED_LIMITS`, so that a seed one command takes, every other takes too (2^32).
+SEED_LIMIT = min(SEED_LIMITS.values())
+SEED_RANGE = f"[0, 2^{SEED_LIMIT.bit_length() - 1})"
+
+
+def seed_refusal(seed, shown=None):
+    """None for a seed in [0, :data:`SEED_LIMIT`), else the reason it is refused (one phrase ending in ``shown``, by
+    default the seed's repr)."""
+    if not (isinstance(seed, numbers.Integral) and not isinstance(seed, bool) and 0 <= seed < SEED_LIMIT):
+        shown = repr(seed) if shown is None else shown
+        return (f"must be a whole number in {SEED_RANGE} (the seeds of NumPy's legacy generator, the narrowest the"
+                f" package feeds), got {shown}")
+    return None
+
+
 def check_seed(seed, name="seed"):
-    """``seed`` as a whole number in [0, 2^63) (what the noise streams take), or a one-line error."""
-    if not (isinstance(seed, numbers.Integral) and not isinstance(seed, bool) and 0 <= seed < 2**63):
-        raise PaaError(f"{name} must be a whole number in [0, 2^63), got {seed!r}")
+    """``seed`` as a whole number in [0, :data:`SEED_LIMIT`) (what every generator of the package takes), or a
+    one-line error naming ``name``."""
+    refused = seed_refusal(seed)
+    if refused is not None:
+        raise PaaError(f"{name} {refused}")
     return int(seed)
 
 

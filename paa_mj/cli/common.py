@@ -138,10 +138,14 @@ def file_path(text):
 
 
 def seed(text):
-    """An argparse type: a seed, a whole number in [0, 2^63)."""
+    """An argparse type: a seed, a whole number in [0, 2^32) (:data:`paa_mj.limits.SEED_LIMIT`, the one range of every
+    seed option)."""
+    from ..limits import seed_refusal
+
     value = _whole_number(text)
-    if not 0 <= value < 2**63:
-        raise argparse.ArgumentTypeError(f"must be in [0, 2^63), got {text}")
+    refused = seed_refusal(value, shown=text)
+    if refused is not None:
+        raise argparse.ArgumentTypeError(refused)
     return value
 
 

@@ -37,7 +37,7 @@ from ..control.registry import ControllerSpec
 from ..errors import PaaError
 from ..provenance import text_sha256
 from ..sim.retirement import SamplingWarning
-from ..limits import check_memory, check_steps
+from ..limits import check_memory, check_seed, check_steps
 from ..model.dynamics import AnalyticModel
 from ..model.params import RobotParams
 from ..model.robot import Robot
@@ -187,6 +187,7 @@ def atlas(robot: Robot, vary=("l1", "m1"), factor_range=DEFAULT_RANGE, grid=32, 
     t_final = task.horizon if t_final is None else t_final
     if not (isinstance(grid, (int, np.integer)) and 2 <= grid <= MAX_GRID):
         raise PaaError(f"--grid must be an integer in [2, {MAX_GRID}], got {grid}")
+    seed = check_seed(seed, "--seed")
     vary = parse_vary(",".join(map(str, vary)) if isinstance(vary, (tuple, list)) else vary, robot.params.n_links)
     factor_range = check_range(factor_range)
     if not (isinstance(starts, (int, np.integer)) and 0 <= starts <= 10_000):

@@ -33,6 +33,7 @@ import math
 import numpy as np
 
 from ..errors import PaaError
+from ..limits import check_seed
 from ..task import STRETCHED_START_OFFSET, Task
 from .drake import drake_version, require_drake, theta_from_x, x_from_theta
 from .peer_dynamics import dynamics
@@ -354,6 +355,7 @@ def peers(t_final=30.0, samples=200, seed=0, quick=False, progress=False):
 
     if not (math.isfinite(t_final) and t_final > 0):
         raise PaaError(f"t_final must be a positive number of seconds, got {t_final}")
+    seed = check_seed(seed, "--seed")
     return {"paa_mj": __version__, "drake": drake_version(),
             "settings": {"samples": samples, "seed": seed, "quick": quick, "drake_integrator":
                          f"runge_kutta5, target accuracy {DRAKE_ACCURACY:g}, steps of at most dt",

@@ -38,6 +38,7 @@ import numpy as np
 
 from ..control.base import controller_name, reset_controller, torque_of
 from ..errors import PaaError
+from ..limits import check_seed
 from ..model.robot import Robot
 from ..model.states import wrap
 from ..sim import protocol
@@ -443,6 +444,7 @@ def run_protocol(protocol_name: str, robot: Robot, spec, task, x0=None, seed=777
     if protocol_name not in PROTOCOLS:
         raise PaaError(f"--protocol must be one of {', '.join(PROTOCOLS)}, not {protocol_name!r}")
     check_engine(engine, device, ENGINES)  # before the controller is built
+    seed = check_seed(seed, "--seed")  # their legacy generator's range, every seed's (limits.SEED_LIMIT)
     task = as_task(task, robot)
     controller = spec.for_task(task).build(robot)
     n = robot.params.n_links

@@ -31,7 +31,8 @@ def cmd_realaigym(args):
         print_json(summary)
     else:
         _print(summary, args.out)
-    return finish(summary["interrupted"], f"{100 * summary['completed_fraction']:.0f} % of the runs done", args.out)
+    return finish(summary["interrupted"], f"{100 * summary['completed_fraction']:.0f} % of the runs done"
+                  f" ({summary['not_run']} not run: null in the JSON)", args.out)
 
 
 def _print(summary, out):

@@ -8,7 +8,8 @@ from .common import (check_fresh, controller_parent, finish, goal_parent, non_ne
 
 
 def _finish_study(summary, args, what):
-    return finish(summary["interrupted"], f"{100 * summary['completed_fraction']:.0f} % of the {what} done", args.out)
+    return finish(summary["interrupted"], f"{100 * summary['completed_fraction']:.0f} % of the {what} done"
+                  f" ({summary['not_run']} of {summary['runs']} runs not run)", args.out)
 
 
 def _study(args, command, run, write):
@@ -137,7 +138,8 @@ def cmd_compare(args):
         print_json(summary)
     else:
         print(leaderboard_markdown(summary, written=args.out is not None))
-    return finish(summary["interrupted"], "the leaderboard is incomplete", args.out)
+    return finish(summary["interrupted"], f"the leaderboard is incomplete ({summary['not_run']} of"
+                  f" {summary['runs']} controllers not run whole)", args.out)
 
 
 def cmd_atlas(args):
@@ -172,7 +174,8 @@ def cmd_atlas(args):
               f" robots, {summary['goal']} goal" + (f"; wrote {args.out}/atlas_theory.png, atlas.json, atlas.npz" if args.out else ""))
         for line in summary["findings"]:
             print(f"  {line}")
-    return finish(summary["interrupted"], "the atlas is incomplete", args.out)
+    return finish(summary["interrupted"], f"the atlas is incomplete ({summary['not_run']} of {summary['runs']}"
+                  " robots not run)", args.out)
 
 
 def cmd_bench(args):

@@ -47,12 +47,15 @@ from ..theory.merged import merged_acrobot
 from ..control.closed_loop import duu_eigenvalues
 from ..control.gains import gain_rule, gain_rule_words
 from ..theory.linear import goal_controllability, lqr_gain, sampled_spectral_radius, theorem1_covers
-from .basin import OUTCOME_NAMES, classify
+from .basin import NOT_RUN_CODE, OUTCOME_NAMES, classify
 from .runner import CHUNK, RolloutSet, applied_limit, map_chunks, peak_torques, run_study, task_definition
 from .settings import ATLAS_MAX_GRID as MAX_GRID, ATLAS_RANGE as DEFAULT_RANGE, atlas_parameters
-from .store import ChunkStore, check_arrays, study_key
+from .store import NOT_RUN, ChunkStore, check_arrays, runs_done, study_key
 
 OUTCOMES = OUTCOME_NAMES
+#: The outcome code of a robot whose rule gives no positive finite gains: it has no kip to run.
+NO_GAINS = -2
+NO_GAINS_WORDS = "not simulated: the gain rule gives no positive finite gains"
 THEORY_CHUNK = 32
 START_SPREAD = (np.pi, 1.0)  # random starts: angles uniform over a full turn, speeds within +-1 rad/s
 
@@ -236,6 +239,11 @@ def atlas(robot: Robot, vary=("l1", "m1"), factor_range=DEFAULT_RANGE, grid=32, 
         summary["max_abs_tau"] = peak
         summary["success"] = float(np.mean(arrays["outcome"][arrays["outcome"] >= 0] == 0)) \
             if np.any(arrays["outcome"] >= 0) else None
+    # a robot is run when its theory is, and (with --simulate) its kips unless it has none; a robot not run is absent
+    # from "robots" and counted here
+    robot_done = arrays["theory_done"] & (arrays["outcome"] != NOT_RUN_CODE if "outcome" in arrays
+                                          else not simulate)
+    summary.update(runs_done(robot_done))
     summary["robots"] = _robot_rows(family, arrays, f1, f2)
     summary["counts"] = _counts(arrays, simulate and "outcome" in arrays, covered)
     summary["findings"] = _findings(summary, arrays)
@@ -268,7 +276,7 @@ def _simulate(robot, family, arrays, starts, t_final, seed, scheduler, out_dir, 
             plants.append(params)
             owner.append(r)
     owner = np.array(owner, int)
-    outcome = np.full(len(family), -1, np.int8)
+    outcome = np.full(len(family), NO_GAINS, np.int8)  # robots without a kip keep it; the others are set below
     reached = np.zeros(len(family), bool)
     success_starts = np.full(len(family), np.nan)
     V_final = np.full(len(family), np.nan)
@@ -285,12 +293,13 @@ def _simulate(robot, family, arrays, starts, t_final, seed, scheduler, out_dir, 
     for r in np.unique(owner):
         rows = np.flatnonzero(owner == r)
         kip = rows[0]
-        if not done[kip]:
+        if not done[rows].all():  # a robot is run when its kip and its random starts are
+            outcome[r] = NOT_RUN_CODE
             continue
         outcome[r] = codes[kip]
         reached[r] = bool(np.isfinite(result.switch_time[kip]))
         V_final[r] = result.V_final[kip]
-        if len(rows) > 1 and done[rows[1:]].all():
+        if len(rows) > 1:
             success_starts[r] = float(np.mean(result.success[rows[1:]]))
     return outcome, reached, success_starts, V_final, result.interrupted, peak_torques(result.max_abs_tau, done)
 
@@ -329,7 +338,7 @@ def _robot_rows(family, arrays, f1, f2):
         row["gains"] = dict(zip(("kD", "kP", "kV"), arrays["gains"][r].tolist()))
         if "outcome" in arrays:
             code = int(arrays["outcome"][r])
-            row["outcome"] = None if code < 0 else OUTCOMES[code]
+            row["outcome"] = NOT_RUN if code == NOT_RUN_CODE else NO_GAINS_WORDS if code == NO_GAINS else OUTCOMES[code]
             row["swing_up_reaches_68"] = None if code < 0 else bool(arrays["reached_68"][r])
             v_final = float(arrays["V_final"][r])
             row["V_final"] = v_final if math.isfinite(v_final) else None

@@ -18,11 +18,13 @@ from ..model.states import Q_DUU, wrap_angle
 from ..task import Task, as_task
 from .runner import CHUNK, RolloutSet, applied_limit, engine_definition, peak_torques, run_study
 from .settings import BASIN_MAX_GRID as MAX_GRID, BASIN_RANGE as DEFAULT_RANGE
-from .store import ChunkStore, study_key
+from .store import ChunkStore, runs_done, study_key
 
 #: How a rollout ended, by code.
 OUTCOME_NAMES = ("success", "switched, no success", "never switched, stuck at DUU", "never switched", "diverged")
 SUCCESS, LOST, STUCK_DUU, NEVER, DIVERGED = range(len(OUTCOME_NAMES))
+#: The outcome code of a run not run (an interrupted study's; False in its ``completed`` mask).
+NOT_RUN_CODE = -1
 #: A final state within this distance of DUU (each coordinate, rad and rad/s) is "stuck at DUU".
 DUU_TOL = 0.05
 
@@ -116,7 +118,7 @@ def basin(robot: Robot, axes: tuple[int, int] = (0, 1), grid: int = 64, t_final:
     completed = result.meta["completed"]
     success = result.success
     switched = result.switch_time[np.isfinite(result.switch_time)]
-    outcome = classify(result, task)
+    outcome = np.where(completed, classify(result, task), NOT_RUN_CODE).astype(np.int8)
 
     def fraction(mask):  # over the finished runs: an interrupted study says nothing of the others
         return float(np.mean(mask[completed])) if completed.any() else None
@@ -125,7 +127,7 @@ def basin(robot: Robot, axes: tuple[int, int] = (0, 1), grid: int = 64, t_final:
         "robot": robot.name, "robot_sha256": text_sha256(robot.xml), "controller": spec.short_name,
         "axes": [names[a] for a in axes], "grid": grid, **task.describe(),
         "cells": int(grid * grid), "t_final": t_final, "t_reached": result.t_reached,
-        "interrupted": result.interrupted, "completed_fraction": float(np.mean(completed)),
+        "interrupted": result.interrupted, **runs_done(completed),
         "success": fraction(success),
         "torque_limit": applied_limit(robot, torque_limit),
         "max_abs_tau": peak_torques(result.max_abs_tau, completed),

@@ -48,6 +48,7 @@ from ..task import Task, as_task
 from .basin import basin
 from .robustness import MAX_TRIALS, robustness
 from .runner import CHUNK
+from .store import runs_done
 from .settings import (BASIN_MAX_GRID, COMPARE_CONTROLLERS as DEFAULT_CONTROLLERS, COMPARE_FACTORS as FACTORS,
                        COMPARE_SIZES as SIZES, COMPARE_SWEEPS as SWEEPS, FACTOR_ORDER, factor_label)
 
@@ -203,6 +204,10 @@ def compare(robot: Robot, controllers=DEFAULT_CONTROLLERS, torque_limit=None, tr
         summary["interrupted"] |= interrupted
         if summary["interrupted"]:
             break
+    rows = summary["controllers"]
+    # a controller is run when all its runs are; one not reached (an interrupted leaderboard) has no row
+    summary.update(runs_done([name in rows and rows[name]["not_run"] == 0 for name in names]))
+    summary["controllers_not_run"] = [name for name in names if name not in rows]
     summary["success"] = {name: row["success"] for name, row in summary["controllers"].items()}
     summary["versus_vcl"] = _versus(summary["controllers"])
     return summary, trajectories, basins
@@ -228,6 +233,7 @@ def _score(robot, task, spec, limit, sizes, sweeps, seed, scheduler, out_dir, fr
     row = {**metrics, "robustness": rates,
            "robustness_score": float(np.mean(complete)) if len(complete) == len(rates) else None,
            "reach": basin_summary["success"], "reach_runs": basin_summary["cells"],
+           "not_run": rob["not_run"] + basin_summary["not_run"],
            "max_abs_tau": np.max(peaks, axis=0).tolist(), "plan": description.get("plan"), "describe": description}
     return row, trajectory, basin_arrays, bool(rob["interrupted"] or basin_summary["interrupted"])
 

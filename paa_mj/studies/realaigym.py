@@ -47,7 +47,7 @@ from ..sim.engine import pack
 from ..task import Task, as_task
 from . import realaigym_scores as scores
 from .settings import REALAIGYM_ENGINES as ENGINES, REALAIGYM_PROTOCOLS as PROTOCOLS
-from .store import ChunkStore, study_key
+from .store import NOT_RUN, ChunkStore, per_run, runs_done, study_key
 
 #: Their simulation settings (``sim_parameters.py`` of the three leaderboards).
 DT, T_FINAL, T_FINAL_GLOBAL = 0.002, 10.0, 60.0
@@ -408,11 +408,12 @@ def robustness_v2(robot: Robot, controller, task: Task, x0=None, seed=777, *, ou
 
 def _robustness_summary(robot, task, cases, final, steps, n_steps, interrupted):
     """Per criterion and parameter: the levels' values, every run's success and the level's success as their score
-    counts it; the six scores and the overall one once every run has finished."""
+    counts it; the six scores and the overall one once every run has finished. A run not run (an interrupted study)
+    is null, never false (:func:`~paa_mj.studies.store.per_run`), and so is a level any of whose runs was not run."""
     goal = their_goal(robot, task)  # the final states are in their angles
     finished = steps > 0
-    success = np.array([bool(f) and s == n_steps and scores.final_state_success(x, goal, EPSILON)
-                        for x, s, f in zip(final, steps, finished)])
+    success = per_run([bool(s == n_steps and scores.final_state_success(x, goal, EPSILON))
+                       for x, s in zip(final, steps)], finished)
     criteria = {c: {} for c in scores.ROBUSTNESS_CRITERIA}
     for i, (criterion, name, level, rep, value) in enumerate(cases):
         entry = criteria[criterion].setdefault(name, {"values": [], "runs": []})
@@ -421,14 +422,14 @@ def _robustness_summary(robot, task, cases, final, steps, n_steps, interrupted):
         if level == len(entry["runs"]):
             entry["values"].append(value if criterion != "perturbation" else rep)
             entry["runs"].append([])
-        entry["runs"][level].append(bool(success[i]))
+        entry["runs"][level].append(success[i])
     for criterion, entries in criteria.items():
         for entry in entries.values():
             repeated = criterion in ("measurement_noise", "u_noise")
-            entry["success"] = [bool(s) for s in scores.level_successes(
-                entry["runs"] if repeated else [r[0] for r in entry["runs"]], repeated)]
-    result = {"criteria": criteria, "runs": len(cases), "completed_fraction": float(np.mean(finished)),
-              "interrupted": interrupted}
+            entry["success"] = [NOT_RUN if NOT_RUN in runs else
+                                bool(scores.level_successes([runs] if repeated else [runs[0]], repeated)[0])
+                                for runs in entry["runs"]]
+    result = {"criteria": criteria, **runs_done(finished), "interrupted": interrupted}
     if finished.all():
         per_criterion = {c: [e["success"] for e in criteria[c].values()] for c in scores.ROBUSTNESS_CRITERIA}
         result["scores"] = scores.robustness_score(per_criterion)
@@ -463,6 +464,7 @@ def run_protocol(protocol_name: str, robot: Robot, spec, task, x0=None, seed=777
                "their_code": "dfki-ric-underactuated-lab/double_pendulum 1e8544e6", "engine": engine,
                "device": device_of(engine, device), "result": result,
                "interrupted": bool(result.get("interrupted", False)),
+               "runs": int(result.get("runs", 1)), "not_run": int(result.get("not_run", 0)),
                "completed_fraction": float(result.get("completed_fraction", 1.0))}
     return summary, arrays
 

@@ -47,7 +47,7 @@ from ..sim.batch import kip_peak_torques
 from ..task import Task, as_task
 from .runner import CHUNK, RolloutSet, applied_limit, engine_definition, peak_torques, run_study
 from .settings import ROBUSTNESS_DEFAULT_FACTORS as DEFAULT_FACTORS, ROBUSTNESS_FACTORS as FACTORS, STARTS
-from .store import ChunkStore, study_key
+from .store import ChunkStore, runs_done, study_key
 
 #: The largest controller model error tested [%].
 MAX_MODEL_ERROR = 90.0
@@ -260,7 +260,7 @@ def robustness(robot: Robot, trials=64, t_final=None, seed=0, controller: Contro
                        store=ChunkStore(out_dir, key, fresh, study="robustness"), progress=progress,
                        desc="robustness", engine=engine, device=device)
     summary = _summary(robot, spec, task, result, index, chosen, start, trials, t_final, seed, base_limit, peak,
-                       torque_scale, total)
+                       torque_scale)
     summary.update(engine_definition(engine))
     arrays = {"x0": rollouts.x0, "success": result.success, "diverged": result.diverged,
               "switch_time": result.switch_time, "final_state": result.final_state, "max_abs_tau": result.max_abs_tau,
@@ -268,14 +268,14 @@ def robustness(robot: Robot, trials=64, t_final=None, seed=0, controller: Contro
     return summary, arrays
 
 
-def _summary(robot, spec, task, result, index, chosen, start, trials, t_final, seed, base_limit, peak, torque_scale,
-             total) -> dict:
+def _summary(robot, spec, task, result, index, chosen, start, trials, t_final, seed, base_limit, peak,
+             torque_scale) -> dict:
     completed = result.meta["completed"]
     success = result.success
     summary = {"robot": robot.name, "robot_sha256": text_sha256(robot.xml), "controller": spec.short_name,
                "trials": trials, "t_final": t_final, "seed": seed,
-               "torque_limit": applied_limit(robot, base_limit), "start": start, **task.describe(), "runs": total,
-               "completed_fraction": float(np.mean(completed)),
+               "torque_limit": applied_limit(robot, base_limit), "start": start, **task.describe(),
+               **runs_done(completed),
                "success": float(np.mean(success[completed])) if completed.any() else None,
                "intervals": "95 % Wilson intervals over independent draws only (random: true); a deterministic"
                             " setting is one run (random: false) and has none",
@@ -286,9 +286,11 @@ def _summary(robot, spec, task, result, index, chosen, start, trials, t_final, s
     for factor, fspec in chosen.items():
         rates = []
         for level_i, level in enumerate(fspec["levels"]):
-            rows = np.flatnonzero((index == f"{factor}:{level_i}") & completed)
+            planned = index == f"{factor}:{level_i}"
+            rows = np.flatnonzero(planned & completed)
             entry = rate_entry(int(np.sum(success[rows])), len(rows), is_random(factor, level, start))
             rates.append({"level": None if not math.isfinite(level) else float(level), **entry,
+                          "not_run": int(np.count_nonzero(planned) - len(rows)),
                           "diverged_rate": float(np.mean(result.diverged[rows])) if len(rows) else None})
             if factor == "delay":  # the delay the engines held: whole time steps
                 rates[-1]["held_ms"] = delay_steps(level, float(robot.model.opt.timestep)) \

@@ -90,3 +90,26 @@ def check_arrays(arrays, shapes: dict) -> bool:
         if len(actual) != len(shape) or any(want is not None and got != want for got, want in zip(actual, shape)):
             return False
     return True
+
+
+#: How every study's outputs mark a run it never did (an interrupted study): ``null`` in its JSON (never ``false``,
+#: which is a failure), False in the ``completed`` mask of its arrays, and the count in its summary.
+NOT_RUN = None
+
+
+def runs_done(completed) -> dict:
+    """What every study's summary says of its runs: how many there are, how many were not run (an interrupted
+    study's, whose entries are :data:`NOT_RUN`) and the fraction completed."""
+    done = np.asarray(completed, bool).ravel()
+    return {"runs": int(done.size), "not_run": int(done.size - np.count_nonzero(done)),
+            "completed_fraction": float(np.mean(done)) if done.size else 1.0}
+
+
+def per_run(values, completed) -> list:
+    """Each run's value for a JSON list, :data:`NOT_RUN` (null) for a run not run."""
+    return [NOT_RUN if not done else value for value, done in zip(values, completed)]
+
+
+def not_run_words(summary, unit="runs") -> str:
+    """"k of N runs not run" for an incomplete study's summary, else ""."""
+    return f"{summary['not_run']} of {summary['runs']} {unit} not run" if summary.get("not_run") else ""

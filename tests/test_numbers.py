@@ -130,14 +130,17 @@ def test_a_changed_controller_file_is_not_resumed_from_old_chunks(tmp_path, caps
     assert main([*args, "--out", str(tmp_path / "a")]) == 0
     first = _basin_arrays(tmp_path / "a")
     path.write_text("GAIN = 0.5\n" + PD)
-    assert main([*args, "--out", str(tmp_path / "a")]) == 0
+    assert main([*args, "--out", str(tmp_path / "a")]) == 2  # another study's chunks: refused, not removed
+    assert "keeps the finished chunks of another basin study" in capsys.readouterr().err
+    assert np.array_equal(_basin_arrays(tmp_path / "a")["max_abs_tau"], first["max_abs_tau"])
+    assert main([*args, "--out", str(tmp_path / "a"), "--fresh"]) == 0
     second = _basin_arrays(tmp_path / "a")
     assert main([*args, "--out", str(tmp_path / "b")]) == 0
     fresh = _basin_arrays(tmp_path / "b")
     assert not np.array_equal(first["max_abs_tau"], second["max_abs_tau"])
     np.testing.assert_array_equal(second["max_abs_tau"], fresh["max_abs_tau"])
     assert len(list((tmp_path / "a" / ".chunks").iterdir())) == 1  # the old study's chunks are not kept
-    assert "removed the kept chunks of an earlier" in capsys.readouterr().err
+    assert "--fresh: removed the kept chunks of an earlier" in capsys.readouterr().err
 
 
 def test_kept_chunks_that_do_not_fit_are_computed_again(tmp_path, capsys):

@@ -21,7 +21,7 @@ def cmd_realaigym(args):
     task = Task.named(args.goal, robot)
     spec = spec_from_args(args, robot, task)
     x0 = None if args.x0 is None else initial_state(args, robot, task)
-    with output_lock(args.out, "realaigym"):
+    with output_lock(args.out, "realaigym", f"realaigym --protocol {args.protocol}", fresh=args.fresh):
         drawn = {} if args.seed is None else {"seed": args.seed}  # else the protocols' own default
         summary, arrays = run_protocol(args.protocol, robot, spec, task, x0, out_dir=args.out, fresh=args.fresh,
                                        progress=not args.json, **engine, **drawn)
@@ -76,7 +76,9 @@ def register(sub, parser_class):
                         " their acrobot script draws unseeded)")
     p.add_argument("--out", type=folder, metavar="DIR", help="folder for realaigym.json, the CSV or the charts"
                    " (robustness: the finished runs too, a rerun resumes)")
-    p.add_argument("--fresh", action="store_true", help="forget the runs kept in --out")
+    p.add_argument("--fresh", action="store_true",
+                   help="start over in --out: forget the runs kept there, and replace another protocol's or study's"
+                        " results (default: resume; a folder holding another's is refused)")
     p.add_argument("--engine", choices=ENGINES, default="cpu",
                    help="cpu: their simulator compiled on this machine's CPU; warp: every run a thread of a Warp"
                         " device, the controller on the device too (pip install 'paa_mj[gpu]'; float64; every built-in"

@@ -24,7 +24,7 @@ def _study(args, command, run, write):
     engine = check_engine_args(args)
     # the warp engine's worlds are one device's: its chunks run in this process unless a scheduler is named
     scheduler = check_scheduler("inline" if args.scheduler is None and engine["engine"] == "warp" else args.scheduler)
-    with output_lock(args.out, command):
+    with output_lock(args.out, command, fresh=args.fresh):
         summary, arrays = run(robot, spec, dict(task=task, progress=not args.json, scheduler=scheduler,
                                                 out_dir=args.out, fresh=args.fresh, chunk=args.chunk,
                                                 torque_limit=args.torque_limit, **engine))
@@ -126,7 +126,7 @@ def cmd_compare(args):
         except PaaError as err:
             note(f"warning: no video: {err}")
             video = False
-    with output_lock(args.out, "compare"):
+    with output_lock(args.out, "compare", fresh=args.fresh):
         summary, trajectories, _ = compare(robot, names, torque_limit=args.torque_limit, trials=args.trials,
                                            quick=args.quick, t_final=args.t_final, seed=args.seed,
                                            task=task_from_args(args, robot), scheduler=scheduler, out_dir=args.out,
@@ -161,7 +161,7 @@ def cmd_atlas(args):
     if args.starts is not None and args.starts < 0:
         raise PaaError(f"--starts must be >= 0, got {args.starts}")
     check_fresh(args)
-    with output_lock(args.out, "atlas"):
+    with output_lock(args.out, "atlas", fresh=args.fresh):
         summary, arrays = atlas(robot, vary, factor_range, args.grid, simulate=args.simulate, **simulation,
                                 scheduler=scheduler, out_dir=args.out, fresh=args.fresh,
                                 progress=not args.json, chunk=args.chunk, task=task_from_args(args, robot))

@@ -6,7 +6,7 @@ where KEY is a digest of everything that defines the study (robot, controllers,
 grid, levels, times, seeds). Running the same command again loads the chunks
 already there and computes only the others, so an interrupted study ends
 byte-identical to an uninterrupted one; a different study in the same folder
-gets another KEY. ``--fresh`` deletes the study's chunks first.
+gets another KEY and is refused unless ``--fresh``, which deletes the chunks first.
 """
 from __future__ import annotations
 
@@ -36,9 +36,9 @@ _LEGACY_KEY = re.compile(r"[0-9a-f]{20}")
 class ChunkStore:
     """The chunks of one study under ``folder/.chunks/STUDY-KEY``; ``folder=None`` keeps nothing.
 
-    Chunks of an earlier, different study of the same kind (``STUDY``) in the same
-    folder are removed when this one starts: a folder keeps the chunks of the
-    last study of each kind it holds, not every study ever run there.
+    A folder keeps the chunks of one study of each kind (``STUDY``): chunks of another study of that kind (another
+    KEY: other options, controller or code) are refused in one line, never removed unless ``fresh`` (``--fresh``,
+    which also forgets this study's own).
     """
 
     def __init__(self, folder, key: str, fresh: bool = False, study: str = "study"):
@@ -50,10 +50,13 @@ class ChunkStore:
             # the same kind of study with another key, or a folder of version 0.2 (its key alone, no kind)
             stale = [p for p in siblings if p != self.path and (p.name.startswith(f"{study}-")
                                                                 or _LEGACY_KEY.fullmatch(p.name))]
+            if stale and not fresh:
+                raise PaaError(f"{folder} keeps the finished chunks of another {study} study (other options, controller"
+                               " or version of paa_mj): give --fresh to replace them, or choose another --out")
             for old in stale:
                 shutil.rmtree(old, ignore_errors=True)
             if stale:
-                print(f"note: removed the kept chunks of an earlier, different {study} study in {folder}",
+                print(f"note: --fresh: removed the kept chunks of an earlier, different {study} study in {folder}",
                       file=sys.stderr)
             ensure_dir(self.path)
 

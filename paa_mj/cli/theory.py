@@ -34,7 +34,7 @@ def cmd_theory(args):
         text = chain_theory_table
     report["family_rule"] = {"rule": FAMILY_RULE.describe(), "gains": family_gains(robot.analytic, task)}
     if args.json:
-        print_json({"robot": robot.name, "robot_sha256": text_sha256(robot.xml), **report})
+        print_json({"robot": robot.name, "robot_sha256": text_sha256(robot.xml), **task.describe(), **report})
     else:
         print(text(robot.name, report))
     return 0
@@ -69,7 +69,10 @@ def cmd_gain_search(args):
     found = gain_search(t_final=args.t_final, progress=not args.json)
     summary = {"t_final": found["t_final"], "robots": [f"{n} {g}" for n, g in found["robots"]],
                "rules": [vars(rule) for rule in found["rules"]], "success": found["success"].tolist(),
-               "best": vars(found["best"]), "family_rule": vars(FAMILY_RULE)}
+               "best": vars(found["best"]), "family_rule": vars(FAMILY_RULE),
+               # a task per robot and goal: each run's success is its own task's
+               "success_definition": {label: task.success_definition for label, task in found["tasks"].items()},
+               "task": {label: task.describe()["task"] for label, task in found["tasks"].items()}}
     if args.json:
         print_json(summary)
     else:

@@ -107,7 +107,8 @@ def reproduce(out_dir="out/reproduction", quick=False, video=True, size=None):
     out = ensure_dir(out_dir)
     figs = ensure_dir(out / "figures")
     gymnast, example2 = load_robot("gymnast"), load_robot("example2")
-    results = {"paper": "Liu & Xin (2015), Multibody System Dynamics", "quick": quick, "size": size,
+    results = {"paper": "Liu & Xin (2015), Multibody System Dynamics", **switching.paper_task(gymnast).describe(),
+               "quick": quick, "size": size,
                "sizes": {k: list(v) if isinstance(v, tuple) else v for k, v in sizes.items()}}
 
     stage("[1/8] the theory of both robots: Theorem 1's conditions, DUU, Figs. 5 and 11")

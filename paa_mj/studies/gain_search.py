@@ -34,12 +34,13 @@ def gain_search(robots=ROBOTS, grid=GRID, t_final=30.0, progress=False) -> dict:
     """Which rules of ``grid`` succeed on which robots (the task's success from its start): ``{"rules": [...],
     "robots": [...], "success": (R, B) bool}`` (rules by rows), ``"ranked"``, the rules' indices from the best (the
     most successes, then the smaller margin),
-    and ``"best"``, the first of them."""
+    and ``"best"``, the first of them; ``"tasks"``: the Task of each robot and goal ("NAME GOAL")."""
     rules = [GainRule(*values) for values in itertools.product(*grid)]
     success = np.zeros((len(rules), len(robots)), bool)
+    tasks = {}
     for j, (name, goal) in enumerate(robots):
         robot = load_robot(name)
-        task = Task.named(goal, robot)
+        task = tasks[f"{name} {goal}"] = Task.named(goal, robot)
         specs = [ControllerSpec("vcl", tuple(family_gains(robot.analytic, task, rule).values()), check=False,
                                 task=task) for rule in rules]
         result = simulate_batch(robot, np.repeat(task.start[None], len(rules), 0), t_final, task=task,
@@ -48,7 +49,7 @@ def gain_search(robots=ROBOTS, grid=GRID, t_final=30.0, progress=False) -> dict:
     score = success.sum(axis=1)
     ranked = sorted(range(len(rules)), key=lambda i: (-score[i], rules[i].margin, i))
     return {"rules": rules, "robots": list(robots), "success": success, "ranked": ranked, "best": rules[ranked[0]],
-            "t_final": t_final}
+            "t_final": t_final, "tasks": tasks}
 
 
 def search_table(found: dict, top=8) -> str:

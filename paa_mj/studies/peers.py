@@ -356,7 +356,11 @@ def peers(t_final=30.0, samples=200, seed=0, quick=False, progress=False):
     if not (math.isfinite(t_final) and t_final > 0):
         raise PaaError(f"t_final must be a positive number of seconds, got {t_final}")
     seed = check_seed(seed, "--seed")
-    return {"paa_mj": __version__, "drake": drake_version(),
+    task = Task.named("stretched", 2)
+    described = {**task.describe(), "success_definition": "balanced: from some time on to the end, every angle"
+                 f" error (wrapped) and every speed below the task's balance tolerance ({task.balance_tol:g}) of the"
+                 " upright; Drake's and paa_mj's runs judged alike (balanced_from)"}
+    return {"paa_mj": __version__, "drake": drake_version(), **described,
             "settings": {"samples": samples, "seed": seed, "quick": quick, "drake_integrator":
                          f"runge_kutta5, target accuracy {DRAKE_ACCURACY:g}, steps of at most dt",
                          "mujoco_integrator": "RK4 (models/acrobot.xml)",

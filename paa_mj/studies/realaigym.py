@@ -459,7 +459,8 @@ def run_protocol(protocol_name: str, robot: Robot, spec, task, x0=None, seed=777
                       "recipe": repr(spec), "goal": task.name}
         result, arrays = robustness_v2(robot, controller, task, x0, seed, out_dir=out_dir, fresh=fresh,
                                        progress=progress, key_definition=definition, engine=engine, device=device)
-    summary = {"protocol": protocol_name, "robot": robot.name, "controller": spec.short_name, "goal": task.name,
+    summary = {"protocol": protocol_name, "robot": robot.name, "controller": spec.short_name,
+               **task.describe(), **protocol_success(protocol_name, robot, task, result),
                "x0": x0.tolist(), "seed": seed if protocol_name != "performance-v2" else None,
                "their_code": "dfki-ric-underactuated-lab/double_pendulum 1e8544e6", "engine": engine,
                "device": device_of(engine, device), "result": result,
@@ -467,6 +468,28 @@ def run_protocol(protocol_name: str, robot: Robot, spec, task, x0=None, seed=777
                "runs": int(result.get("runs", 1)), "not_run": int(result.get("not_run", 0)),
                "completed_fraction": float(result.get("completed_fraction", 1.0))}
     return summary, arrays
+
+
+def protocol_success(protocol_name, robot, task, result) -> dict:
+    """A protocol's ``success`` and ``success_definition``: their rule, not the task's region (68) and window (the
+    summary's ``task`` states the goal their rules measure against)."""
+    threshold = up_threshold(robot, task)
+    up = (f"the tip above 0.9 of its height at the goal ({threshold:.4g} m)" if threshold is not None else
+          "every angle within the task's switch angle of the goal")
+    if protocol_name == "performance-v2":
+        return {"success": result["criteria"]["success"],
+                "success_definition": f"their swing-up: {up} from some time before the end of the {T_FINAL:g} s to"
+                                      " the end (the score is 0 without it)"}
+    if protocol_name == "robustness-v2":
+        done = [r for entries in result["criteria"].values() for e in entries.values() for level in e["runs"]
+                for r in level if r is not NOT_RUN]
+        return {"success": float(np.mean(done)) if done else None,
+                "success_definition": f"the share of the runs run whose final state, at {T_FINAL:g} s, has every"
+                                      f" angle within {EPSILON[0]:g} rad and every speed within {EPSILON[1]:g} rad/s"
+                                      " of the goal (their check_goal_success); a noise level succeeds when more"
+                                      " than half its runs do"}
+    return {"success": None, "success_definition": f"none: the score is the time up over {T_FINAL_GLOBAL:g} s, up"
+                                                   f" meaning {up}"}
 
 
 def device_of(engine, device):

@@ -43,7 +43,7 @@ class _LogBar:
         if total is None and iterable is not None and hasattr(iterable, "__len__"):
             self.total = len(iterable)
         self.start = self.last = time.monotonic()
-        self.initial, self.shown, self.shown_n = initial, False, None
+        self.initial, self.shown, self.shown_n, self.shown_total = initial, False, None, total
 
     def __iter__(self):
         for item in self.iterable:
@@ -63,17 +63,17 @@ class _LogBar:
         self.desc = desc
 
     def _line(self, now):
-        n = round(self.n, 9) if isinstance(self.n, float) else self.n  # no 165.81100000000004 s simulated
-        text = tqdm.format_meter(n, self.total, now - self.start, ncols=0, prefix=self.desc or "",
+        n, total = _shown(self.n), _shown(self.total)  # 11.8/30.0 s simulated, not 11.778875/30.0
+        text = tqdm.format_meter(n, total, now - self.start, ncols=0, prefix=self.desc or "",
                                  unit=self.unit, initial=self.initial, ascii=True)
         self.stream.write(text.strip() + "\n")
         self.stream.flush()
         _said(text.strip())
-        self.last, self.shown, self.shown_n = now, True, self.n
+        self.last, self.shown, self.shown_n, self.shown_total = now, True, self.n, self.total
 
     def close(self):
         now = time.monotonic()
-        if self.shown and self.shown_n != self.n:
+        if self.shown and (self.shown_n != self.n or self.shown_total != self.total):
             self._line(now)
         self.shown = False
         self.start = self.last = math.inf  # closed: no more lines
@@ -83,6 +83,27 @@ class _LogBar:
 
     def __exit__(self, *exc):
         self.close()
+
+
+#: Decimals of a count that is not whole (simulated seconds): enough to see it move, none of the float's noise.
+DECIMALS = 1
+#: tqdm's bar with such a count shown at :data:`DECIMALS` (its own would show 11.778875/30.0).
+FLOAT_BAR = ("{l_bar}{bar}| {n:.%df}/{total:.%df} [{elapsed}<{remaining}, {rate_fmt}{postfix}]"
+             % (DECIMALS, DECIMALS))
+
+
+def _shown(count):
+    """A count as a bar shows it: a whole number as it is, another rounded to :data:`DECIMALS`."""
+    return round(count, DECIMALS) if isinstance(count, float) else count
+
+
+def finish(bar):
+    """Close ``bar`` at 100 %: its total becomes the count reached (work whose total was only a bound, such as a
+    solver's iteration limit, ends where it ends)."""
+    bar.total = bar.n
+    if hasattr(bar, "refresh") and not getattr(bar, "disable", False):
+        bar.refresh()
+    bar.close()
 
 
 def progress(iterable=None, *, total=None, desc=None, unit="it", enabled=True, initial=0, leave=False):
@@ -105,7 +126,9 @@ def progress(iterable=None, *, total=None, desc=None, unit="it", enabled=True, i
         return tqdm(iterable, total=total, initial=initial, disable=True)
     stream = sys.stderr
     if stream is not None and hasattr(stream, "isatty") and stream.isatty():
-        return tqdm(iterable, total=total, desc=desc, unit=unit, initial=initial, leave=leave, file=stream)
+        whole = not isinstance(total, float) and not isinstance(initial, float)
+        return tqdm(iterable, total=total, desc=desc, unit=unit, initial=initial, leave=leave, file=stream,
+                    **({} if whole or total is None else {"bar_format": FLOAT_BAR}))
     return _LogBar(iterable, total, desc, unit, initial, stream)
 
 

@@ -3,8 +3,8 @@ from __future__ import annotations
 
 from ..errors import PaaError
 from .studies import check_engine_args
-from .common import (check_fresh, controller_parent, finish, folder, finite, initial_state, output_lock, print_json, robot_parent,
-                     seed, spec_from_args)
+from .common import (check_fresh, controller_parent, finish, folder, finite, initial_state, note, output_lock,
+                     print_json, robot_parent, seed, spec_from_args)
 
 
 def cmd_realaigym(args):
@@ -27,6 +27,12 @@ def cmd_realaigym(args):
                                        progress=not args.json, **engine, **drawn)
         if args.out and not summary["interrupted"]:
             write_realaigym(args.out, summary, arrays)
+    if summary["result"].get("no_action"):
+        idle = summary["result"]["no_action"]
+        note(f"note: {summary['controller']} exerted no torque (at most {idle['max_abs_tau']:.2g} N m) and the robot"
+             f" never left its start {summary['x0']}: the start is an equilibrium of the controller's law, so the"
+             " score says nothing of it; start it off the equilibrium (--x0) or try a controller that swings up from"
+             " rest (--controller spong on a two-link robot)")
     if args.json:
         print_json(summary)
     else:

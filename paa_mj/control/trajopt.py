@@ -32,7 +32,7 @@ import numpy as np
 from ..errors import PaaError
 from ..model import equations as eq
 from ..model.dynamics import AnalyticModel
-from ..progress import progress
+from ..progress import finish, progress
 from ..provenance import cache_key, cache_root
 from ..task import Task
 
@@ -309,10 +309,14 @@ def _solve(am, bound, objective, duration, intervals, x0, xN, max_iter, start=No
         if objective == "min-time":
             opti.set_initial(T, float(np.clip(start.duration, *TIME_RANGE)))
     opti.solver("ipopt", {"print_time": False}, {"print_level": 0, "sb": "yes", "max_iter": max_iter, "tol": 1e-9})
-    bar = progress(desc=f"planning the {objective} kip (IPOPT, {am.n_links} links)", unit="iteration", total=max_iter)
-    opti.callback(lambda _: bar.update(1))  # a solve of a long chain takes minutes: its iterations are its progress
+    # a solve of a long chain takes minutes: its iterations are its progress, out of at most max_iter; a solve that
+    # converges sooner finishes its bar at the iterations it took
+    bar = progress(desc=f"planning the {objective} kip (IPOPT, {am.n_links} links, at most {max_iter} iterations)",
+                   unit="iteration", total=max_iter)
+    opti.callback(lambda _: bar.update(1))
     try:
         sol = opti.solve()
+        finish(bar)
     except RuntimeError:
         status = opti.debug.stats().get("return_status", "failed")
         if status == "NonIpopt_Exception_Thrown":  # this NLP has no Python callbacks: only Ctrl-C/SIGTERM throws

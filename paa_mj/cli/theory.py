@@ -125,8 +125,14 @@ def cmd_make_model(args):
         check_gains_for(model, **gains, task=Task.named("folded", model))  # every command would refuse it later
 
     rule_text = ""
+    given = gains
     if gains is None:
         gains, rule_text = _rule_gains(params)
+    from ..control.gains import check_runnable_gains
+    from ..model.dynamics import AnalyticModel
+
+    # what every run of the robot takes (its stored gains, the family rule's for either goal) in every command's range
+    check_runnable_gains(AnalyticModel.from_params(params), stored=given)
     timestep, step_text = _time_step(params, args.timestep)
     title = " ".join(t for t in (args.title or "Parameters given by the user.", rule_text, step_text) if t)
     xml = mjcf_from_params(params, name=args.name, title=title, gains=gains, torque_limits=limits, timestep=timestep)

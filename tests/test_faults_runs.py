@@ -436,9 +436,11 @@ def test_a_batch_cut_short_is_raised_unless_its_caller_keeps_partial_results(mon
 
 @pytest.mark.parametrize("args", [["gain-search", "--t-final", "0.05"],
                                   ["roa", "--robot", "acrobot", "--method", "sampling", "--samples", "1", "--check", "2"]])
-def test_commands_that_ran_batches_stop_on_an_interrupt_instead_of_reporting_it(monkeypatch, capsys, args):
+def test_commands_that_ran_batches_stop_on_an_interrupt_instead_of_reporting_it(monkeypatch, capsys, args, tmp_path):
     from paa_mj.cli import main
     from paa_mj.theory import roa
+
+    monkeypatch.setenv("PAA_MJ_CACHE", str(tmp_path))  # the stand-in region is kept here, not in the user's cache
 
     _interrupting_engine(monkeypatch)
     monkeypatch.setattr(roa, "simulated_level", lambda *a, **k: {"rho": 1.0, "at_top": False, "samples": 1,

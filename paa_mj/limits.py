@@ -20,6 +20,12 @@ MAX_SECONDS = 24 * 3600.0
 #: 6, 12, 20 and 40 links, runs of 8 rollouts; 11.5 us at 3 links in ``paa-mj bench``).
 STEP_SECONDS = 1e-5
 STEP_SECONDS_PER_LINK2 = 1.6e-7
+#: Work estimated at more than this [s of wall time] is announced before it starts: its estimate and what lowers it.
+ANNOUNCE_SECONDS = 60.0
+#: Memory of one sub-environment of the vector environment on the CPU (its MjData, its episode's bookkeeping)
+#: [bytes]: 315 KB measured for the gymnast between 500 and 2500 environments, 400 KB for 1000 (fixed costs
+#: included); taken as 400 KB.
+ENV_BYTES = 4e5
 
 
 def available_memory() -> int:
@@ -75,6 +81,11 @@ def check_steps(steps: float, what: str, lower: str, cores: int | None = None, l
         days = seconds / 86400
         raise PaaError(f"would need {steps:.3g} physics steps for {what}, about {days:.3g} days here"
                        f" (the limit is {MAX_SECONDS / 86400:g} days); lower {lower}")
+    if seconds > ANNOUNCE_SECONDS:  # accepted, but said before it starts, with what would shorten it
+        from .progress import stage
+
+        stage(f"paa-mj: {steps:.3g} physics steps for {what}: about {duration(seconds)} here (an estimate); lower"
+              f" {lower} to shorten it")
 
 
 #: Largest gain of (40) accepted for the paper's robots [J kg m^2 and kin]: 1e8 times the paper's gains (66).

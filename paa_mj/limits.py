@@ -22,6 +22,12 @@ MAX_SECONDS = 24 * 3600.0
 #: 6, 12, 20 and 40 links, runs of 8 rollouts; 11.5 us at 3 links in ``paa-mj bench``).
 STEP_SECONDS = 1e-5
 STEP_SECONDS_PER_LINK2 = 1.6e-7
+#: Work estimated at more than this [s of wall time] is announced before it starts: its estimate and what lowers it.
+ANNOUNCE_SECONDS = 60.0
+#: Memory of one sub-environment of the vector environment on the CPU (its MjData, its episode's bookkeeping)
+#: [bytes]: 315 KB measured for the gymnast between 500 and 2500 environments, 400 KB for 1000 (fixed costs
+#: included); taken as 400 KB.
+ENV_BYTES = 4e5
 
 
 def available_memory() -> int:
@@ -77,6 +83,36 @@ def check_steps(steps: float, what: str, lower: str, cores: int | None = None, l
         days = seconds / 86400
         raise PaaError(f"would need {steps:.3g} physics steps for {what}, about {days:.3g} days here"
                        f" (the limit is {MAX_SECONDS / 86400:g} days); lower {lower}")
+    if seconds > ANNOUNCE_SECONDS:  # accepted, but said before it starts, with what would shorten it
+        from .progress import stage
+
+        stage(f"paa-mj: {steps:.3g} physics steps for {what}: about {duration(seconds)} here (an estimate); lower"
+              f" {lower} to shorten it")
+
+
+#: Largest gain of (40) accepted for the paper's robots [J kg m^2 and kin]: 1e8 times the paper's gains (66).
+MAX_GAIN = 1e12
+#: Largest gain accepted for any robot, as a multiple of its own gain scale (:func:`gain_scale`): the family rule's
+#: gains of the stored robots are 0.01 to 0.3 of it (both goals), so a million times it leaves every plausible
+#: robot (:data:`paa_mj.model.params.PLAUSIBLE`) its gains, a 1e6-kg gymnast included.
+MAX_GAIN_PER_SCALE = 1e6
+
+
+def gain_scale(m, l, g) -> float:
+    """A robot's own scale of the gains of (40) [kg^2 m^4 s^-2, the unit of kD]: (sum m)^2 (sum l)^3 g, from its
+    masses ``m`` [kg], lengths ``l`` [m] and gravity ``g`` [m/s^2]. kD_min (41) grows as m^2 l^3 g under a uniform
+    scaling of masses and lengths; so does this."""
+    return float(sum(m)) ** 2 * float(sum(l)) ** 3 * float(g)
+
+
+def max_gain(m=None, l=None, g=None) -> float:
+    """The largest gain accepted for a robot of masses ``m``, lengths ``l`` and gravity ``g`` (any of them None: no
+    robot named): :data:`MAX_GAIN`, or :data:`MAX_GAIN_PER_SCALE` times its :func:`gain_scale` where that is more.
+    The one limit every command applies to gains (:func:`paa_mj.control.gains.check_gain_range`), ``make-model``
+    included, which refuses a robot whose gains would lie above it."""
+    if m is None or l is None or g is None:
+        return MAX_GAIN
+    return max(MAX_GAIN, MAX_GAIN_PER_SCALE * gain_scale(m, l, g))
 
 
 def positive_finite(name: str, value, allow_none=True):

@@ -54,6 +54,34 @@ def cache_key(**definition) -> str:
     return definition_digest({"package": package_digest(), **definition})[:24]
 
 
+def kept(kind: str, compute, *, encode=None, decode=None, **definition):
+    """A result that costs more than a second to compute, computed once per content and kept on disk.
+
+    Kept in ``cache_root()/kind`` under :func:`cache_key` of ``definition`` (every input of the result: the robot's
+    parameters, the task, weights, limits, step, method, samples...) and of the package's code, so that a result
+    of other inputs or other code is never served. ``compute()`` makes it; ``encode`` turns it into JSON data
+    (floats written exactly, infinities and NaN included) and ``decode`` back. A kept file that cannot be read is
+    computed again; one that cannot be written costs a computation next time, nothing else. (kD_min (41) keeps
+    its searches the same way, with the budget they had: :func:`paa_mj.theory.kd_search.kept_search`.)
+    """
+    encode = encode or (lambda result: result)
+    decode = decode or (lambda data: data)
+    path = cache_root() / kind / f"{cache_key(kind=kind, **definition)}.json"
+    try:
+        return decode(json.loads(path.read_text()))
+    except (OSError, ValueError, TypeError, KeyError):
+        pass
+    result = compute()
+    from .errors import PaaError
+    from .io import _json_default, write_text
+
+    try:
+        write_text(path, json.dumps(encode(result), default=_json_default))
+    except (PaaError, OSError, TypeError, ValueError):
+        pass
+    return result
+
+
 def text_sha256(text: str) -> str:
     """The sha256 of a text (a robot's MJCF) in UTF-8, hexadecimal."""
     return hashlib.sha256(text.encode("utf-8")).hexdigest()

@@ -171,9 +171,11 @@ def test_the_roa_hand_over_takes_the_runs_torque_limit():
     assert board.condition.rho == limited.condition.rho
 
 
-def test_a_sampling_estimate_beyond_a_day_is_refused_in_one_line(capsys, monkeypatch):
+def test_a_sampling_estimate_beyond_a_day_is_refused_in_one_line(capsys, monkeypatch, tmp_path):
     """Its steps counted before any is run: levels x horizon / dt at the cost of a step of a chain of n links."""
     from paa_mj.cli import main
+
+    monkeypatch.setenv("PAA_MJ_CACHE", str(tmp_path))  # no region kept by an earlier run: this one is estimated
 
     monkeypatch.setattr(roa, "SIMULATED_STEP_SECONDS", 10.0)  # as a long chain at a tiny time step costs
     code = main(["roa", "--method", "sampling", "--json"])
@@ -201,9 +203,11 @@ def test_the_sampling_estimate_drops_below_a_state_inside_that_fails(monkeypatch
     assert roa.simulated_level(robot.analytic, task, K, S, None, 1e-3, 1.0, samples=16, horizon=1.0)["at_top"]
 
 
-def test_a_check_that_finds_states_inside_failing_says_so_on_stderr(capsys, monkeypatch):
+def test_a_check_that_finds_states_inside_failing_says_so_on_stderr(capsys, monkeypatch, tmp_path):
     from paa_mj.cli import main
     from paa_mj.cli import roa as roa_command
+
+    monkeypatch.setenv("PAA_MJ_CACHE", str(tmp_path))  # the stand-in region is kept here, not in the user's cache
 
     monkeypatch.setattr(roa, "simulated_level", lambda *args, **kwargs: {"rho": 1.0, "at_top": False, "samples": 4,
                                                                           "seed": 0, "horizon": 1.0})

@@ -136,7 +136,10 @@ def main(argv=None):
             warnings.simplefilter("always", GainsNote)  # said once per robot and goal by the note itself
             quiet = getattr(args, "json", False)
             # --json keeps stdout for the object and stderr for its silences: a long run still says it works
-            with json_only_on_stdout() if quiet else contextlib.nullcontext(), watchdog(f"paa-mj {args.command}"):
+            from ..theory.kd_search import search_budget
+
+            with json_only_on_stdout() if quiet else contextlib.nullcontext(), watchdog(f"paa-mj {args.command}"), \
+                    search_budget(getattr(args, "kd_budget", None)):
                 first = None if quiet else _first_use()
                 if first:
                     stage(first)

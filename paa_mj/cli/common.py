@@ -149,8 +149,34 @@ def seed(text):
     return value
 
 
-def robot_parent(default="gymnast"):
+def search_budget(text):
+    """An argparse type: CPU-seconds a search may take, positive and at most a day (what a command may work)."""
+    from ..limits import MAX_SECONDS
+
+    value = positive(text)
+    if value > MAX_SECONDS:
+        raise argparse.ArgumentTypeError(f"{text} CPU-s is above {MAX_SECONDS:g} (a day), the longest a command may"
+                                         " work")
+    return value
+
+
+#: What ``--kd-budget`` does, in every command that has it (the one option bounding the search of kD_min).
+KD_BUDGET_HELP = ("CPU-seconds each certified search for kD_min (41) of a chain beyond the paper may take (default"
+                  " 200, about a minute and a half on 2 cores; docs/model.md gives its cost by link count; kept on disk"
+                  " for later commands): past it, or where a certificate is estimated at over 20 budgets, kD_min is a"
+                  " certified bracket and the gains are taken above its upper end")
+
+
+def search_parent(searches=""):
+    """The option bounding every search a command may run: ``--kd-budget`` (``searches``: how many it runs)."""
     p = argparse.ArgumentParser(add_help=False)
+    p.add_argument("--kd-budget", type=search_budget, default=None, metavar="CPU_S",
+                   help=KD_BUDGET_HELP + (f"; {searches}" if searches else ""))
+    return p
+
+
+def robot_parent(default="gymnast", searches=True):
+    p = argparse.ArgumentParser(add_help=False, parents=[search_parent()] if searches else [])
     p.add_argument("--robot", default=default, metavar="{gymnast,example2,acrobot,chain4,realaigym_acrobot,...,PATH.xml}",
                    help="gymnast (Table 1), example2 (Table 2), acrobot (Drake's), chain4 (four links),"
                         " realaigym_acrobot and realaigym_acrobot_v1 (RealAIGym's leaderboard acrobots) or the MJCF"

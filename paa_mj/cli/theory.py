@@ -4,7 +4,7 @@ from __future__ import annotations
 from ..errors import PaaError
 from ..provenance import text_sha256
 from .common import (file_path, finite, gains_parent, goal_parent, links_count, non_negative, positive, positive_int,
-                     print_json, robot_parent, seed, task_from_args)
+                     print_json, robot_parent, search_parent, seed, task_from_args)
 
 
 def cmd_theory(args):
@@ -15,11 +15,6 @@ def cmd_theory(args):
 
     from ..control.gains import FAMILY_RULE, family_gains
     from ..control.registry import resolve_gains
-    from ..limits import MAX_SECONDS
-
-    if args.kd_budget is not None and args.kd_budget > MAX_SECONDS:
-        raise PaaError(f"--kd-budget {args.kd_budget:g} CPU-s is above {MAX_SECONDS:g} (a day), the longest a command"
-                       " may work")
     robot = load_robot(args.robot)
     task = task_from_args(args, robot)
     if args.kd_budget is not None and not theorem1_covers(robot.analytic, task):
@@ -128,8 +123,14 @@ def cmd_make_model(args):
         check_gains_for(model, **gains, task=Task.named("folded", model))  # every command would refuse it later
 
     rule_text = ""
+    given = gains
     if gains is None:
         gains, rule_text = _rule_gains(params)
+    from ..control.gains import check_runnable_gains
+    from ..model.dynamics import AnalyticModel
+
+    # what every run of the robot takes (its stored gains, the family rule's for either goal) in every command's range
+    check_runnable_gains(AnalyticModel.from_params(params), stored=given)
     timestep, step_text = _time_step(params, args.timestep)
     title = " ".join(t for t in (args.title or "Parameters given by the user.", rule_text, step_text) if t)
     xml = mjcf_from_params(params, name=args.name, title=title, gains=gains, torque_limits=limits, timestep=timestep)
@@ -170,11 +171,19 @@ def _rule_gains(params):
     from ..model.dynamics import AnalyticModel
     from ..task import Task
 
+    from ..theory.conditions import bracket_words, chain_kd_min
+    from ..theory.linear import theorem1_covers
+
     model = AnalyticModel.from_params(params)
-    per_goal = {goal: family_gains(model, Task.named(goal, model)) for goal in ("folded", "stretched")}
+    tasks = {goal: Task.named(goal, model) for goal in ("folded", "stretched")}
+    per_goal = {goal: family_gains(model, task) for goal, task in tasks.items()}
+    # a search stopped at its budget: its bracket, whose upper end the rule's kD stands on
+    brackets = [f"{goal} goal: {bracket_words(kd)}" for goal, task in tasks.items()
+                if not theorem1_covers(model, task) and not (kd := chain_kd_min(model, task)).certified]
     text = f"Gains of the family rule ({FAMILY_RULE.describe()}): " + "; ".join(
         f"{goal} goal kD = {g['kD']:.6g}, kP = {g['kP']:.6g}, kV = {g['kV']:.6g}" for goal, g in per_goal.items())
-    return per_goal["folded"], text + " (the folded goal's stored)."
+    return per_goal["folded"], text + " (the folded goal's stored)" + (
+        f"; kD_min taken at the budget of its search (--kd-budget): {'; '.join(brackets)}." if brackets else ".")
 
 
 def register(sub, parser_class):
@@ -183,11 +192,6 @@ def register(sub, parser_class):
                        help="thresholds (41), (59), (60), constraint (54), controllability, LQR (67), DUU",
                        description="Every condition of Theorem 1 for a robot and gains, the LQR gain (67) and the"
                                    " closed loop at DUU.")
-    p.add_argument("--kd-budget", type=positive, default=None, metavar="CPU_S",
-                   help="CPU-seconds the certified search for kD_min (41) of a chain beyond the paper may take"
-                        " (default: 200, under 2 minutes on 2 cores; docs/model.md gives its cost by link count):"
-                        " past it, or where a certificate is estimated at over 20 budgets, the report gives a"
-                        " bracket")
     p.add_argument("--json", action="store_true", help="one JSON object on stdout")
     p.set_defaults(func=cmd_theory)
 
@@ -198,7 +202,7 @@ def register(sub, parser_class):
     p.add_argument("--json", action="store_true", help="one JSON object on stdout")
     p.set_defaults(func=cmd_gain_search)
 
-    p = sub.add_parser("check", parents=[robot_parent()], help="cross-check MuJoCo against the analytic model",
+    p = sub.add_parser("check", parents=[robot_parent(searches=False)], help="cross-check MuJoCo against the analytic model",
                        description="MuJoCo's inertia matrix, bias forces, accelerations and energy against (1)-(7)"
                                    " at random states.")
     p.add_argument("--samples", type=positive_int, default=1000, help="random states to compare")
@@ -206,7 +210,8 @@ def register(sub, parser_class):
     p.add_argument("--json", action="store_true", help="one JSON object on stdout")
     p.set_defaults(func=cmd_check)
 
-    p = sub.add_parser("make-model", parents=[gains_parent(stored="the family rule's for the folded goal, written"
+    p = sub.add_parser("make-model", parents=[search_parent("make-model searches for both goals, so twice the budget"
+                                                            " at most, and states any bracket in the file's header"), gains_parent(stored="the family rule's for the folded goal, written"
                                                                    " into the file's header with the stretched goal's")],
                        help="write the MJCF of a chain on the bar (the gymnast by default) with given parameters",
                        description="Write the MJCF file of a planar chain of N links hanging from the bar (joint 1"

@@ -14,9 +14,7 @@ from ..theory.conditions import bracket_words, chain_kd_min, constraint_54, thre
 from ..theory.linear import theorem1_covers
 
 
-#: Largest gain accepted: 1e8 times the paper's (66); no robot of this model needs more, and the products
-#: inside (40) and its Jacobians overflow long before a double's limit.
-MAX_GAIN = 1e12
+from ..limits import MAX_GAIN, max_gain  # noqa: F401 - the one gain limit (a robot's own scale past the paper's)
 
 
 #: How far above its bound the atlas's :func:`gain_rule` puts each gain.
@@ -163,20 +161,40 @@ class TheoryWarning(UserWarning):
     """Gains or robot outside what Theorem 1 covers; the run goes on."""
 
 
-def check_gain_range(kD, kP, kV):
+def check_gain_range(kD, kP, kV, model: AnalyticModel | None = None):
     """Gains of (40) (or (12)) that the theory and the law can be evaluated with, or a one-line error.
 
     Each finite, positive (V weighs the speeds by kD/2 and the posture error by
-    kP/2; dV/dt = -kV ``|qd_a|^2`` (36)) and at most :data:`MAX_GAIN`. The paper's
+    kP/2; dV/dt = -kV ``|qd_a|^2`` (36)) and at most :func:`~paa_mj.limits.max_gain` of the robot ``model`` (1e8
+    times the paper's gains, or a million times the robot's own gain scale where that is more). The paper's
     bounds (41), (59), (60) are :func:`check_gains`'s.
     """
+    p = None if model is None else model.params
+    ceiling = max_gain() if p is None else max_gain(p.m, p.l, p.g)
     for name, value in (("kD", kD), ("kP", kP), ("kV", kV)):
         if not np.isfinite(value):
             raise PaaError(f"gain {name} = {value} is not finite")
         if value <= 0:
             raise PaaError(f"gain {name} = {value:g} must be > 0")
-        if value > MAX_GAIN:
-            raise PaaError(f"gain {name} = {value:g} is above {MAX_GAIN:g}, 1e8 times the paper's gains")
+        if value > ceiling:
+            why = ("1e8 times the paper's gains" if ceiling == MAX_GAIN else
+                   "a million times this robot's gain scale (sum m)^2 (sum l)^3 g")
+            raise PaaError(f"gain {name} = {value:g} is above {ceiling:g}, {why}")
+
+
+def check_runnable_gains(model: AnalyticModel, stored: dict | None = None):
+    """The gains a robot's runs would take, checked as every run checks them, or a one-line error: ``stored`` (the
+    gains its file keeps) and the family rule's for each goal (what a run takes where the stored kD is not above
+    kD_min (41) for the goal). ``make-model`` calls it, so that no command refuses the robot it writes."""
+    if stored is not None:
+        check_gain_range(**stored, model=model)
+    for goal in ("folded", "stretched"):
+        gains = family_gains(model, Task.named(goal, model))
+        try:
+            check_gain_range(**gains, model=model)
+        except PaaError as err:
+            raise PaaError(f"the family rule's gains for the {goal} goal are out of range ({err}): no command"
+                           " could run this robot; change its masses or lengths") from None
 
 
 def check_gains(model: AnalyticModel, kD, kP, kV, stacklevel=3, task: Task | None = None):
@@ -200,7 +218,7 @@ def check_gains(model: AnalyticModel, kD, kP, kV, stacklevel=3, task: Task | Non
     list of str
         The warnings given.
     """
-    check_gain_range(kD, kP, kV)
+    check_gain_range(kD, kP, kV, model)
     kd, e1, e2 = thresholds(model)
     if kD <= kd.value:
         shown, bound = apart(kD, kd.value)
@@ -239,7 +257,7 @@ def check_chain_gains(model: AnalyticModel, kD, kP, kV, task: Task):
     bracket the bound (long chains), kD must be above the bracket's certified upper end. Theorem 1's other
     bounds, (59) and (60), are proved for the paper's gymnast and goal only and are not checked here.
     """
-    check_gain_range(kD, kP, kV)
+    check_gain_range(kD, kP, kV, model)
     kd = chain_kd_min(model, task)
     where = f"its definition, computed for this {model.n_links}-link robot and the {task.name} goal"
     would_do = f"the family rule's gains would do: {gains_text(family_gains(model, task))}"

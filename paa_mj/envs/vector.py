@@ -214,6 +214,15 @@ class GymnastVectorEnv(VectorEnv):
             raise ValueError(f"engine 'warp' steps MuJoCo Warp: physics must be 'mujoco', got {kwargs['physics']!r}")
         num_envs = _whole("num_envs", num_envs, 1, MAX_ENVS)
         num_threads = _whole("num_threads", num_threads, 1, 1024)
+        if engine == "mujoco":  # a Warp device checks its own memory (warp_robots)
+            from ..errors import PaaError
+            from ..limits import ENV_BYTES, check_memory
+
+            try:
+                check_memory(num_envs * ENV_BYTES, f"memory for {num_envs} sub-environments (about"
+                             f" {ENV_BYTES / 1e3:.0f} KB each)", "num_envs")
+            except PaaError as err:
+                raise ValueError(str(err)) from None
         if kwargs.get("render_mode") is not None:
             raise ValueError(f"render_mode must be None for the vector environment, got {kwargs['render_mode']!r}")
         mode = autoreset_mode if isinstance(autoreset_mode, AutoresetMode) else \

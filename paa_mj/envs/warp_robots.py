@@ -17,7 +17,7 @@ import numpy as np
 
 from ..sim.step import MAX_SPEED
 from ..sim.warp_device import device_name, load_warp
-from ..sim.warp_engine import device_worlds
+from ..sim.warp_engine import device_worlds, world_bytes
 from ..task import BOOK, book_update
 from .stepper import EpisodeRecords, finish_rows
 
@@ -80,6 +80,12 @@ class WarpRobots(EpisodeRecords):
         self.device = device_name(wp, device)
         self.model, self.task, self.frame_skip = model, task, int(frame_skip)
         links = task.n_links
+        from ..limits import check_memory
+
+        # the worlds, as every engine sizes them before allocating: refused in one line where they would not fit
+        check_memory(1.5 * n * (world_bytes(wp, self.mjw, model, self.device) + 8 * (8 * links + 32)),
+                     f"{self.device} memory for {n} sub-environments", "num_envs",
+                     budget=wp.get_device(self.device).free_memory, where="the device's free memory")
         self._new_episodes(model, n, kind, torque_limits, task)
         with wp.ScopedDevice(self.device):
             self._keep, self._check = _kernels(wp, links)

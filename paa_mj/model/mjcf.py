@@ -8,6 +8,7 @@ validates and reads back.
 """
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
 
@@ -132,7 +133,7 @@ def _bodies(params, names, radius, site_size):
                   f'{pad}  <inertial pos="0 0 {_num(params.lc[i])}" mass="{_num(params.m[i])}"'
                   f' diaginertia="{_num(params.J[i])} {_num(params.J[i])} {_num(params.J[i] / 100)}"/>',
                   f'{pad}  <geom name="{geoms[i]}" type="capsule" fromto="0 0 0 0 0 {_num(params.l[i])}"'
-                  f' size="{_num(round(radius, 4))}" material="{geoms[i]}" contype="0" conaffinity="0" group="1"/>']
+                  f' size="{radius}" material="{geoms[i]}" contype="0" conaffinity="0" group="1"/>']
     pad = "    " + "  " * n
     lines.append(f'{pad}<site name="{tip}" pos="0 0 {_num(params.l[-1])}" size="{site_size}" rgba="1 1 0 1" group="2"/>')
     lines += ["    " + "  " * i + "</body>" for i in reversed(range(n))]
@@ -184,6 +185,13 @@ def mjcf_from_params(params: RobotParams, name: str = "gymnast", title: str = ""
                            f" got {limits.reshape(-1).tolist()}")
     names = chain_names(n)
     total = float(np.sum(params.l))
+    # sizes rounded to decimals of the robot's own scale: a chain of millimetres gets a bar of some micrometres, not
+    # one rounded to 0 (MuJoCo refuses a size of 0); one of 10 cm or more keeps the decimals of the metre
+    shift = max(0, math.ceil(-math.log10(total)) - 1)
+
+    def size(x, decimals):
+        return _num(round(x, decimals + shift))
+
     # The side camera looks at the bar 20 degrees off the normal of the plane of motion (so the
     # posts do not hide the hanging robot), from where the whole circle of its tip fits.
     cam_angle, cam_dist = np.radians(20.0), 2.7 * total
@@ -204,16 +212,16 @@ def mjcf_from_params(params: RobotParams, name: str = "gymnast", title: str = ""
         name=quoteattr(str(name)), what=what, joints=joints, values="".join(values),
         title=comment_text(title) or "Parameters given by the user.", g=_num(params.g),
         timestep=repr(float(timestep)) if timestep != 0.001 else "0.001",
-        materials=materials, bodies=_bodies(params, names, 0.022 * total, _num(round(0.02 * total, 4))),
+        materials=materials, bodies=_bodies(params, names, size(0.022 * total, 4), size(0.02 * total, 4)),
         motors=_motors(names, torque_limits),
-        floor=_num(round(1.12 * total, 3)), floor_size=_num(round(3 * total, 3)),
+        floor=size(1.12 * total, 3), floor_size=size(3 * total, 3),
         texrepeat=_num(max(2, round(3 * total))),
-        bar_half=_num(round(0.45 * total, 3)), bar_radius=_num(round(0.012 * total, 4)),
-        post_radius=_num(round(0.008 * total, 4)),
-        cam_x=_num(round(cam_dist * np.sin(cam_angle), 3)), cam_y=_num(round(cam_dist * np.cos(cam_angle), 3)),
-        cam_z=_num(round(-0.05 * total, 3)),
+        bar_half=size(0.45 * total, 3), bar_radius=size(0.012 * total, 4),
+        post_radius=size(0.008 * total, 4),
+        cam_x=size(cam_dist * np.sin(cam_angle), 3), cam_y=size(cam_dist * np.cos(cam_angle), 3),
+        cam_z=size(-0.05 * total, 3),
         cam_cos=_num(round(np.cos(cam_angle), 6)), cam_sin=_num(round(np.sin(cam_angle), 6)),
-        light_x=_num(round(total, 3)), light_y=_num(round(2 * total, 3)), light_z=_num(round(3 * total, 3)),
+        light_x=size(total, 3), light_y=size(2 * total, 3), light_z=size(3 * total, 3),
         custom=_GAINS_TEMPLATE.format(**{k: _num(gains[k]) for k in ("kD", "kP", "kV")}) if gains else "",
     )
     return _HEADER.format(**subs)

@@ -68,7 +68,7 @@ def theory_report(am: AnalyticModel, kD, kP, kV, dt=None) -> TheoryReport:
     """Compute every condition of Theorem 1, the linear analysis at UDD and the closed loop at DUU (the paper's
     folded task); with ``dt`` [s] (the simulation's step), the spectral radius of the LQR (67) loop sampled with
     zero-order hold at ``dt``."""
-    check_gain_range(kD, kP, kV)
+    check_gain_range(kD, kP, kV, am)
     task = Task.named("folded", am)
     kd, e1, e2 = thresholds(am)
     certificate = _certify(am, kd, task)
@@ -138,7 +138,7 @@ def chain_theory_report(am: AnalyticModel, kD, kP, kV, task: Task, dt=None, kd_b
     from ..theory.merged import merged_acrobot
     from ..theory.linear import goal_linearization, linear_controllability
 
-    check_gain_range(kD, kP, kV)
+    check_gain_range(kD, kP, kV, am)
     E_r = task.goal_energy(am)
     kd = chain_kd_min(am, task, budget_cpu_s=kd_budget_cpu_s)
     safe_above = kd.value if kd.certified else kd.upper

@@ -206,7 +206,8 @@ def build_plan(robot: Robot, task: Task, x0, t_final, controllers, *, dt=None, i
     dt = float(base.opt.timestep)
     n_steps = steps_for(t_final, dt)
     check_steps(float(n) * n_steps, f"{n} rollout(s) of {t_final:g} s at dt = {dt:g} s",
-                "the final time (--t-final) or the number of rollouts", links=links, runs=n)
+                "the final time (--t-final) or the number of rollouts, or raise the time step (--dt)", links=links,
+                runs=n)
     if every:
         check_memory(n * (n_steps // every + 2) * 80.0, "recorded samples", "--t-final or raise --sample-dt")
     models, model_index, plant_robots = _plants(robot, base, plants, n)

@@ -384,18 +384,26 @@ def _device_bytes(wp, obj) -> int:
     return 0
 
 
+def world_bytes(wp, mjw, model, device) -> float:
+    """The device memory of one more world of MuJoCo Warp's data of ``model`` [bytes]: that of two worlds less
+    that of one, measured on ``device``."""
+    copy = device_model(model)
+    with wp.ScopedDevice(device):
+        one, two = (_device_bytes(wp, device_data(mjw, copy, k)) for k in (1, 2))
+    return float(two - one)
+
+
 def _check_room(wp, mjw, plan, params, memory, device):
     """Refuse, in one line, worlds that would not fit in the device's free memory: MuJoCo Warp's data of a world
     (measured as that of two worlds less one) and this engine's rows, half as much again for the moment a packing
     holds both sets of worlds."""
     from ..limits import check_memory
 
-    copy = device_model(plan.models[0])
-    one, two = (_device_bytes(wp, device_data(mjw, copy, k)) for k in (1, 2))
     settings, links = plan.settings, plan.n_links
     engine_rows = 8 * (params.shape[1] + memory.shape[1] + settings.cert[0].size + settings.pushes[0].size
                        + 16 * links + 32)
-    check_memory(1.5 * len(plan) * (two - one + engine_rows), f"{device} memory for {len(plan)} worlds",
+    check_memory(1.5 * len(plan) * (world_bytes(wp, mjw, plan.models[0], device) + engine_rows),
+                 f"{device} memory for {len(plan)} worlds",
                  "the worlds of one run (--chunk) or their number (--grid, --trials)",
                  budget=wp.get_device(device).free_memory, where="the device's free memory")
 

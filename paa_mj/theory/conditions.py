@@ -88,13 +88,14 @@ def chain_kd_min(am: AnalyticModel, task, budget_cpu_s=None, progress=True) -> M
     task : Task
         Its goal's energy is E_r.
     budget_cpu_s : float, optional
-        CPU-seconds the search may take (default :data:`~paa_mj.theory.kd_search.BUDGET_CPU_S`).
+        CPU-seconds the search may take (default :func:`~paa_mj.theory.kd_search.default_budget`: 200, or the
+        command's ``--kd-budget``).
     progress : bool
         A progress bar on stderr, with the bracket, while the search runs (lines from 2 s on).
     """
-    from .kd_search import BUDGET_CPU_S, keep_search, kd_min_search, kept_search
+    from .kd_search import default_budget, keep_search, kd_min_search, kept_search
 
-    budget = BUDGET_CPU_S if budget_cpu_s is None else float(budget_cpu_s)
+    budget = default_budget() if budget_cpu_s is None else float(budget_cpu_s)
     E_r = task.goal_energy(am)
     key = (am.key(), float(E_r))
     known = _KD_MIN_CACHE.get(key)

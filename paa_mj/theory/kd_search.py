@@ -43,6 +43,25 @@ TOL = 1e-6
 BUDGET_CPU_S = 200.0
 #: A chain whose certificate is estimated at more than this many budgets gets the global bound, without a search.
 HOPELESS = 20.0
+_BUDGET = {"cpu_s": BUDGET_CPU_S}
+
+
+def default_budget() -> float:
+    """CPU-seconds a search for kD_min takes where its caller names none: :data:`BUDGET_CPU_S`, or what
+    :func:`search_budget` set for the process (every command's ``--kd-budget``)."""
+    return _BUDGET["cpu_s"]
+
+
+@contextlib.contextmanager
+def search_budget(cpu_s: float | None):
+    """Within the block, every search for kD_min that names no budget of its own takes ``cpu_s`` CPU-seconds at
+    most (None: :data:`BUDGET_CPU_S`); at it the search stops with its certified bracket."""
+    previous = _BUDGET["cpu_s"]
+    _BUDGET["cpu_s"] = BUDGET_CPU_S if cpu_s is None else float(cpu_s)
+    try:
+        yield
+    finally:
+        _BUDGET["cpu_s"] = previous
 METHOD = "a branch and bound over the actuated angles"
 
 
@@ -150,7 +169,7 @@ def search_threads() -> int:
                       else os.cpu_count() or 1))
 
 
-def kd_min_search(am, E_r, tol=TOL, budget_cpu_s=BUDGET_CPU_S, desc=None) -> Maximum:
+def kd_min_search(am, E_r, tol=TOL, budget_cpu_s=None, desc=None) -> Maximum:
     """kD_min of (41) for the goal energy ``E_r`` [J]: a value, an upper bound and whether they certify it.
 
     Parameters
@@ -160,8 +179,8 @@ def kd_min_search(am, E_r, tol=TOL, budget_cpu_s=BUDGET_CPU_S, desc=None) -> Max
         The goal's energy [J].
     tol : float
         Relative tolerance: certified when ``upper - value <= tol |value|``.
-    budget_cpu_s : float
-        CPU-seconds the branch and bound may take (see the module's docstring).
+    budget_cpu_s : float, optional
+        CPU-seconds the branch and bound may take (see the module's docstring; default :func:`default_budget`).
     desc : str, optional
         A progress bar on stderr with this description, and the bracket, while the search runs.
 
@@ -171,6 +190,7 @@ def kd_min_search(am, E_r, tol=TOL, budget_cpu_s=BUDGET_CPU_S, desc=None) -> Max
         ``value`` (a value of f, at ``argmax``: the actuated angles q2..qn in [0, 2 pi)), ``upper`` (certified:
         kD_min <= upper), ``tol``, ``method``, ``boxes``; ``grid_value`` is the best starting posture's value.
     """
+    budget_cpu_s = default_budget() if budget_cpu_s is None else float(budget_cpu_s)
     f = BoundFunction(am, E_r, threads=search_threads())
     d = am.n_links - 1
     starts = starting_postures(d, np.random.default_rng(0))
@@ -183,7 +203,7 @@ def kd_min_search(am, E_r, tol=TOL, budget_cpu_s=BUDGET_CPU_S, desc=None) -> Max
         method = "E_r + sum_k b_k <= 0: f <= 0 everywhere, so kD_min <= 0"
     elif need > HOPELESS * budget_cpu_s:
         method = (f"Newton's method from {len(starts)} postures and the global bound, no search: a certificate would"
-                  f" take about {duration(need)} of CPU" + (" (give it that budget: paa-mj theory --kd-budget)"
+                  f" take about {duration(need)} of CPU" + (" (give it that budget: --kd-budget)"
                                                            if need <= MAX_SECONDS else
                                                            ", beyond the day a command may take"))
     else:

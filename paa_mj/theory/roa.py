@@ -37,6 +37,7 @@ from ..limits import MAX_SECONDS, duration
 from ..model.dynamics import AnalyticModel
 from ..model.states import wrap
 from ..progress import progress as progress_bar
+from ..provenance import kept
 from ..task import Task
 from . import sos
 from .linear import sampled_spectral_radius
@@ -347,10 +348,26 @@ def region_of_attraction(am: AnalyticModel, task: Task, K, S, Q, R, *, u_max=Non
         States per level of the ``sampling`` method; the seed of every sample.
     progress : bool
         A progress bar on stderr while the ``sampling`` method simulates.
+
+    The region is kept on disk by its content (:func:`~paa_mj.provenance.kept`: the robot, task, weights, gains,
+    limits, step, method and samples, and the package's code): asked again, it is read back, not recomputed.
     """
     K, S = np.asarray(K, float), np.asarray(S, float)
     method = choose_method(method, am.n_links)
     limits = _finite_limits(u_max, am.n_links)
+
+    def compute():
+        return _region_of_attraction(am, task, K, S, Q, R, limits, dt, method, samples, seed, box_samples,
+                                     vdot_samples, progress)
+
+    return kept("region_of_attraction", compute, encode=RegionOfAttraction.to_dict,
+                decode=lambda d: RegionOfAttraction(**{**d, "S": np.asarray(d["S"], float)}),
+                **_definition(am, task, Q, R, limits, dt, method, K=K, S=S, samples=samples, seed=seed,
+                              box_samples=box_samples, vdot_samples=vdot_samples))
+
+
+def _region_of_attraction(am, task, K, S, Q, R, limits, dt, method, samples, seed, box_samples, vdot_samples,
+                          progress) -> RegionOfAttraction:
     rho_torque = torque_level(S, K, limits)
     simulation = None
     if method == "sos":
@@ -373,7 +390,8 @@ def region_of_attraction(am: AnalyticModel, task: Task, K, S, Q, R, *, u_max=Non
 def switch_level(am: AnalyticModel, task: Task, Q, R, *, u_max=None, dt, method=None):
     """(S, rho) of the set x^T S x <= rho for a switch to (67) (:class:`~paa_mj.control.combined.LevelCondition`):
     the ``rho`` of :func:`region_of_attraction` without its checks; kept per robot, task, weights, limits, step and
-    method (every controller built for a study's runs asks again)."""
+    method, in memory (every controller built for a study's runs asks again) and on disk by content
+    (:func:`~paa_mj.provenance.kept`: every run of ``--controller vc-roa`` asked for it again, 42 CPU-s)."""
     from .linear import lqr_solution
 
     method = choose_method(method, am.n_links)
@@ -381,15 +399,25 @@ def switch_level(am: AnalyticModel, task: Task, Q, R, *, u_max=None, dt, method=
     Q, R = np.asarray(Q, float), np.asarray(R, float)
     key = (am.key(), task, Q.tobytes(), R.tobytes(), None if limits is None else limits.tobytes(), float(dt), method)
     if key not in _SWITCH_LEVELS:
-        K, S = lqr_solution(am, task, Q, R)
-        rho_torque = torque_level(S, K, limits)
-        if method == "sos":
-            rho = _sos_part(am, task, K, S, Q, R, rho_torque)[0]
-        else:
-            rho = simulated_level(am, task, K, S, limits, dt, angle_level(S, am.n_links))["rho"]
-        _SWITCH_LEVELS[key] = (S, rho)
+        def compute():
+            K, S = lqr_solution(am, task, Q, R)
+            rho_torque = torque_level(S, K, limits)
+            if method == "sos":
+                return S, _sos_part(am, task, K, S, Q, R, rho_torque)[0]
+            return S, simulated_level(am, task, K, S, limits, dt, angle_level(S, am.n_links))["rho"]
+
+        _SWITCH_LEVELS[key] = kept("switch_level", compute, encode=lambda r: {"S": np.asarray(r[0]).tolist(),
+                                                                              "rho": float(r[1])},
+                                   decode=lambda d: (np.asarray(d["S"], float), float(d["rho"])),
+                                   **_definition(am, task, Q, R, limits, dt, method))
     S, rho = _SWITCH_LEVELS[key]
     return S.copy(), rho
+
+
+def _definition(am, task, Q, R, limits, dt, method, **more) -> dict:
+    """What a kept level or region of attraction is made of (:func:`~paa_mj.provenance.kept`)."""
+    return dict(robot=am.key(), task=task.key(), Q=np.asarray(Q, float), R=np.asarray(R, float),
+                limits=None if limits is None else np.asarray(limits, float), dt=float(dt), method=method, **more)
 
 
 _SWITCH_LEVELS: dict = {}

@@ -38,12 +38,25 @@ if ! "$python" -c 'import sys; sys.exit(sys.version_info < (3, 10))'; then
   echo "setup: Python >= 3.10 is needed, $python is $("$python" --version 2>&1)" >&2
   exit 1
 fi
+# A line every 10 s while a step says nothing of its own (uv resolves, pip downloads, in silence).
+ticker_pid=""
+ticking() {
+  local start=$SECONDS
+  (  # its sleep ended with it: no process left holding the output open
+    trap 'kill "$nap" 2>/dev/null; exit 0' TERM
+    while :; do sleep 10 & nap=$!; wait "$nap"; echo "setup: $1, $((SECONDS - start)) s in"; done
+  ) &
+  ticker_pid=$!
+}
+stop_ticking() { [ -z "$ticker_pid" ] || kill "$ticker_pid" 2>/dev/null || true; ticker_pid=""; }
+trap stop_ticking EXIT
 quiet() {  # the command's own exit status; pip's warnings about local package folders this machine lacks dropped
   "$@" 2>&1 | { grep -v '^WARNING: Location' || true; }
   return "${PIPESTATUS[0]}"
 }
 if [ ! -x .venv/bin/python ]; then
   echo "setup: creating .venv with uv (or pip) in it"
+  ticking "creating .venv"
   # uv put in by the system's pip (a venv's own pip bootstrap costs more; the extra "test" adds pip, which the
   # tests of the wheel use), else the venv's own pip, brought up to date
   if ! { "$python" -m pip --version >/dev/null 2>&1 && "$python" -m venv --without-pip .venv \
@@ -53,6 +66,7 @@ if [ ! -x .venv/bin/python ]; then
     "$python" -m venv .venv
     quiet .venv/bin/python -m pip install -q --disable-pip-version-check --upgrade pip || true
   fi
+  stop_ticking
 fi
 # The package and its extras: by uv where it can be had (the same packages as pip resolves, installed in about
 # a third of pip's CPU time), else by pip. Neither compiles every module of every package at install time:
@@ -67,10 +81,16 @@ install() {
   local target=.
   [ -z "$1" ] || target=".[$1]"
   echo "setup: installing paa_mj${1:+ with the extras $1} ($installer)"
+  ticking "installing paa_mj${1:+ with the extras $1}"
+  local code=0
   if [ "$installer" = uv ] && .venv/bin/uv pip install --python .venv/bin/python -e "$target"; then
+    stop_ticking
     return 0
   fi
-  quiet .venv/bin/python -m pip install --disable-pip-version-check --no-compile --progress-bar off -e "$target"
+  quiet .venv/bin/python -m pip install --disable-pip-version-check --no-compile --progress-bar off -e "$target" \
+    || code=$?
+  stop_ticking
+  return "$code"
 }
 if [ "$main" = 1 ]; then
   install ""

@@ -78,15 +78,19 @@ def check_fps_for(path, fps):
 
 
 def frames(robot: Robot, traj: Trajectory, fps=30, width=640, height=480, camera="side", progress=False):
-    """The labelled frames of the video of ``traj``, one at a time (uint8, (height, width, 3))."""
-    from tqdm import tqdm
+    """The labelled frames of the video of ``traj``, one at a time (uint8, (height, width, 3)).
+
+    ``progress``: a count of the frames on stderr, as a bar on a terminal and as lines in a log.
+    """
+    from ..progress import progress as counter
 
     times, q, modes = frame_states(traj, fps)
     trace_len = max(1, int(round(TRACE_SECONDS * fps)))
     with GymnastRenderer(robot, width, height, camera) as gr:
         feet = gr.feet_positions(q)
-        for k in tqdm(range(len(times)), desc="render", unit="frame", disable=None if progress else True, leave=False):
-            yield _label(gr.render(q[k], modes[k], feet[max(0, k - trace_len):k + 1]), times[k], modes[k])
+        with counter(range(len(times)), desc="render", unit="frame", enabled=progress) as bar:
+            for k in bar:
+                yield _label(gr.render(q[k], modes[k], feet[max(0, k - trace_len):k + 1]), times[k], modes[k])
 
 
 def render_frames(robot: Robot, traj: Trajectory, fps=30, width=640, height=480, camera="side", progress=False):

@@ -124,8 +124,8 @@ def _condition(robot, task, lqr_weights, switch, limit):
     from ..theory.roa import switch_level
     from .lqr import lqr_weights as weights_of
 
-    n = robot.params.n_links
-    Q, R = lqr_weight_matrices(n, *weights_of(n, lqr_weights))
+    n, motors = robot.params.n_links, robot.params.n_motors
+    Q, R = lqr_weight_matrices(n, *weights_of(n, lqr_weights, motors), n_motors=motors)
     S, rho = switch_level(robot.analytic, task, Q, R, u_max=robot.capped_torque_limits(limit, "the option limit"),
                           dt=float(robot.model.opt.timestep))
     return LevelCondition(task, S, rho)

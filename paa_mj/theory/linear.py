@@ -88,9 +88,11 @@ def lqr_gain(am: AnalyticModel, task: Task, Q=None, R=None):
     return lqr_solution(am, task, Q, R)[0]
 
 
-def lqr_weight_matrices(n_links, Q=None, R=None):
-    """(Q, R) of (67), each the paper's where None: Q = 1e4 I (2n x 2n), R = I (n - 1 x n - 1)."""
-    return (LQR_WEIGHT * np.eye(2 * n_links) if Q is None else Q, np.eye(n_links - 1) if R is None else R)
+def lqr_weight_matrices(n_links, Q=None, R=None, n_motors=None):
+    """(Q, R) of (67), each the paper's where None: Q = 1e4 I (2n x 2n), R = I (m x m, m = ``n_motors``, default
+    n - 1)."""
+    motors = n_links - 1 if n_motors is None else n_motors
+    return (LQR_WEIGHT * np.eye(2 * n_links) if Q is None else Q, np.eye(motors) if R is None else R)
 
 
 def lqr_solution(am: AnalyticModel, task: Task, Q=None, R=None):
@@ -99,7 +101,7 @@ def lqr_solution(am: AnalyticModel, task: Task, Q=None, R=None):
     for the weights and the errors)."""
     from scipy.linalg import solve_continuous_are
 
-    Q, R = lqr_weight_matrices(am.n_links, Q, R)
+    Q, R = lqr_weight_matrices(am.n_links, Q, R, am.n_motors)
     A, Bl = goal_linearization(am, task)
     try:
         S = solve_continuous_are(A, Bl, Q, R)
@@ -174,5 +176,6 @@ def balance_time_step(am: AnalyticModel, tasks, dt=1e-3, halvings=8, Q=None, R=N
 
 def theorem1_covers(am: AnalyticModel, task: Task) -> bool:
     """Whether Theorem 1 (and the paper's closed forms of (40)) covers the robot and task: the paper's gymnast
-    shape (three links, no damping, no armature) and its folded goal UDD (8). The one test of it."""
+    shape (three links, no damping, no armature, joint 1 passive) and its folded goal UDD (8). The one test of
+    it."""
     return bool(am.paper_shape and task.name == "folded")

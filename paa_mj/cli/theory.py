@@ -11,7 +11,7 @@ def cmd_theory(args):
     from ..model.robot import load_robot
     from ..outputs.theory_report import chain_theory_report, chain_theory_table, theory_report, theory_table
     from ..theory.conditions import chain_kd_min
-    from ..theory.linear import theorem1_covers
+    from ..theory.linear import require_passive_first, theorem1_covers
 
     from ..control.gains import FAMILY_RULE, family_gains
     from ..control.registry import resolve_gains
@@ -21,6 +21,8 @@ def cmd_theory(args):
         raise PaaError(f"--kd-budget {args.kd_budget:g} CPU-s is above {MAX_SECONDS:g} (a day), the longest a command"
                        " may work")
     robot = load_robot(args.robot)
+    require_passive_first(robot.analytic, "paa-mj theory (the conditions of Theorem 1, (41), (59), (60), (54))",
+                          robot.name)
     task = task_from_args(args, robot)
     if args.kd_budget is not None and not theorem1_covers(robot.analytic, task):
         chain_kd_min(robot.analytic, task, budget_cpu_s=args.kd_budget)  # the gains below then use this search

@@ -174,6 +174,18 @@ def balance_time_step(am: AnalyticModel, tasks, dt=1e-3, halvings=8, Q=None, R=N
     return None if None in steps else min(steps)
 
 
+def require_passive_first(am: AnalyticModel, what: str, name: str | None = None):
+    """Refuse, in one line that says why, ``what`` (the paper's controllers (40), (12), the conditions of
+    Theorem 1, Spong's acrobot swing-up) on a robot whose passive joint is not joint 1 alone: their energy
+    shaping, their virtual constraints and the proofs are written for B = [0; I] (a torque on every joint but the
+    one on the bar)."""
+    if not am.passive_first:
+        robot = name or am.params.name
+        raise PaaError(f"{what} needs joint 1 alone passive (B = [0; I], a motor on every joint but the one on the"
+                       f" bar: it is built on that); robot {robot} has {am.params.actuation_text()} (the LQR, trajopt"
+                       " and your own controllers run on it)")
+
+
 def theorem1_covers(am: AnalyticModel, task: Task) -> bool:
     """Whether Theorem 1 (and the paper's closed forms of (40)) covers the robot and task: the paper's gymnast
     shape (three links, no damping, no armature, joint 1 passive) and its folded goal UDD (8). The one test of

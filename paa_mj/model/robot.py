@@ -21,7 +21,8 @@ from .mjcf import MODEL_DIR, mjcf_from_params
 from .mjcf_read import compile_mjcf, default_gains, flatten_mjcf, params_from_model, read_text, torque_limits_from_model
 from .params import RobotParams
 
-NAMED_ROBOTS = ("gymnast", "example2", "acrobot", "chain4", "realaigym_acrobot", "realaigym_acrobot_v1")
+NAMED_ROBOTS = ("gymnast", "example2", "acrobot", "chain4", "realaigym_acrobot", "realaigym_acrobot_v1",
+                "realaigym_pendubot")
 
 
 @dataclass(frozen=True, eq=False)

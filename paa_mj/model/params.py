@@ -179,6 +179,11 @@ class RobotParams:
         """B of (1), shape (n, m): column k is the unit vector of joint ``actuated[k]``."""
         return np.eye(self.n_links)[:, list(self.actuated)]
 
+    def actuation_meta(self) -> dict:
+        """What a run's metadata records of the motors: ``{"driven_joints": [...]}`` (1-based) where joint 1 is not
+        the only passive one, else nothing (the paper's family, as every run recorded before)."""
+        return {} if self.passive_first else {"driven_joints": [j + 1 for j in self.actuated]}
+
     def actuation_text(self) -> str:
         """The motors in words, for headers and messages: "joint 1 passive, joints 2..3 driven"."""
         return actuation_text(self.n_links, self.actuated)

@@ -376,7 +376,8 @@ class _Integration:
                           meta={"robot": self.robot.name, "engine": "analytic", "integrator": f"solve_ivp {method}",
                                 "dt": None, "sample_dt": sample_dt, "rtol": rtol, "x0": x0.tolist(),
                                 "t_final": float(t_final), **describe_controller(self.controller),
-                                "torque_limit": None if np.all(np.isinf(limits)) else limits.tolist()},
+                                "torque_limit": None if np.all(np.isinf(limits)) else limits.tolist(),
+                                **self.robot.params.actuation_meta()},
                           robot_xml=self.robot.xml)
         failed = bool(self.failure) or not np.all(np.isfinite(X))
         finished = not failed and not self.interrupted

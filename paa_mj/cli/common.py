@@ -179,7 +179,8 @@ def robot_parent(default="gymnast", searches=True):
     p = argparse.ArgumentParser(add_help=False, parents=[search_parent()] if searches else [])
     p.add_argument("--robot", default=default, metavar="{gymnast,example2,acrobot,chain4,realaigym_acrobot,...,PATH.xml}",
                    help="gymnast (Table 1), example2 (Table 2), acrobot (Drake's), chain4 (four links),"
-                        " realaigym_acrobot and realaigym_acrobot_v1 (RealAIGym's leaderboard acrobots) or the MJCF"
+                        " realaigym_acrobot and realaigym_acrobot_v1 (RealAIGym's leaderboard acrobots),"
+                        " realaigym_pendubot (their pendubot: the motor at the shoulder) or the MJCF"
                         " file of any planar chain on the bar"
                         + ("" if default else " (default: gymnast, or the trajectory's robot with --from)"))
     return p

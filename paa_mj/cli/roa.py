@@ -40,7 +40,7 @@ def mujoco_check(robot, task, weights, roa, limits, errors, record=False):
     K = LQRController.for_model(robot.analytic, task, weights).K
     t_final = max(10.0, 2.0 * settling_time(robot.analytic, task, K))
     t_final = t_final if math.isfinite(t_final) else 10.0
-    limits = None if limits is None else np.broadcast_to(limits, (len(x0), n - 1)).copy()
+    limits = None if limits is None else np.broadcast_to(limits, (len(x0), robot.params.n_motors)).copy()
     result = simulate_batch(robot, x0, t_final, task=task, controller=spec, torque_limit=limits, record=record,
                             sample_dt=0.01, retire=not record, nthread=1)
     paths = []
@@ -64,8 +64,8 @@ def cmd_roa(args):
 
     robot = load_robot(args.robot)
     task = task_from_args(args, robot)
-    n = robot.params.n_links
-    Q, R = lqr_weight_matrices(n, *lqr_weights(n, args.lqr_weights))
+    n, motors = robot.params.n_links, robot.params.n_motors
+    Q, R = lqr_weight_matrices(n, *lqr_weights(n, args.lqr_weights, motors), n_motors=motors)
     K, S = lqr_solution(robot.analytic, task, Q, R)
     limits = _torque_limits(robot, args.torque_limit)
     dt = float(robot.model.opt.timestep)

@@ -120,7 +120,7 @@ def cmd_simulate(args):
         print("  V at the end         " + (f"{V:.6g}" if V is not None and V == V else
                                          "- (V (34) is defined for the energy controllers (40), (12) only)"))
         peaks = summary["max_abs_tau"]
-        label = "max " + ", ".join(f"|tau{i + 2}|" for i in range(len(peaks)))
+        label = "max " + ", ".join(f"|tau{j}|" for j in traj.driven_joints)
         print(f"  {label:<20} {', '.join(f'{v:.2f}' for v in peaks)} N m")
     return finish(traj.meta.get("interrupted", False), f"stopped at t = {summary['final_time']:.3f} s", args.out,
                   kept="kept what was computed in {out}")

@@ -11,11 +11,13 @@ def cmd_theory(args):
     from ..model.robot import load_robot
     from ..outputs.theory_report import chain_theory_report, chain_theory_table, theory_report, theory_table
     from ..theory.conditions import chain_kd_min
-    from ..theory.linear import theorem1_covers
+    from ..theory.linear import require_passive_first, theorem1_covers
 
     from ..control.gains import FAMILY_RULE, family_gains
     from ..control.registry import resolve_gains
     robot = load_robot(args.robot)
+    require_passive_first(robot.analytic, "paa-mj theory (the conditions of Theorem 1, (41), (59), (60), (54))",
+                          robot.name)
     task = task_from_args(args, robot)
     if args.kd_budget is not None and not theorem1_covers(robot.analytic, task):
         chain_kd_min(robot.analytic, task, budget_cpu_s=args.kd_budget)  # the gains below then use this search
@@ -96,12 +98,20 @@ def cmd_make_model(args):
     from ..model.params import RobotParams
 
     n = args.links
+    passive = sorted(set(args.passive))
+    if any(not 1 <= j <= n for j in passive) or len(passive) != len(args.passive):
+        raise PaaError(f"--passive takes distinct joints of 1..{n}, got {' '.join(map(str, args.passive))}")
+    actuated = tuple(i for i in range(n) if i + 1 not in passive)
+    if not actuated:
+        raise PaaError(f"--passive {' '.join(map(str, passive))} leaves no motor: at least one joint must be driven")
     per_link = {key: _per_link(args, key, n, "one per link") for key in ("m", "l", "lc", "J", "damping", "armature")}
-    limits = _per_link(args, "torque_limit", n - 1, "one per motor, joints 2..N")
+    limits = _per_link(args, "torque_limit", len(actuated),
+                       "one per motor, joints " + ", ".join(str(j + 1) for j in actuated))
     for key in ("m", "l"):
         if per_link[key] is None:
             raise PaaError(f"give --{key}: {n} values, one per link")
-    extra = dict(g=args.gravity, name=args.name, damping=per_link["damping"], armature=per_link["armature"])
+    extra = dict(g=args.gravity, name=args.name, damping=per_link["damping"], armature=per_link["armature"],
+                 actuated=actuated)
     if per_link["J"] is None:
         if per_link["lc"] is not None:
             raise PaaError("give --J with --lc (or neither, for uniform rods)")
@@ -111,6 +121,9 @@ def cmd_make_model(args):
             raise PaaError("give --lc with --J")
         params = RobotParams(m=per_link["m"], l=per_link["l"], lc=per_link["lc"], J=per_link["J"], **extra)
     gains = None
+    if not params.passive_first and any(v is not None for v in (args.kD, args.kP, args.kV)):
+        raise PaaError(f"--kD --kP --kV are gains of (40), whose theory needs joint 1 alone passive: this robot has"
+                       f" {params.actuation_text()}")
     if any(v is not None for v in (args.kD, args.kP, args.kV)):
         if None in (args.kD, args.kP, args.kV):
             raise PaaError("give all three of --kD --kP --kV to store default gains")
@@ -124,18 +137,19 @@ def cmd_make_model(args):
 
     rule_text = ""
     given = gains
-    if gains is None:
+    if gains is None and params.passive_first:
         gains, rule_text = _rule_gains(params)
     from ..control.gains import check_runnable_gains
     from ..model.dynamics import AnalyticModel
 
-    # what every run of the robot takes (its stored gains, the family rule's for either goal) in every command's range
-    check_runnable_gains(AnalyticModel.from_params(params), stored=given)
+    if params.passive_first:  # what every run of the robot takes (its stored gains, the family rule's for either
+        check_runnable_gains(AnalyticModel.from_params(params), stored=given)  # goal) in every command's range
     timestep, step_text = _time_step(params, args.timestep)
     title = " ".join(t for t in (args.title or "Parameters given by the user.", rule_text, step_text) if t)
     xml = mjcf_from_params(params, name=args.name, title=title, gains=gains, torque_limits=limits, timestep=timestep)
     params_from_model(compile_mjcf(xml, "generated model"), source="generated model")
-    chosen = "; stored gains kD = {kD:.6g}, kP = {kP:.6g}, kV = {kV:.6g}".format(**gains)
+    chosen = ("; stored gains kD = {kD:.6g}, kP = {kP:.6g}, kV = {kV:.6g}".format(**gains) if gains else
+              f"; {params.actuation_text()}, no gains of (40) stored (its theory needs joint 1 alone passive)")
     write_text(args.out, xml)
     print(f"wrote {args.out}{chosen}" + (f" ({rule_text})" if rule_text else ""))
     if step_text:
@@ -214,9 +228,10 @@ def register(sub, parser_class):
                                                             " at most, and states any bracket in the file's header"), gains_parent(stored="the family rule's for the folded goal, written"
                                                                    " into the file's header with the stretched goal's")],
                        help="write the MJCF of a chain on the bar (the gymnast by default) with given parameters",
-                       description="Write the MJCF file of a planar chain of N links hanging from the bar (joint 1"
-                                   " passive, a motor on each of joints 2..N; N = 3 is the gymnast, N = 2 an acrobot)"
-                                   " from its parameters, one value per link where they are per link.")
+                       description="Write the MJCF file of a planar chain of N links hanging from the bar (by default"
+                                   " joint 1 passive, a motor on each of joints 2..N; N = 3 is the gymnast, N = 2 an"
+                                   " acrobot; --passive 2 with N = 2 a pendubot) from its parameters, one value per"
+                                   " link where they are per link.")
     p.add_argument("--links", type=links_count, default=3, metavar="N", help="number of links N >= 2 (default 3)")
     p.add_argument("--m", type=positive, nargs="+", metavar="M", help="masses [kg], N values")
     p.add_argument("--l", type=positive, nargs="+", metavar="L", help="lengths [m], N values")
@@ -229,8 +244,12 @@ def register(sub, parser_class):
     p.add_argument("--armature", type=non_negative, nargs="+", metavar="A",
                    help="joint armature (rotor inertia) [kg m^2], N values or one for all (default 0)")
     p.add_argument("--gravity", type=positive, default=9.81, metavar="G", help="gravity [m/s^2] (default 9.81)")
+    p.add_argument("--passive", type=positive_int, nargs="+", default=[1], metavar="J",
+                   help="the joints without a motor, 1..N (default 1: the hands on the bar, the paper's family, whose"
+                        " theory and controllers (12), (40) need it; every other joint carries a motor)")
     p.add_argument("--torque-limit", type=positive, nargs="+", metavar="T",
-                   help="each motor's torque limit [N m] (its ctrlrange), N-1 values or one for all (default: none)")
+                   help="each motor's torque limit [N m] (its ctrlrange), one per driven joint or one for all"
+                        " (default: none)")
     p.add_argument("--timestep", type=positive, default=None, metavar="DT",
                    help="the model's time step [s] (default: the largest of 1 ms / 2^k at which the balance LQR (67)"
                         " of both goals is stable when sampled, stated in the file's header)")

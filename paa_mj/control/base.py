@@ -1,10 +1,10 @@
 """The controller interface: one small protocol for every controller, compiled or not.
 
-A controller maps states to the motor torques tau = [tau2, ..., tau_n] [N m]
-(for the gymnast, [tau2, tau3]):
+A controller maps states to the torques tau [N m] of the robot's m motors, in the order of its driven joints
+(:attr:`~paa_mj.model.params.RobotParams.actuated`; by default joints 2..n, for the gymnast [tau2, tau3]):
 
 - ``torque(q, qd, t)`` takes a batch of states, ``q`` and ``qd`` of shape
-  (..., n) [rad, rad/s] and the time ``t`` [s], and returns shape (..., n - 1);
+  (..., n) [rad, rad/s] and the time ``t`` [s], and returns shape (..., m);
 - ``reset()`` forgets any internal state before a new rollout;
 - ``mode`` (optional) is 0 while swinging up and 1 once the balance controller
   (67) has taken over; a rollout's *switch time* is when it first becomes 1.
@@ -34,7 +34,7 @@ from ..task import Task
 
 #: Signature of a compiled controller, and of a compiled switching condition:
 #: ``kernel(x, t, params, memory, tau) -> int`` with x = [q, qd] (2n) the state it sees. A controller
-#: writes the n - 1 motor torques [N m] into ``tau``, may update ``memory`` and returns its mode
+#: writes the m motor torques [N m] into ``tau``, may update ``memory`` and returns its mode
 #: (0 swing-up, 1 balance); a condition returns 1 where it holds and touches nothing.
 KERNEL_SIG = types.int64(types.float64[:], types.float64, types.float64[:], types.float64[:], types.float64[:])
 KERNEL_TYPE = types.FunctionType(KERNEL_SIG)
@@ -77,7 +77,7 @@ class CompiledForm:
         Constant parameters (gains, robot constants, gain tables), float64.
     memory : ndarray (S,)
         The initial internal state, copied for each rollout.
-    balance_gain : ndarray (n - 1, 2n) or None
+    balance_gain : ndarray (m, 2n) or None
         The linear state feedback tau = -K x that acts in mode 1, x the error from
         the goal ((67) at UDD). The engine uses it to stop a rollout whose balance can no
         longer fail (:mod:`paa_mj.sim.retirement`); None: never stopped early.
@@ -131,6 +131,8 @@ class Binding:
     task : Task
     controller : str or None
         The name the user gave the controller (``vcl``, ``mine.py:Balance``), for messages.
+    n_motors : int or None
+        The motors its torques are for (None: n - 1, joints 2..n).
     """
 
     robot: str
@@ -138,13 +140,14 @@ class Binding:
     digest: str | None
     task: Task
     controller: str | None = None
+    n_motors: int | None = None
 
     @classmethod
     def of(cls, robot, task: Task, controller: str | None = None) -> "Binding":
         """The binding to a :class:`~paa_mj.model.robot.Robot` or an AnalyticModel, and ``task``."""
         model = getattr(robot, "analytic", robot)
         name = getattr(robot, "name", None) or model.params.name
-        return cls(str(name), model.n_links, model.digest, task, controller)
+        return cls(str(name), model.n_links, model.digest, task, controller, model.n_motors)
 
     def robot_text(self) -> str:
         parts = f"{self.n_links} links" + (f", parameters {self.digest}" if self.digest else "")
@@ -174,7 +177,8 @@ def check_binding(controller, robot, task: Task | None):
     model = getattr(robot, "analytic", robot)
     ours = Binding(str(getattr(robot, "name", None) or model.params.name), model.n_links, model.digest, task)
     name = controller_name(controller)
-    if binding.n_links != ours.n_links or (binding.digest is not None and binding.digest != ours.digest):
+    if (binding.n_links != ours.n_links or (binding.digest is not None and binding.digest != ours.digest)
+            or (binding.n_motors is not None and binding.n_motors != model.n_motors)):
         raise PaaError(f"controller {name} was built for {binding.robot_text()}, not for {ours.robot_text()}"
                        " that runs it: build it for this robot")
     if task is not None and binding.task.aim() != task.aim():
@@ -198,7 +202,7 @@ class Controller:
     binding: Binding | None = None
 
     def torque(self, q, qd, t=0.0):
-        """Torques (..., n - 1) [N m] at states q, qd (..., n) [rad, rad/s] and time t [s]."""
+        """Torques (..., m) [N m] at states q, qd (..., n) [rad, rad/s] and time t [s]."""
         q, qd = np.asarray(q, float), np.asarray(qd, float)
         links = self.binding.n_links if self.binding is not None else None
         if links is not None and (q.shape[-1:] != (links,) or qd.shape[-1:] != (links,)):
@@ -239,8 +243,9 @@ def _user_call(controller, what, call, *args):
                        + (f": {detail}" if detail else "")) from None
 
 
-def torque_of(controller, q, qd, t, copy=True):
-    """``controller.torque(q, qd, t)`` as a float array of shape (..., n - 1), or a one-line error.
+def torque_of(controller, q, qd, t, copy=True, motors=None):
+    """``controller.torque(q, qd, t)`` as a float array of shape (..., m), or a one-line error: m = ``motors``, else
+    the motors of the robot the controller is bound to, else n - 1 (joints 2..n).
 
     The controller gets copies of ``q`` and ``qd``: the engines pass views of their own state (the
     integrator's, the measured state), which a controller that writes into its inputs would
@@ -257,7 +262,10 @@ def torque_of(controller, q, qd, t, copy=True):
     if copy:
         q, qd = np.array(q, dtype=float), np.array(qd, dtype=float)
     shape = q.shape
-    expected = shape[:-1] + (shape[-1] - 1,)
+    if motors is None:
+        binding = getattr(controller, "binding", None)
+        motors = binding.n_motors if isinstance(binding, Binding) and binding.n_motors is not None else shape[-1] - 1
+    expected = shape[:-1] + (motors,)
     raw = _user_call(controller, "torque", controller.torque, q, qd, t)
     if type(raw) is np.ndarray and raw.dtype == np.float64 and raw.shape == expected:
         return raw.copy() if copy else raw  # the common case, checked at once (this runs every step of a rollout)
@@ -269,7 +277,8 @@ def torque_of(controller, q, qd, t, copy=True):
                        " (float) [N m]")
     tau = np.array(raw, dtype=float)
     if tau.shape != expected:
-        motors = "[tau2, tau3]" if shape[-1] == 3 else f"{shape[-1] - 1} motor torque{'s' if shape[-1] > 2 else ''}"
+        motors = ("[tau2, tau3]" if shape[-1] == 3 and motors == 2 else
+                  f"{motors} motor torque{'s' if motors > 1 else ''}")
         raise PaaError(f"controller {name}.torque returned shape {tau.shape} for states of"
                        f" shape {shape}; it must return {expected} ({motors} per state)")
     return tau

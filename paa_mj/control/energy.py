@@ -44,7 +44,7 @@ from ..model.dynamics import AnalyticModel
 from ..model.states import Q_AR
 from ..model.vcl import Psi, psi, theta
 from ..task import Task
-from ..theory.linear import theorem1_covers
+from ..theory.linear import require_passive_first, theorem1_covers
 from .base import Binding, CompiledForm, Controller, kernel
 from .gains import check_gains_for
 
@@ -329,6 +329,7 @@ class EnergyVCLController(Controller):
     uses_vcl = True
 
     def __init__(self, model: AnalyticModel, kD, kP, kV, check=True, task: Task | None = None):
+        require_passive_first(model, f"controller {'(40)' if self.uses_vcl else '(12)'} ({self.name})")
         self.model = model
         self.kD, self.kP, self.kV = float(kD), float(kP), float(kV)
         self.task = Task.named("folded", model) if task is None else task

@@ -53,8 +53,8 @@ WEIGHT_RANGE = (1e-9, 1e12)
 WEIGHT_RATIO_RANGE = (1e-9, 1e12)
 
 
-def lqr_weights(n_links, weights=None):
-    """Q (2n x 2n) and R (n - 1 x n - 1) of (67) from ``weights`` = (q, r) (Q = q I, R = r I), or the paper's
+def lqr_weights(n_links, weights=None, n_motors=None):
+    """Q (2n x 2n) and R (m x m, m = ``n_motors``, default n - 1) of (67) from ``weights`` = (q, r) (Q = q I, R = r I), or the paper's
     (None: Q = 1e4 I, R = I); a one-line error, with the range accepted (:data:`WEIGHT_RANGE`,
     :data:`WEIGHT_RATIO_RANGE`), otherwise."""
     if weights is None:
@@ -69,7 +69,7 @@ def lqr_weights(n_links, weights=None):
     if not ratio_low <= q / r <= ratio_high:
         raise PaaError(f"the LQR weights' ratio q / r must lie in [{ratio_low:g}, {ratio_high:g}], got {q / r:.3g}"
                        f" ({q:g} / {r:g})")
-    return q * np.eye(2 * n_links), r * np.eye(n_links - 1)
+    return q * np.eye(2 * n_links), r * np.eye(n_links - 1 if n_motors is None else n_motors)
 
 
 class LQRController(Controller):
@@ -77,7 +77,7 @@ class LQRController(Controller):
 
     Parameters
     ----------
-    K : array_like, shape (n - 1, 2n)
+    K : array_like, shape (m, 2n), 1 <= m < n the motors
         State-feedback gain, normally :func:`paa_mj.theory.linear.lqr_gain` ((2, 6) for the gymnast).
     task : Task
         What it balances at: the task's goal q*. A gain given as it is binds the controller to any robot
@@ -98,20 +98,22 @@ class LQRController(Controller):
         self.task = task
         self.goal = task.goal
         n = task.n_links
-        if self.K.shape != (n - 1, 2 * n) or not np.all(np.isfinite(self.K)):
-            raise PaaError(f"LQR gain must be a finite {n - 1} x {2 * n} matrix, got shape {self.K.shape}")
-        self.binding = Binding("any", n, None, task)
+        if (self.K.ndim != 2 or not 1 <= self.K.shape[0] < n or self.K.shape[1] != 2 * n
+                or not np.all(np.isfinite(self.K))):
+            raise PaaError(f"LQR gain must be a finite m x {2 * n} matrix (m motors, 1..{n - 1}), got shape"
+                           f" {self.K.shape}")
+        self.binding = Binding("any", n, None, task, n_motors=self.K.shape[0])
 
     @classmethod
     def for_model(cls, model: AnalyticModel, task: Task, weights=None) -> "LQRController":
         """(67) at the task's goal; ``weights`` = (q, r) for Q = q I (2n), R = r I (n - 1), default the paper's
         (1e4, 1)."""
-        Q, R = lqr_weights(model.n_links, weights)
+        Q, R = lqr_weights(model.n_links, weights, model.n_motors)
         return cls(lqr_gain(model, task, Q, R), task, weights).bind(model, task)
 
     def law(self, q, qd, t):
         x = np.concatenate(np.broadcast_arrays(np.asarray(q, float), np.asarray(qd, float)), axis=-1)
-        tau = np.empty(x.shape[:-1] + (self.goal.size - 1,))
+        tau = np.empty(x.shape[:-1] + (self.K.shape[0],))
         linear_feedback(self.K.reshape(-1), self.goal, np.moveaxis(x, -1, 0), np.moveaxis(tau, -1, 0))
         return tau
 

@@ -62,7 +62,12 @@ def resolve_gains(robot, task, kD=None, kP=None, kV=None) -> dict:
     return robot.resolve_gains(**given, defaults=default_gains(robot.analytic, task, robot.gains, given))
 
 
-def _gains(robot, task, gains):
+def _gains(robot, task, gains, what):
+    """The gains of (40) or (12) (``what``) for ``robot`` and ``task``; refused first on a robot outside the paper's
+    family (:func:`~paa_mj.theory.linear.require_passive_first`)."""
+    from ..theory.linear import require_passive_first
+
+    require_passive_first(robot.analytic, what, robot.name)
     return resolve_gains(robot, task, **(gains or {}))
 
 
@@ -124,8 +129,8 @@ def _condition(robot, task, lqr_weights, switch, limit):
     from ..theory.roa import switch_level
     from .lqr import lqr_weights as weights_of
 
-    n = robot.params.n_links
-    Q, R = lqr_weight_matrices(n, *weights_of(n, lqr_weights))
+    n, motors = robot.params.n_links, robot.params.n_motors
+    Q, R = lqr_weight_matrices(n, *weights_of(n, lqr_weights, motors), n_motors=motors)
     S, rho = switch_level(robot.analytic, task, Q, R, u_max=robot.capped_torque_limits(limit, "the option limit"),
                           dt=float(robot.model.opt.timestep))
     return LevelCondition(task, S, rho)
@@ -146,7 +151,8 @@ def build_vcl(robot, task, gains=None, check=True, lqr_weights=None, switch=None
 
 def build_vcl_only(robot, task, gains=None, check=True):
     """Controller (40) alone, for the whole run."""
-    return EnergyVCLController(robot.analytic, **_gains(robot, task, gains), check=check, task=task)
+    return EnergyVCLController(robot.analytic, **_gains(robot, task, gains, "controller (40) (vcl)"), check=check,
+                               task=task)
 
 
 def build_vc(robot, task, gains=None, check=True, lqr_weights=None, switch=None, limit=None):
@@ -156,7 +162,8 @@ def build_vc(robot, task, gains=None, check=True, lqr_weights=None, switch=None,
 
 def build_vc_only(robot, task, gains=None, check=True):
     """The conventional candidate (12) alone."""
-    return ConventionalController(robot.analytic, **_gains(robot, task, gains), check=check, task=task)
+    return ConventionalController(robot.analytic, **_gains(robot, task, gains, "controller (12) (vc)"), check=check,
+                                  task=task)
 
 
 def build_vcl_roa(robot, task, gains=None, check=True, lqr_weights=None, limit=None):
@@ -186,6 +193,9 @@ def build_spong(robot, task, gains=None, check=True):
     if robot.params.n_links != 2:
         raise PaaError(f"spong is Spong's acrobot swing-up, for robots of 2 links; {robot.name} has"
                        f" {robot.params.n_links}")
+    from ..theory.linear import require_passive_first
+
+    require_passive_first(robot.analytic, "spong (Spong's acrobot swing-up, its motor at the elbow)", robot.name)
     return SpongController(robot.analytic, task=task)
 
 

@@ -193,6 +193,9 @@ class SpongController(Controller):
                  task: Task | None = None):
         if model.n_links != 2:
             raise PaaError(f"spong is Spong's acrobot swing-up, for robots of 2 links; this one has {model.n_links}")
+        from ..theory.linear import require_passive_first
+
+        require_passive_first(model, "spong (Spong's acrobot swing-up, its motor at the elbow)")
         task = Task.named("stretched", model) if task is None else task
         if task.name != "stretched":
             raise PaaError("spong swings the acrobot up to the stretched upright (every link up): use the stretched"

@@ -47,11 +47,11 @@ CACHE_VERSION = 2  # 2: the time range bounds T itself (version 1 held T >= 1 s)
 
 
 def dynamics_function(am: AnalyticModel):
-    """(1) as a CasADi function f(x, u) -> x_dot, x = [q, qd], u = [tau2, ..., tau_n] ([tau2, tau3] for the gymnast):
+    """(1) as a CasADi function f(x, u) -> x_dot, x = [q, qd], u the m motors' torques ([tau2, tau3] for the gymnast):
     the model's own formulas written for CasADi (:meth:`~paa_mj.model.dynamics.AnalyticModel.symbolic_acceleration`)."""
     ca = eq.casadi_module()
     n = am.n_links
-    x, u = ca.SX.sym("x", 2 * n), ca.SX.sym("u", n - 1)
+    x, u = ca.SX.sym("x", 2 * n), ca.SX.sym("u", am.n_motors)
     return ca.Function("f", [x, u], [ca.vertcat(x[n:], am.symbolic_acceleration(ca, x, u))])
 
 
@@ -63,14 +63,14 @@ class Kip:
     ----------
     duration : float
         T [s].
-    x, u : ndarray (N + 1, 2n), (N + 1, n - 1)
+    x, u : ndarray (N + 1, 2n), (N + 1, m)
         States and torques at the knots t_k = k T / N.
-    x_mid, u_mid : ndarray (N, 2n), (N, n - 1)
+    x_mid, u_mid : ndarray (N, 2n), (N, m)
         At the interval midpoints.
     objective : str
     cost : float
         The objective's value (T [s] or the integral of :math:`|\\tau|^2` [N^2 m^2 s]).
-    bound : ndarray (n - 1,)
+    bound : ndarray (m,)
         The torque bounds of the solve [N m].
     """
 
@@ -153,7 +153,7 @@ def solve_kip(am: AnalyticModel, bound, objective="min-time", duration=None, int
     Parameters
     ----------
     am : AnalyticModel
-    bound : float or (n - 1,)
+    bound : float or (m,)
         Torque bounds [N m], > 0.
     objective : "min-time" or "min-effort"
     duration : float
@@ -235,7 +235,7 @@ def _load_kept(path, am, bound, objective, duration, intervals, x0, xN):
                       np.array(z["u_mid"]), str(z["objective"]), float(z["cost"]), np.array(z["bound"]))
     except Exception:
         return None
-    n, nx, nu = intervals, 2 * am.n_links, am.n_links - 1
+    n, nx, nu = intervals, 2 * am.n_links, am.n_motors
     shapes_fit = (kip.x.shape, kip.u.shape, kip.x_mid.shape, kip.u_mid.shape) == ((n + 1, nx), (n + 1, nu), (n, nx),
                                                                                     (n, nu))
     if not (shapes_fit and kip.objective == objective and np.array_equal(kip.bound, bound)
@@ -274,7 +274,7 @@ def _solve(am, bound, objective, duration, intervals, x0, xN, max_iter, start=No
     f = dynamics_function(am)
     N = intervals
     opti = ca.Opti()
-    nx, nu = 2 * am.n_links, am.n_links - 1
+    nx, nu = 2 * am.n_links, am.n_motors
     X, Xm = opti.variable(nx, N + 1), opti.variable(nx, N)
     U, Um = opti.variable(nu, N + 1), opti.variable(nu, N)
     T = opti.variable() if objective == "min-time" else float(duration)

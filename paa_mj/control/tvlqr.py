@@ -106,8 +106,8 @@ def riccati_gains(am: AnalyticModel, times, x_ref, u_ref, task: Task, Q=None, R=
 
     ca = casadi_module()
     f = dynamics_function(am)
-    nx, nu = 2 * am.n_links, am.n_links - 1
-    Q, R = lqr_weight_matrices(am.n_links, Q, R)
+    nx, nu = 2 * am.n_links, am.n_motors
+    Q, R = lqr_weight_matrices(am.n_links, Q, R, nu)
     x, u = ca.SX.sym("x", nx), ca.SX.sym("u", nu)
     jac = ca.Function("AB", [x, u], [ca.jacobian(f(x, u), x), ca.jacobian(f(x, u), u)])
     pairs = [jac(x_ref[i], u_ref[i]) for i in range(len(times))]
@@ -181,7 +181,7 @@ def _cached_table(model, kip, times, table_dt, task: Task):
     from ..provenance import cache_key
     from .trajopt import cache_dir
 
-    nx, nu = 2 * model.n_links, model.n_links - 1
+    nx, nu = 2 * model.n_links, model.n_motors
     weights = (LQR_Q.tolist(), LQR_R.tolist()) if nx == 6 else (LQR_WEIGHT, nx, nu)
     digest = cache_key(kind="tvlqr", model=model.key(), table_dt=table_dt, weights=weights, goal=task.name,
                        x=kip.x, u=kip.u, x_mid=kip.x_mid, u_mid=kip.u_mid)

@@ -154,7 +154,7 @@ class SB3Policy:
 
     def _check_spaces(self, model):
         """A one-line error when the model's spaces are not those of the v1 environments of this robot
-        (3n observations, n - 1 actions for n links) that this adapter feeds it."""
+        (3n observations, one action per motor) that this adapter feeds it."""
         name = type(self).__name__
         links = self.robot.params.n_links
         obs_space, action_space = getattr(model, "observation_space", None), getattr(model, "action_space", None)
@@ -163,9 +163,11 @@ class SB3Policy:
                            f" {3 * links} observations of the environments of robot {self.robot.name} ({links} links)")
         if action_space is None:
             return
-        if getattr(action_space, "shape", None) != (links - 1,):
+        motors = self.robot.params.n_motors
+        if getattr(action_space, "shape", None) != (motors,):
             raise PaaError(f"{name}: the model acts in {getattr(action_space, 'shape', action_space)}, not the"
-                           f" {links - 1} torques of the environments of robot {self.robot.name} ({links} links)")
+                           f" {motors} torques of the environments of robot {self.robot.name} ({links} links,"
+                           f" {motors} motor{'s' * (motors > 1)})")
         if self.normalize_actions and not (np.all(np.asarray(action_space.high) == 1)
                                            and np.all(np.asarray(action_space.low) == -1)):
             raise PaaError(f"{name}: the model's actions are not in [-1, 1] (a model of paa_mj/GymnastKip-v0, torques"

@@ -181,13 +181,14 @@ class GymnastEnv(gym.Env):
         start = base.start if episode == "kip" else np.concatenate([base.goal, np.zeros(links)])
         self.task = base.with_(start=start, horizon=self.max_steps * self.dt)
         self.torque_limit = torque_limit_for(self.robot, episode, torque_limit)
-        #: The torque limits applied [N m], (n - 1,): ``torque_limit`` capped by the model's actuator ranges.
+        #: The torque limits applied [N m], (m,): ``torque_limit`` capped by the model's actuator ranges.
         self.torque_limits = torque_limits_for(self.robot, episode, torque_limit)
         self.init_noise, self.init_speed_noise, self.terminate_margin = noise, speed_noise, margin
         self.render_mode, self.width, self.height = render_mode, width, height
         self.normalize_actions = bool(normalize_actions)
-        bound = np.ones(links - 1) if self.normalize_actions else self.torque_limits
-        self.action_space = spaces.Box(-bound.astype(np.float32), bound.astype(np.float32), (links - 1,), np.float32)
+        motors = self.robot.params.n_motors
+        bound = np.ones(motors) if self.normalize_actions else self.torque_limits
+        self.action_space = spaces.Box(-bound.astype(np.float32), bound.astype(np.float32), (motors,), np.float32)
         high = np.array([1.0] * (2 * links) + [np.inf] * links, np.float32)
         self.observation_space = spaces.Box(-high, high, dtype=np.float32)
         self._robots = Robots(self.model, 1, frame_skip, REWARD_V0 if self._legacy else _REWARD_KIND[episode],
@@ -244,14 +245,14 @@ class GymnastEnv(gym.Env):
         Raises
         ------
         ValueError
-            An action that is not n - 1 finite real numbers: one number would be given to every motor and a
+            An action that is not m finite real numbers (one per motor): one number would be given to every motor and a
             NaN or infinite one would be clipped or end the episode as a divergence, in silence.
         """
         given, action = action, _real_array(action)
-        motors = self.robot.params.n_links - 1
+        motors = self.robot.params.n_motors
         if action is None or action.shape != (motors,):
             shown = " ".join(repr(given).split())
-            what = "two real numbers [tau2, tau3]" if motors == 2 else f"{motors} real number{'s' * (motors > 1)}"
+            what = "two real numbers [tau2, tau3]" if motors == 2 and self.robot.params.is_paper_shape else f"{motors} real number{'s' * (motors > 1)}"
             raise ValueError(f"an action is {what}, shape ({motors},), got "
                              + (f"{shown[:60]}" if action is None else f"shape {action.shape}"))
         if not np.all(np.isfinite(action)):

@@ -4,7 +4,7 @@ package's states and torques and a learner's observations and actions (extra ``p
 Observation (:func:`observation`)
     ``Box(3n,)`` float32: cos q_i, sin q_i for each angle, then qd [rad/s] (unbounded); 9 for the gymnast.
 Action (:func:`action_to_torque`)
-    ``Box(n - 1,)`` in [-1, 1], scaled by the torque limits: tau = clip(a T, -T, T) [N m]; with
+    ``Box(m,)`` in [-1, 1] (m motors), scaled by the torque limits: tau = clip(a T, -T, T) [N m]; with
     ``normalize_actions=False`` the actions are the torques themselves, clipped at T.
 """
 from __future__ import annotations
@@ -107,7 +107,7 @@ def torque_limit_for(robot, episode="kip", torque_limit=None):
 
 
 def torque_limits_for(robot, episode="kip", torque_limit=None):
-    """The torque limits T [N m], (n - 1,), of the environments: :func:`torque_limit_for` capped by the model's
+    """The torque limits T [N m], (m,), one per motor, of the environments: :func:`torque_limit_for` capped by the model's
     actuator ranges (:attr:`Robot.torque_limits <paa_mj.model.robot.Robot.torque_limits>`)."""
     return robot.capped_torque_limits(torque_limit_for(robot, episode, torque_limit))
 

@@ -85,7 +85,7 @@ class Rules(NamedTuple):
     """What the episodes aim at and how a step is rewarded."""
 
     task: np.ndarray  # the task's params
-    limits: np.ndarray  # (n - 1,) torque limits [N m]
+    limits: np.ndarray  # (m,) torque limits [N m], one per motor
     kind: int  # reward kind
     diverged_reward: float
 
@@ -98,7 +98,7 @@ class Episodes(NamedTuple):
     diverged: np.ndarray  # (N,) of bool
     q: np.ndarray  # (N, n) [rad]
     qd: np.ndarray  # (N, n) [rad/s]
-    tau: np.ndarray  # (N, n - 1) [N m], the torques of the step
+    tau: np.ndarray  # (N, m) [N m], the torques of the step (one per motor)
     obs: np.ndarray  # (N, 3n) of float32
     reward: np.ndarray  # (N,)
     margin: np.ndarray  # (N,) of region (68): negative inside
@@ -107,9 +107,9 @@ class Episodes(NamedTuple):
 @register_jitable
 def _reward(rules, n, inside, angles, speeds, tau, row):
     """The reward of a step ending with the terms of :func:`~paa_mj.task.state_terms`, torques tau [N m] = u T
-    (module docstring); ``tau[row]`` and ``rules.limits`` hold the n - 1 torques and limits."""
+    (module docstring); ``tau[row]`` and ``rules.limits`` hold the m torques and limits."""
     effort, power = 0.0, 0.0
-    for j in range(n - 1):
+    for j in range(tau.shape[1]):
         u = tau[row, j] / rules.limits[j]
         effort += u * u
         power += tau[row, j] * tau[row, j]
@@ -125,12 +125,13 @@ def _reward(rules, n, inside, angles, speeds, tau, row):
 
 
 @register_jitable
-def _physics_step(physics, i, qpos, qvel, ctrl, n, work):
-    """One physics step of robot ``i``: ``mj_step``, or RK4 of its equations (``physics.model`` 0)."""
+def _physics_step(physics, i, qpos, qvel, ctrl, n, m, work):
+    """One physics step of robot ``i`` (n joints, m motors): ``mj_step``, or RK4 of its equations (``physics.model``
+    0)."""
     if physics.model != 0:
         _mj_step(physics.model, physics.addresses[i, _DATA])
     else:
-        rk4_step(physics.constants, carray(qpos, (n,)), carray(qvel, (n,)), carray(ctrl, (n - 1,)), work)
+        rk4_step(physics.constants, carray(qpos, (n,)), carray(qvel, (n,)), carray(ctrl, (m,)), work)
 
 
 @njit(nogil=True, cache=True)
@@ -141,7 +142,7 @@ def advance(physics, rules, episodes, rows):
     it diverged (then the state goes back to the last good one and the step ends), and writes the state,
     observation, reward and region margin after the step. Sized from ``episodes.q`` (N, n).
     """
-    n = episodes.q.shape[1]
+    n, m = episodes.q.shape[1], episodes.tau.shape[1]
     good = np.empty(2 * n)
     work = np.empty(work_size(n))
     for k in range(rows.size):
@@ -150,13 +151,13 @@ def advance(physics, rules, episodes, rows):
         qvel = _float64_at(physics.addresses[i, _QVEL])
         ctrl = _float64_at(physics.addresses[i, _CTRL])
         warn = _int32_at(physics.addresses[i, _WARN])
-        for j in range(n - 1):
+        for j in range(m):
             ctrl[j] = episodes.tau[i, j]
         bad = False
         for _ in range(physics.frame_skip):
             for j in range(n):
                 good[j], good[n + j] = qpos[j], qvel[j]
-            _physics_step(physics, i, qpos, qvel, ctrl, n, work)
+            _physics_step(physics, i, qpos, qvel, ctrl, n, m, work)
             for j in range(n):
                 if not (math.isfinite(qpos[j]) and math.isfinite(qvel[j])) or abs(qvel[j]) > MAX_SPEED:
                     bad = True
@@ -240,7 +241,7 @@ class EpisodeRecords:
         self.rules = Rules(task.params, np.ascontiguousarray(torque_limits, dtype=float), int(kind),
                            DIVERGED_REWARD[kind])
         self.episodes = Episodes(np.zeros(n, np.int64), np.full((n, len(BOOK)), -1, np.int64), np.zeros(n, bool),
-                                 np.zeros((n, links)), np.zeros((n, links)), np.zeros((n, links - 1)),
+                                 np.zeros((n, links)), np.zeros((n, links)), np.zeros((n, self.rules.limits.size)),
                                  np.zeros((n, 3 * links), np.float32), np.zeros(n), np.zeros(n))
         self.window = task.window_steps(model.opt.timestep)
 
@@ -309,7 +310,7 @@ class Robots(EpisodeRecords):
         self._begin(i)
 
     def step(self, rows, tau, log=True):
-        """One environment step of ``rows`` (int array) with the torques ``tau`` (len(rows), n - 1) [N m].
+        """One environment step of ``rows`` (int array) with the torques ``tau`` (len(rows), m) [N m].
 
         ``log=False``: the caller has turned MuJoCo's log off (threads stepping parts of the rows)."""
         self.episodes.tau[rows] = tau

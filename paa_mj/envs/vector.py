@@ -262,6 +262,7 @@ class GymnastVectorEnv(VectorEnv):
             self._robots = Robots(self.model, num_envs, proto.frame_skip, proto._robots.rules.kind,
                                   self.torque_limits, self.task, proto.physics, proto.robot.analytic)
         self._links = self.task.n_links
+        self._motors = self.robot.params.n_motors
         self._rngs = [None] * num_envs
         self._counters = Counters(np.zeros(num_envs, np.int64), np.zeros(num_envs, bool), proto.terminate_margin,
                                   float(self.max_steps), self._robots.window, self.model.opt.timestep)
@@ -323,7 +324,7 @@ class GymnastVectorEnv(VectorEnv):
 
     def _torques(self, actions):
         given, actions = actions, _real_array(actions)
-        shape = (self.num_envs, self._links - 1)
+        shape = (self.num_envs, self._motors)
         if actions is None or actions.shape != shape:
             shown = " ".join(repr(given).split())[:60] if actions is None else f"shape {actions.shape}"
             what = "two real numbers" if shape[1] == 2 else f"{shape[1]} real number{'s' * (shape[1] > 1)}"
@@ -337,9 +338,9 @@ class GymnastVectorEnv(VectorEnv):
         """``actions`` as a C-contiguous float64 array (N, 2) of finite numbers, else the ValueError of
         :meth:`_torques`. float32 actions (the space's) are widened exactly; one compiled step serves both."""
         if not (type(actions) is np.ndarray and actions.dtype in (np.float32, np.float64)
-                and actions.shape == (self.num_envs, self._links - 1)):
+                and actions.shape == (self.num_envs, self._motors)):
             given, actions = actions, _real_array(actions)
-            if actions is None or actions.shape != (self.num_envs, self._links - 1):
+            if actions is None or actions.shape != (self.num_envs, self._motors):
                 self._torques(given)  # raises
         actions = np.ascontiguousarray(actions, dtype=np.float64)
         if _first_bad_action(actions) >= 0:

@@ -1,9 +1,12 @@
-"""The equation of motion of any planar chain on the bar: n >= 2 links, joint 1 passive, joints 2..n driven.
+"""The equation of motion of any planar chain on the bar: n >= 2 links, m motors on the driven joints.
 
 .. math::
 
     M(q)\\,\\ddot q + H(q, \\dot q) + G(q) + D\\,\\dot q = B\\,\\tau, \\qquad
-    B = \\begin{bmatrix} 0 \\\\ I_{n-1} \\end{bmatrix}
+    B = \\begin{bmatrix} e_{a_1} & \\cdots & e_{a_m} \\end{bmatrix}
+
+B's columns are the unit vectors of the driven joints a_1 < ... < a_m (by default joints 2..n, joint 1 on
+the bar passive: :math:`B = [0; I_{n-1}]`, the paper's family; a pendubot drives joint 1 alone).
 
 q are the relative joint angles [rad] (q1 of link 1 from the upward vertical, q_k of
 link k from link k-1), :math:`\\phi = T q` the absolute angles (:math:`\\phi_k = q_1 + \\dots + q_k`,
@@ -53,9 +56,19 @@ def chain_constants(params):
     return A, params.g * moment
 
 
-def input_matrix(n):
-    """B (n, n - 1): the motors act on joints 2..n, joint 1 (the hands on the bar) is passive."""
-    return np.eye(n)[:, 1:]
+def input_matrix(n, actuated=None):
+    """B (n, m): the motors act on the 0-based joints ``actuated`` (default 1..n-1: joints 2..n, joint 1, the hands
+    on the bar, passive)."""
+    return np.eye(n)[:, list(range(1, n) if actuated is None else actuated)]
+
+
+def drive_map(n, actuated=None) -> np.ndarray:
+    """For each of the n joints, the index of the motor that drives it, -1 where none (floats, as kernel constants
+    carry it): the form of B the compiled :func:`acceleration_into` reads."""
+    out = np.full(n, -1.0)
+    for k, j in enumerate(range(1, n) if actuated is None else actuated):
+        out[j] = float(k)
+    return out
 
 
 # --- one state, compiled ---------------------------------------------------------------------------------
@@ -211,17 +224,19 @@ ACCELERATION_WORK = (1, 4)
 
 
 @njit(cache=True)
-def acceleration_into(A, b, damping, armature, q, qd, tau, out, work):
-    """qdd = M(q)^-1 (B tau - H - G - D qd) into ``out`` (n) [rad/s^2]; ``tau`` (n - 1) the motors' torques [N m];
-    ``work``: scratch space of n^2 + 4 n numbers (:data:`ACCELERATION_WORK`; nothing is allocated). Solved as
-    :func:`_solve_in_place` solves (NaN for a singular M, which a rigid chain never has)."""
+def acceleration_into(A, b, damping, armature, drive, q, qd, tau, out, work):
+    """qdd = M(q)^-1 (B tau - H - G - D qd) into ``out`` (n) [rad/s^2]; ``tau`` (m) the motors' torques [N m],
+    ``drive`` (n) the motor of each joint (:func:`drive_map`: B); ``work``: scratch space of n^2 + 4 n numbers
+    (:data:`ACCELERATION_WORK`; nothing is allocated). Solved as :func:`_solve_in_place` solves (NaN for a singular
+    M, which a rigid chain never has)."""
     n = q.size
     mass, force = matrix_view(work, 0, n, n), matrix_view(work, n * n + 2 * n, n, 1)
     phi, rate = vector_view(work, n * n, n), vector_view(work, n * n + n, n)
     _mass_matrix_with(A, armature, q, mass, phi)
     _bias_with(A, b, q, qd, out, phi, rate)
     for i in range(n):
-        force[i, 0] = (tau[i - 1] if i > 0 else 0.0) - out[i] - damping[i] * qd[i]
+        motor = int(drive[i])
+        force[i, 0] = (tau[motor] if motor >= 0 else 0.0) - out[i] - damping[i] * qd[i]
     if not _solve_in_place(mass, force):
         force[:, 0] = np.nan
     for i in range(n):

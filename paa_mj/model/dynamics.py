@@ -5,7 +5,8 @@
     M(q)\\,\\ddot q + H(q, \\dot q) + G(q) + D\\,\\dot q = B\\,\\tau
 
 Every method takes arrays with any leading batch shape: ``q`` and ``qd`` of
-shape (..., n) [rad, rad/s], ``tau`` of shape (..., n - 1) [N m]. Energies are in J.
+shape (..., n) [rad, rad/s], ``tau`` of shape (..., m) [N m], the torques of the m motors on the joints
+``params.actuated`` (B, n x m, selects them; by default joints 2..n, m = n - 1). Energies are in J.
 An :class:`AnalyticModel` is one protocol with two implementations, chosen once by
 :meth:`AnalyticModel.from_params`: :class:`PaperModel`, the paper's closed forms (2)-(7) of
 :mod:`paa_mj.model.equations` (shared with the compiled controllers) for its gymnast (three links,
@@ -72,12 +73,30 @@ class AnalyticModel:
 
     @property
     def n_motors(self) -> int:
-        return self.params.n_links - 1
+        """m, the number of motors."""
+        return self.params.n_motors
+
+    @property
+    def actuated(self) -> tuple:
+        """The joints that carry the motors, 0-based (motor k drives joint ``actuated[k]``)."""
+        return self.params.actuated
+
+    @property
+    def passive_first(self) -> bool:
+        """Joint 1 alone passive: the paper's family, where its theory and controllers (12), (40) apply."""
+        return self.params.passive_first
 
     @property
     def input_matrix(self) -> np.ndarray:
-        """B of (1), shape (n, n - 1)."""
-        return chain.input_matrix(self.n_links)
+        """B of (1), shape (n, m): the identity's columns of the driven joints."""
+        return self.params.input_matrix
+
+    def joint_torques(self, tau):
+        """B tau: the motors' torques ``tau`` (..., m) as generalised forces on the n joints (..., n) [N m]."""
+        tau = np.asarray(tau, dtype=float)
+        out = np.zeros(tau.shape[:-1] + (self.n_links,))
+        out[..., list(self.actuated)] = tau
+        return out
 
     def key(self) -> tuple:
         """Hashable identity of the robot (for caches)."""
@@ -110,7 +129,7 @@ class AnalyticModel:
         -------
         A : ndarray, shape (2n, 2n)
             x_dot = A x + B_lin tau with x = [q - q_eq, qd].
-        B_lin : ndarray, shape (2n, n - 1)
+        B_lin : ndarray, shape (2n, m)
         """
         n = self.n_links
         M = self.mass_matrix(q_eq)
@@ -120,7 +139,7 @@ class AnalyticModel:
         A[n:, :n] = -np.linalg.solve(M, self.gravity_jacobian(q_eq))
         if np.any(self.params.damping):
             A[n:, n:] = -np.linalg.solve(M, np.diag(self.params.damping))
-        B_lin = np.zeros((2 * n, n - 1))
+        B_lin = np.zeros((2 * n, self.n_motors))
         B_lin[n:, :] = np.linalg.solve(M, self.input_matrix)
         return A, B_lin
 
@@ -164,7 +183,8 @@ class AnalyticModel:
 
     def kernel_constants(self):
         """(constants, closed_form): the robot as compiled code reads it, the paper's ``c`` (closed_form True) or
-        the chain's A (n x n, row by row), b, damping and armature (closed_form False)."""
+        the chain's A (n x n, row by row), b, damping, armature and the motor of each joint
+        (:func:`~paa_mj.model.chain.drive_map`) (closed_form False)."""
         raise NotImplementedError
 
     def symbolic_acceleration(self, ca, x, u):
@@ -284,7 +304,8 @@ class ChainModel(AnalyticModel):
 
     def kernel_constants(self):
         p = self.params
-        return np.concatenate([self.inertia_constants.ravel(), self.gravity_constants, p.damping, p.armature]), False
+        return np.concatenate([self.inertia_constants.ravel(), self.gravity_constants, p.damping, p.armature,
+                               chain.drive_map(p.n_links, p.actuated)]), False
 
     def symbolic_acceleration(self, ca, x, u):
         """The formulas of :mod:`paa_mj.model.chain` (absolute angles, M = T^T M^abs T + diag(armature),
@@ -304,5 +325,7 @@ class ChainModel(AnalyticModel):
                     (p.armature[k] if k == m else 0)
         c = [sum(A[i, j] * ca.sin(phi[i] - phi[j]) * rate[j] ** 2 for j in range(n)) - b[i] * ca.sin(phi[i])
              for i in range(n)]
-        force = ca.vertcat(*[(u[k - 1] if k else 0) - sum(c[k:]) - p.damping[k] * x[n + k] for k in range(n)])
+        motor = {j: k for k, j in enumerate(p.actuated)}
+        force = ca.vertcat(*[(u[motor[k]] if k in motor else 0) - sum(c[k:]) - p.damping[k] * x[n + k]
+                             for k in range(n)])
         return ca.solve(mass, force)

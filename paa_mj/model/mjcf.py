@@ -140,13 +140,27 @@ def _bodies(params, names, radius, site_size):
     return "".join(line + "\n" for line in lines)
 
 
-def _motors(names, torque_limits):
-    joints, motors = names[1], names[3]
+#: Motor names by joint where joint 1 is not the only passive one: the acrobot's and the gymnast's joints, numbered
+#: beyond (a motor on joint 1 of two links is a pendubot's shoulder).
+_MOTOR_NAMES = {2: ("shoulder", "elbow"), 3: ("hand", "shoulder", "hip")}
+
+
+def motor_names(n, actuated):
+    """The MJCF names of the motors on the 0-based joints ``actuated`` of an n-link chain (the family's own where
+    joint 1 alone is passive)."""
+    if tuple(actuated) == tuple(range(1, n)):
+        return chain_names(n)[3]
+    names = _MOTOR_NAMES.get(n, tuple(f"motor{i + 1}" for i in range(n)))
+    return tuple(names[j] for j in actuated)
+
+
+def _motors(names, actuated, torque_limits):
+    joints, motors = names[1], motor_names(len(names[1]), actuated)
     lines = []
     for k, motor in enumerate(motors):
         limit = None if torque_limits is None else float(np.broadcast_to(torque_limits, (len(motors),))[k])
         bound = "" if limit is None or not np.isfinite(limit) else f' ctrlrange="{_num(-limit)} {_num(limit)}"'
-        lines.append(f'    <motor name="{motor}" joint="{joints[k + 1]}" gear="1"{bound}/>')
+        lines.append(f'    <motor name="{motor}" joint="{joints[actuated[k]]}" gear="1"{bound}/>')
     return "".join(line + "\n" for line in lines)
 
 
@@ -166,13 +180,13 @@ def mjcf_from_params(params: RobotParams, name: str = "gymnast", title: str = ""
     gains : dict, optional
         Default gains ``{"kD", "kP", "kV"}`` of controller (40), stored as a
         ``<custom><numeric name="paa_gains">`` so they travel with the model.
-    torque_limits : float or array_like (n - 1,), optional
+    torque_limits : float or array_like (m,), optional
         Each motor's torque limit [N m], written as its ``ctrlrange``; none (or +inf): unlimited.
     timestep : float
         The physics time step [s].
     """
     params.validate()
-    n = params.n_links
+    n, motors = params.n_links, params.n_motors
     for what, text in (("name", str(name)), ("title", str(title))):
         if not text.isprintable():
             raise PaaError(f"the model's {what} {text!r} has control characters (a new line, a tab...): give one line")
@@ -180,8 +194,8 @@ def mjcf_from_params(params: RobotParams, name: str = "gymnast", title: str = ""
         raise PaaError(f"timestep = {timestep:g} s must lie in (0, {MAX_TIMESTEP:g}]")
     if torque_limits is not None:
         limits = np.asarray(torque_limits, float)
-        if limits.size not in (1, n - 1) or np.any(np.isnan(limits)) or np.any(limits <= 0):
-            raise PaaError(f"torque limits must be one positive number or one per motor ({n - 1}),"
+        if limits.size not in (1, motors) or np.any(np.isnan(limits)) or np.any(limits <= 0):
+            raise PaaError(f"torque limits must be one positive number or one per motor ({motors}),"
                            f" got {limits.reshape(-1).tolist()}")
     names = chain_names(n)
     total = float(np.sum(params.l))
@@ -199,7 +213,15 @@ def mjcf_from_params(params: RobotParams, name: str = "gymnast", title: str = ""
               for key, unit in (("m", "kg"), ("l", "m"), ("lc", "m"), ("J", "kg m^2"))]
     values += [f"    {key} = {' '.join(_num(x) for x in getattr(params, key))}  {unit}\n"
                for key, unit in (("damping", "N m s/rad"), ("armature", "kg m^2")) if np.any(getattr(params, key))]
-    if n == 3:
+    if not params.passive_first:
+        what = f"Planar {n}-link chain hanging from a bar (see docs/model.md of paa_mj)."
+        def listed(joints):
+            return f"joint{'s' if len(joints) > 1 else ''} " + ", ".join(f"{j + 1} ({names[1][j]})" for j in joints)
+
+        passive = params.passive
+        joints = (f"{listed(passive).capitalize()} {'are' if len(passive) > 1 else 'is'} passive; {listed(params.actuated)}"
+                  f" carr{'y motors' if motors > 1 else 'ies a motor'}{' (a pendubot)' if params.actuated == (0,) else ''}.")
+    elif n == 3:
         what = "Three-link gymnast on a high bar (Liu & Xin 2015; see docs/model.md of paa_mj)."
         joints = "Joint 1 (hands on the bar) is passive; joints 2 (shoulders) and 3 (hips) carry motors."
     else:
@@ -213,7 +235,7 @@ def mjcf_from_params(params: RobotParams, name: str = "gymnast", title: str = ""
         title=comment_text(title) or "Parameters given by the user.", g=_num(params.g),
         timestep=repr(float(timestep)) if timestep != 0.001 else "0.001",
         materials=materials, bodies=_bodies(params, names, size(0.022 * total, 4), size(0.02 * total, 4)),
-        motors=_motors(names, torque_limits),
+        motors=_motors(names, params.actuated, torque_limits),
         floor=size(1.12 * total, 3), floor_size=size(3 * total, 3),
         texrepeat=_num(max(2, round(3 * total))),
         bar_half=size(0.45 * total, 3), bar_radius=size(0.012 * total, 4),

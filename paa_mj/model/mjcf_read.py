@@ -8,8 +8,11 @@ MuJoCo runs.
 The shape (``docs/model.md``): n >= 2 bodies in a chain hanging from the world at
 the bar, one hinge per body at its origin, all hinge axes parallel and
 horizontal, every link pointing straight up at q = 0, gravity straight down, a
-``<motor>`` with gear 1 on each of joints 2..n in order (the gymnast's shoulders
-and hips), joint 1 (the hands) passive. Joint damping and armature are in the
+``<motor>`` with gear 1 on each driven joint in joint order, at least one joint
+passive: by default joints 2..n (the gymnast's shoulders and hips) with joint 1
+(the hands) passive, the paper's family; any other pattern (a pendubot's motor on
+joint 1 alone) is read back as the robot's driven joints
+(:attr:`~paa_mj.model.params.RobotParams.actuated`). Joint damping and armature are in the
 analytic model. Anything else MuJoCo would add and the analytic model lacks
 (joint ranges, friction loss, springs, gravity compensation, a medium, contacts,
 tendons, equality constraints, other actuators) is refused by name. Actuator limits
@@ -241,9 +244,9 @@ def _check_actuators(model, source):
         raise _feature_error(source, f"actuator{'s' if len(off) > 1 else ''} {', '.join(map(str, off))} in a disabled"
                                      " group (option actuatorgroupdisable: its motor would apply no torque)")
     n = model.njnt
-    if model.nu != n - 1:
-        raise _feature_error(source, f"{model.nu} actuators (a chain of {n} links has {n - 1} motor"
-                                     f"{'s' if n > 2 else ''}, on joint{'s 2..' if n > 2 else ' '}{n})")
+    if not 1 <= model.nu <= n - 1:
+        raise _feature_error(source, f"{model.nu} actuators (a chain of {n} links has 1 to {n - 1} motors: at least"
+                                     " one joint passive, at least one driven)")
     driven = []
     for act in range(model.nu):
         if model.actuator_trntype[act] != mujoco.mjtTrn.mjTRN_JOINT:
@@ -264,9 +267,10 @@ def _check_actuators(model, source):
         if not is_motor:
             raise _feature_error(source, f"actuator {act} is not a <motor> (gain 1, no bias, no dynamics)")
         driven.append(int(model.actuator_trnid[act, 0]))
-    if driven != list(range(1, n)):
-        raise _shape_error(source, f"motors must drive joints 2..{n} in that order (joint 1 passive), found joints"
-                                   f" {[d + 1 for d in driven]}")
+    if driven != sorted(set(driven)):
+        raise _shape_error(source, f"motors must drive distinct joints in increasing order (one motor per driven"
+                                   f" joint), found joints {[d + 1 for d in driven]}")
+    return tuple(driven)
 
 
 def _symmetric_limit(low, high, what, source):
@@ -285,13 +289,13 @@ def _check_unused_range(limited, values, what, source):
 
 
 def torque_limits_from_model(model: mujoco.MjModel, source: str = "model") -> np.ndarray:
-    """The torque limit of each motor [N m], shape (n - 1,), +inf where none.
+    """The torque limit of each motor [N m], shape (m,) (the model's actuators), +inf where none.
 
     The smallest of the actuator's ``ctrlrange`` (gear 1, so torque = control),
     its ``forcerange`` and the driven joint's ``actuatorfrcrange``; each must be
     symmetric about 0.
     """
-    limits = np.full(max(model.njnt - 1, 0), np.inf)
+    limits = np.full(min(model.nu, max(model.njnt - 1, 0)), np.inf)
     for act in range(min(model.nu, limits.size)):
         joint = int(model.actuator_trnid[act, 0])
         _check_unused_range(model.actuator_ctrllimited[act], model.actuator_ctrlrange[act], f"actuator {act} ctrlrange",
@@ -331,7 +335,7 @@ def params_from_model(model: mujoco.MjModel, source: str = "model") -> RobotPara
     """
     _check_options(model, source)
     axis = _check_joints(model, source)
-    _check_actuators(model, source)
+    actuated = _check_actuators(model, source)
     torque_limits_from_model(model, source)
     n = model.nbody - 1
     up = np.array([0.0, 0.0, 1.0])
@@ -355,7 +359,7 @@ def params_from_model(model: mujoco.MjModel, source: str = "model") -> RobotPara
                        " line")
     try:
         return RobotParams(m=m, l=np.array(lengths), lc=lc, J=J, g=float(np.linalg.norm(model.opt.gravity)), name=name,
-                           damping=model.dof_damping.copy(), armature=model.dof_armature.copy())
+                           damping=model.dof_damping.copy(), armature=model.dof_armature.copy(), actuated=actuated)
     except PaaError as err:
         raise PaaError(f"{err} (in {source})") from None
 

@@ -21,7 +21,8 @@ from .mjcf import MODEL_DIR, mjcf_from_params
 from .mjcf_read import compile_mjcf, default_gains, flatten_mjcf, params_from_model, read_text, torque_limits_from_model
 from .params import RobotParams
 
-NAMED_ROBOTS = ("gymnast", "example2", "acrobot", "chain4", "realaigym_acrobot", "realaigym_acrobot_v1")
+NAMED_ROBOTS = ("gymnast", "example2", "acrobot", "chain4", "realaigym_acrobot", "realaigym_acrobot_v1",
+                "realaigym_pendubot")
 
 
 @dataclass(frozen=True, eq=False)
@@ -39,7 +40,7 @@ class Robot:
         The paper's model (1)-(7) with ``params``.
     gains : dict or None
         Default gains ``{"kD", "kP", "kV"}`` of controller (40) stored in the model file.
-    torque_limits : ndarray (n - 1,)
+    torque_limits : ndarray (m,)
         The motors' torque limits [N m] from the model's actuator ranges (+inf: none).
     xml : str
         The MJCF text the model was compiled from (what a Dask worker rebuilds it from).
@@ -73,7 +74,7 @@ class Robot:
         return resolved
 
     def capped_torque_limits(self, requested=None, what="the torque limit", rollouts=None) -> np.ndarray:
-        """Each motor's torque limit a run applies [N m], (n - 1,), or one row per rollout (``rollouts``, n - 1)
+        """Each motor's torque limit a run applies [N m], (m,), or one row per rollout (``rollouts``, m)
         where ``rollouts`` is given: the model's actuator ranges capped by ``requested`` (one number, one per motor,
         or with ``rollouts`` one row per rollout; None: the ranges alone). The one place the two meet; a
         ``requested`` of another shape is refused in one line naming ``what``."""

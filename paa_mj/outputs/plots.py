@@ -161,8 +161,9 @@ def angles_figure(traj, title):
 
 def torques_figure(traj, title):
     """Figs. 8, 10 and 14: tau2, tau3 against t (the gymnast's shoulders and hips; tau2..tau_n for a chain)."""
-    names = (" (shoulder)", " (hip)") if traj.n_links == 3 else ("",) * (traj.n_links - 1)
-    series = [(traj.tau[:, k], f"$\\tau_{k + 2}${names[k]}") for k in range(traj.n_links - 1)]
+    joints = traj.driven_joints
+    names = {2: " (shoulder)", 3: " (hip)"} if traj.n_links == 3 else {}
+    series = [(traj.tau[:, k], f"$\\tau_{j}${names.get(j, '')}") for k, j in enumerate(joints)]
     return series_figure(traj, series, "torque [N m]", title)
 
 

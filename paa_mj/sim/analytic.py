@@ -49,21 +49,22 @@ _VECTOR = types.float64[::1]
       cache=True)
 def closed_loop_field(kernel, x, t, params, memory, limits, constants, out, work):
     """f(t, x) = [qd, qdd(q, qd, tau(x, t))] of (1) closed by a compiled law into ``out`` (2n); returns whether the
-    torques were finite (non-finite ones are applied as they are, clipped ones at ``limits`` [N m] otherwise).
+    torques were finite (non-finite ones are applied as they are, clipped ones at ``limits`` [N m], one per motor,
+    otherwise).
 
     The law is the kernel of a stateless controller (:class:`~paa_mj.control.base.CompiledForm`), called with a
     fresh copy of its initial ``memory`` at every evaluation, as its ``torque`` would be; the accelerations are
     those of :func:`paa_mj.sim.rk4.acceleration_into` (``constants`` of :func:`~paa_mj.sim.rk4.rk4_constants`).
     """
-    n = x.size // 2
-    tau = np.empty(n - 1)
+    n, motors = x.size // 2, limits.size
+    tau = np.empty(motors)
     kernel(x, t, params, memory.copy(), tau)
     finite = True
-    for j in range(n - 1):
+    for j in range(motors):
         if not math.isfinite(tau[j]):
             finite = False
     if finite:
-        for j in range(n - 1):
+        for j in range(motors):
             tau[j] = min(max(tau[j], -limits[j]), limits[j])
     for i in range(n):
         out[i] = x[n + i]
@@ -105,7 +106,7 @@ def exact_field(robot: Robot, law, limits=None, on_nonfinite=None):
     am = robot.analytic
 
     def f(t, x):
-        tau = _clipped(torque_of(law, x[None, :n], x[None, n:], t)[0], limits)
+        tau = _clipped(torque_of(law, x[None, :n], x[None, n:], t, motors=robot.params.n_motors)[0], limits)
         if not np.all(np.isfinite(tau)) and on_nonfinite is not None:
             on_nonfinite(t)
         return am.state_derivative(x, tau)
@@ -366,15 +367,17 @@ class _Integration:
             # sample)
             t, X, mode = np.zeros(1), x0[None].copy(), np.full(1, self.phase, np.int8)
         q, qd = X[:, :n], X[:, n:]
-        tau = np.array([_clipped(torque_of(self.laws[m], q[i][None], qd[i][None], t[i])[0], self.limits)
-                        for i, m in enumerate(mode)]).reshape(-1, n - 1)
+        motors = self.robot.params.n_motors
+        tau = np.array([_clipped(torque_of(self.laws[m], q[i][None], qd[i][None], t[i], motors=motors)[0],
+                                 self.limits) for i, m in enumerate(mode)]).reshape(-1, motors)
         e_err, V = trajectory_quantities(self.controller, self.robot, self.task, q, qd)
         limits = self.limits
         traj = Trajectory(t, q, qd, tau, e_err, V, mode, self.switch_time, task=self.task,
                           meta={"robot": self.robot.name, "engine": "analytic", "integrator": f"solve_ivp {method}",
                                 "dt": None, "sample_dt": sample_dt, "rtol": rtol, "x0": x0.tolist(),
                                 "t_final": float(t_final), **describe_controller(self.controller),
-                                "torque_limit": None if np.all(np.isinf(limits)) else limits.tolist()},
+                                "torque_limit": None if np.all(np.isinf(limits)) else limits.tolist(),
+                                **self.robot.params.actuation_meta()},
                           robot_xml=self.robot.xml)
         failed = bool(self.failure) or not np.all(np.isfinite(X))
         finished = not failed and not self.interrupted

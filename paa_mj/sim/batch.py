@@ -66,7 +66,7 @@ class Disturbances:
     rollout_ids: ArrayLike | None = None
 
     def settings(self, n, n_links, torque_limits):
-        """The checked :class:`~paa_mj.sim.records.Settings` of ``n`` rollouts, torque limits (n, n - 1) given
+        """The checked :class:`~paa_mj.sim.records.Settings` of ``n`` rollouts, torque limits (n, m) given
         (retirement left off: :func:`build_plan` adds it)."""
         noise = per_rollout(self.noise_std, n, 2, "measurement noise", 0.0)
         tau_noise = per_rollout(self.torque_noise, n, 1, "torque noise", 0.0)[:, 0]
@@ -214,7 +214,7 @@ def build_plan(robot: Robot, task: Task, x0, t_final, controllers, *, dt=None, i
     groups = _groups(model_index, controllers)  # each gain held on its own plant
     warn_unstable_sampling([(plant_robots[plant].analytic, controllers[rows[0]]) for (plant, _), rows in groups.items()],
                            dt, task, robot.name)
-    limits = per_rollout(torque_limit, n, links - 1, "torque limit", np.inf)
+    limits = per_rollout(torque_limit, n, robot.params.n_motors, "torque limit", np.inf)
     if np.any(~(limits > 0)):
         raise PaaError("torque limits must be > 0")
     if not isinstance(disturbances, Disturbances):
@@ -227,7 +227,8 @@ def build_plan(robot: Robot, task: Task, x0, t_final, controllers, *, dt=None, i
         certificate, level = retirement_certificate(plant_robots[plant].analytic, gain, dt, task)
         rows = rows[~disturbed[rows]]
         settings.cert[rows], settings.rollouts["retire_level"][rows] = certificate, level
-    run = Run(dt, n_steps, int(every), bool(retire), int(disturbances.seed), task.params)
+    run = Run(dt, n_steps, int(every), bool(retire), int(disturbances.seed), task.params,
+              np.asarray(robot.params.actuated, float))
     return engine.Plan(robot=robot, task=task, models=models, model_index=model_index, x0=x0, settings=settings,
                        run=run)
 
@@ -329,7 +330,7 @@ def simulate_batch(robot: Robot, x0: ArrayLike, t_final: float | None = None, *,
         Physics time step [s] and integrator; default: the robot model's (RK4, 1 ms).
     plants : list of RobotParams or None, optional
         Per rollout, the robot MuJoCo simulates (None: the nominal robot).
-    torque_limit : float, (n - 1,), (N,) or (N, n - 1), optional
+    torque_limit : float, (m,), (N,) or (N, m), optional
         Saturation of each torque [N m] (also capped by the model's actuator ranges).
     disturbances : Disturbances, optional
         Noise, delay and pushes, and the seed of the noise (default: none).

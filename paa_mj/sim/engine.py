@@ -147,6 +147,11 @@ class Plan:
         return int(self.models[0].nq)
 
     @property
+    def n_motors(self) -> int:
+        """The motors (MuJoCo's actuators, in the order of the robot's driven joints)."""
+        return int(self.models[0].nu)
+
+    @property
     def dt(self) -> float:
         return self.run.dt
 
@@ -171,8 +176,8 @@ class RunArrays:
     def __init__(self, plan: Plan, memory_size: int):
         n, links, run = len(plan), plan.n_links, plan.run
         max_delay = int(np.max(plan.settings.rollouts["delay"], initial=0))
-        self.state = new_state(n, links, memory_size, max_delay)
-        self.samples = new_samples(n, links, run.n_steps // run.every + 2 if run.every else 0)
+        self.state = new_state(n, links, memory_size, max_delay, plan.n_motors)
+        self.samples = new_samples(n, links, run.n_steps // run.every + 2 if run.every else 0, plan.n_motors)
 
     def start(self, plan, r, physics, memory0):
         start_rollout(r, physics, plan.x0, self.state, memory0)
@@ -353,7 +358,7 @@ def _run_python(plan, controller, rows, arrays, bar):
              for k, r in enumerate(rows)]
     # python_step as compiled for exactly these arguments (step, mode, torques, the bound ones): called
     # without numba's look at the type of every argument, which would cost as much as the rest of the call
-    torques = np.zeros((len(rows), links - 1))
+    torques = np.zeros((len(rows), plan.n_motors))
     steppers = [python_step.compile(tuple(typeof(a) for a in (0, 0, torques[0], *args))) for args in bound]
     active = list(range(len(rows)))
     batch = (len(rows),)
@@ -362,7 +367,8 @@ def _run_python(plan, controller, rows, arrays, bar):
             measure(r, 0, physics[k], plan.run, plan.settings, seen[k])
         for step in range(plan.n_steps + 1):
             # copied into the engine's own array: the controller may reuse or change its output later
-            torques[:] = torque_of(controller, seen_q.copy(), seen_qd.copy(), step * dt, copy=False)
+            torques[:] = torque_of(controller, seen_q.copy(), seen_qd.copy(), step * dt, copy=False,
+                                   motors=plan.n_motors)
             modes = mode_of(controller, batch, plain=True)  # one int for every rollout, or one per rollout
             ended = False
             for k in active:

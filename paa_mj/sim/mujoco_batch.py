@@ -46,7 +46,7 @@ def available() -> bool:
 @njit(cache=True)
 def _physics(r, rows, at, warnings):
     """Rollout ``r``'s :class:`~paa_mj.sim.records.Physics`: views of its state row (qpos, qvel, ctrl,
-    qfrc_applied at the offsets ``at``, sizes n, n, n - 1, n) and of its warning counters (no model or data)."""
+    qfrc_applied at the offsets ``at``, sizes n, n, m, n) and of its warning counters (no model or data)."""
     row = rows[r]
     n, nu = at[4], at[5]
     return Physics(0, 0, row[at[0]:at[0] + n], row[at[1]:at[1] + n], row[at[2]:at[2] + nu], row[at[3]:at[3] + n],
@@ -96,12 +96,12 @@ def _after(ids, step, rows, at, warnings, run, state, samples):
 
 # --- Python: the batch, the loop over steps -------------------------------------------------------------------
 
-def _offsets(batch, n_links) -> np.ndarray:
-    """Where qpos, qvel, ctrl and qfrc_applied start in a state row, then n and n - 1."""
+def _offsets(batch, n_links, n_motors) -> np.ndarray:
+    """Where qpos, qvel, ctrl and qfrc_applied start in a state row, then n and m (the motors)."""
     base = batch.state.__array_interface__["data"][0]
     start = [(batch.bind(name).__array_interface__["data"][0] - base) // batch.state.itemsize
              for name in ("qpos", "qvel", "ctrl", "qfrc_applied")]
-    return np.array(start + [n_links, n_links - 1], np.int64)
+    return np.array(start + [n_links, n_motors], np.int64)
 
 
 def _groups(forms, keys):
@@ -153,7 +153,7 @@ def run(plan: Plan, controllers, nthread=None) -> Outcome:
     run_ = plan.run
     arrays = RunArrays(plan, memory_size(forms))
     state, samples = arrays.state, arrays.samples
-    rows, at, warnings = batch.state, _offsets(batch, plan.n_links), batch.warning
+    rows, at, warnings = batch.state, _offsets(batch, plan.n_links, plan.n_motors), batch.warning
     for packed, group in groups:
         _begin(group, rows, at, warnings, plan.x0, state, packed.memory)
     go = np.zeros(n, np.int8)

@@ -8,7 +8,8 @@ Each step k, from the true state x_k at time t_k (t accumulated as ``t += dt``, 
 
 1. measurement: x_meas = x_{max(k + 1 - d, 0)} + N(0, sigma_meas), d = int(delay / dt) + 1 (the whole state is
    delayed, their ``delay_mode="posvel"``);
-2. the controller's torque u (n: joint 1 first) at (x_meas, t_k), x_meas in paa_mj's angles;
+2. the controller's torques (one per motor of the robot) at (x_meas, t_k), x_meas in paa_mj's angles, as the
+   command u (n: joint 1 first; zero on the joints without a motor, :func:`command`);
 3. the motor: nu = nu_{k-1} + r (u - nu_{k-1}) + N(0, sigma_u), nu_{-1} = 0 (r the responsiveness), clipped to
    +-limit per joint, then the perturbation p_j[int(t_k / dt)] added; nu is what is recorded as the torque;
 4. physics: x_{k+1} = RK4 over dt with nu held, of
@@ -43,17 +44,30 @@ from .step import evaluate_once
 _C1, _C2 = types.float64[::1], types.float64[:, ::1]
 
 
-def plant_constants(m, l, lc, J, g, damping, coulomb, limit, rotor_inertia=0.0, gear_ratio=1.0) -> np.ndarray:
+def plant_constants(m, l, lc, J, g, damping, coulomb, limit, rotor_inertia=0.0, gear_ratio=1.0,
+                    actuated=None) -> np.ndarray:
     """The constants P of one plant (module docstring) from per-link arrays [SI units]; J about the COM, which may be
-    negative here (their benchmark varies the first moment m r at a fixed pivot inertia I = J + m r^2). Layout,
-    which the step's functions read by offsets: A (n n), -b (n) (:mod:`paa_mj.model.chain`'s gravity constants in
-    their angles, from hanging down: b cos(phi) = -b cos(phi + pi)), damping (n), Coulomb (n), limit (n), then I_r
-    and g_r."""
+    negative here (their benchmark varies the first moment m r at a fixed pivot inertia I = J + m r^2); ``actuated``:
+    the joints the controller's torques go to, 0-based (default joints 2..n). Layout, which the step's functions
+    read by offsets: A (n n), -b (n) (:mod:`paa_mj.model.chain`'s gravity constants in their angles, from hanging
+    down: b cos(phi) = -b cos(phi + pi)), damping (n), Coulomb (n), limit (n), the controller's motor of each joint
+    (n, -1: none; :func:`paa_mj.model.chain.drive_map`), then I_r and g_r."""
     n = len(m)
     A, b = chain.chain_constants(SimpleNamespace(m=np.asarray(m, float), l=np.asarray(l, float),
                                                  lc=np.asarray(lc, float), J=np.asarray(J, float), g=float(g)))
     return np.concatenate([A.ravel(), -b, np.broadcast_to(damping, (n,)), np.broadcast_to(coulomb, (n,)),
-                           np.broadcast_to(limit, (n,)), [float(rotor_inertia), float(gear_ratio)]])
+                           np.broadcast_to(limit, (n,)), chain.drive_map(n, actuated),
+                           [float(rotor_inertia), float(gear_ratio)]])
+
+
+@register_jitable
+def motors(P, n):
+    """The number of the controller's torques the plant ``P`` of n joints takes (its driven joints)."""
+    count = 0
+    for i in range(n):
+        if P[n * n + 4 * n + i] >= 0.0:
+            count += 1
+    return count
 
 
 @register_jitable
@@ -192,11 +206,16 @@ def advance(A, P, X, U, k, T, dt, u, responsiveness, sigma_u, normals_k, perturb
 
 
 @register_jitable
-def command(u, tau):
-    """The controller's torques ``tau`` (n - 1, joints 2..n) as the command ``u`` (n): none on joint 1."""
-    u[0] = 0.0
-    for j in range(tau.size):
-        u[j + 1] = tau[j]
+def command(P, u, tau):
+    """The controller's torques ``tau`` (one per motor) as the command ``u`` (n) of the plant ``P``: each on the
+    joint its motor drives, zero on the others (joint 1 for the paper's family)."""
+    n = u.size
+    for j in range(n):
+        motor = int(P[n * n + 4 * n + j])
+        value = 0.0
+        if motor >= 0:  # a statement, not an expression: the device evaluates both sides of an expression
+            value = tau[motor]
+        u[j] = value
 
 
 # --- the global policy test (their GlobalPolicyTestingControllerV2) -------------------------------------------
@@ -283,13 +302,13 @@ def rollout_compiled(first, second, condition, params, memory, P, X, U, T, dt, d
     n = X.shape[1] // 2
     A = inertia_constants(P, n)
     work, mass, force = scratch(n)
-    x_meas, seen, u, tau = np.empty(2 * n), np.empty(2 * n), np.zeros(n), np.empty(n - 1)
+    x_meas, seen, u, tau = np.empty(2 * n), np.empty(2 * n), np.zeros(n), np.empty(motors(P, n))
     resetting, pulses = reset.size > 0, perturbation.shape[1]
     for k in range(U.shape[0]):
         if measure_or_reset(A, P, X, k, T, delay_steps, sigma_meas, normals[k], reset, resetting, x_meas, seen, u,
                             work):
             evaluate_once(first, second, condition, seen, T[k], params, memory, tau)
-            command(u, tau)
+            command(P, u, tau)
         if not advance(A, P, X, U, k, T, dt, u, responsiveness, sigma_u, normals[k], perturbation, pulses, work,
                        mass, force):
             return k + 1

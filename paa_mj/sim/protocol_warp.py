@@ -95,7 +95,7 @@ def _rollout_kernel(wp, law, measure_or_reset, command, advance):
             if measure_or_reset(A[r], P[r], X[r], k, T, delays[r], sigma_meas[r], normals_k, reset[r],
                                 resetting[r] != 0, x_meas[r], seen[r], u[r], work[r]):
                 law(seen[r], T[k], params[r], memory[r], tau[r])
-                command(u[r], tau[r])
+                command(P[r], u[r], tau[r])
             if not advance(A[r], P[r], X[r], U[r], k, T, dt, u[r], responsiveness[r], sigma_u[r], normals_k,
                            perturbation[pulse_rows[r]], pulses[r], work[r], mass[r], force[r]):
                 done[r] = k + 1
@@ -142,7 +142,8 @@ def _inputs(batch: Rollouts, params, memory):
         normals=normals, noise_rows=noise_rows, perturbation=perturbation, pulse_rows=pulse_rows, pulses=pulses,
         reset=reset, resetting=resetting, params=np.tile(params, (R, 1)), memory=np.tile(memory, (R, 1)),
         work=np.zeros((R, work.size)), mass=np.zeros((R,) + mass.shape), force=np.zeros((R,) + force.shape),
-        x_meas=np.zeros((R, 2 * n)), seen=np.zeros((R, 2 * n)), u=np.zeros((R, n)), tau=np.zeros((R, n - 1)),
+        x_meas=np.zeros((R, 2 * n)), seen=np.zeros((R, 2 * n)), u=np.zeros((R, n)),
+        tau=np.zeros((R, protocol.motors(P[0], n))),
         done=np.zeros(R, np.int32), stopped=np.zeros(R, np.int32))
 
 

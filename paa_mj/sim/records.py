@@ -43,13 +43,14 @@ class Run(NamedTuple):
     retire: bool
     seed: int
     task: np.ndarray  # the task's params (:attr:`paa_mj.task.Task.params`)
+    joints: np.ndarray  # (m,) the joint each motor drives, 0-based, as floats (the robot's actuated joints)
 
 
 class Settings(NamedTuple):
     """Each rollout's settings (N of each)."""
 
     rollouts: np.ndarray  # (N,) of SETTING
-    limits: np.ndarray  # (N, n - 1) torque limits [N m]
+    limits: np.ndarray  # (N, m) torque limits [N m]
     cert: np.ndarray  # (N, 3 (2n)^2) retirement certificates (:mod:`paa_mj.sim.retirement`)
     pushes: np.ndarray  # (N, K, 2 + n): (t_center [s], sigma [s], f_1..f_n [N m])
 
@@ -59,11 +60,11 @@ class State(NamedTuple):
 
     rollouts: np.ndarray  # (N,) of ROLLOUT
     book: np.ndarray  # (N, 3) of int64: the task's book of success
-    peak: np.ndarray  # (N, n - 1) peak |tau| [N m]
-    last_tau: np.ndarray  # (N, n - 1) the torques of the last step [N m]
+    peak: np.ndarray  # (N, m) peak |tau| [N m]
+    last_tau: np.ndarray  # (N, m) the torques of the last step [N m]
     last_state: np.ndarray  # (N, 2n) the last good state [q, qd]
     memory: np.ndarray  # (N, S) the controller's memory
-    delay_line: np.ndarray  # (N, D + 1, n - 1) torques on their way [N m]
+    delay_line: np.ndarray  # (N, D + 1, m) torques on their way [N m]
 
 
 class Samples(NamedTuple):
@@ -72,7 +73,7 @@ class Samples(NamedTuple):
     t: np.ndarray  # (N, C) [s]
     q: np.ndarray  # (N, C, n) [rad]
     qd: np.ndarray  # (N, C, n) [rad/s]
-    tau: np.ndarray  # (N, C, n - 1) [N m]
+    tau: np.ndarray  # (N, C, m) [N m]
     mode: np.ndarray  # (N, C) of int8
 
 
@@ -88,18 +89,19 @@ class Physics(NamedTuple):
     warnings: np.ndarray  # MuJoCo's warning counters (a strided view)
 
 
-def new_state(n_rollouts, n_links, memory_size, max_delay) -> State:
-    """A :class:`State` of zeros for ``n_rollouts`` rollouts."""
-    nu = n_links - 1
+def new_state(n_rollouts, n_links, memory_size, max_delay, n_motors=None) -> State:
+    """A :class:`State` of zeros for ``n_rollouts`` rollouts (``n_motors`` motors, default n - 1)."""
+    nu = n_links - 1 if n_motors is None else n_motors
     return State(np.zeros(n_rollouts, ROLLOUT), np.zeros((n_rollouts, len(BOOK)), np.int64),
                  np.zeros((n_rollouts, nu)), np.zeros((n_rollouts, nu)), np.zeros((n_rollouts, 2 * n_links)),
                  np.zeros((n_rollouts, max(1, memory_size))), np.zeros((n_rollouts, max_delay + 1, nu)))
 
 
-def new_samples(n_rollouts, n_links, capacity) -> Samples:
-    """Room for ``capacity`` samples of each rollout."""
+def new_samples(n_rollouts, n_links, capacity, n_motors=None) -> Samples:
+    """Room for ``capacity`` samples of each rollout (``n_motors`` torques each, default n - 1)."""
+    nu = n_links - 1 if n_motors is None else n_motors
     return Samples(np.zeros((n_rollouts, capacity)), np.zeros((n_rollouts, capacity, n_links)),
-                   np.zeros((n_rollouts, capacity, n_links)), np.zeros((n_rollouts, capacity, n_links - 1)),
+                   np.zeros((n_rollouts, capacity, n_links)), np.zeros((n_rollouts, capacity, nu)),
                    np.zeros((n_rollouts, capacity), np.int8))
 
 
@@ -112,7 +114,7 @@ def physics_of(model, data) -> Physics:
 def _prototypes():
     """Tiny records of the layouts the engine is compiled for (C-contiguous arrays; MuJoCo's strided warnings)."""
     one, two, three = np.zeros(1), np.zeros((1, 1)), np.zeros((1, 1, 1))
-    run = Run(1e-3, 1, 0, False, 0, one)
+    run = Run(1e-3, 1, 0, False, 0, one, one)
     settings = Settings(np.zeros(1, SETTING), two, two, three)
     state = State(np.zeros(1, ROLLOUT), np.zeros((1, len(BOOK)), np.int64), two, two, two, two, three)
     samples = Samples(two, three, three, three, np.zeros((1, 1), np.int8))

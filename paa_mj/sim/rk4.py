@@ -16,7 +16,8 @@ from numba.extending import register_jitable
 from ..model import chain
 from ..model import equations as eq
 
-#: Layout of the constants: the paper's c (9) or the chain's A (n x n), b, damping, armature, then the time step
+#: Layout of the constants: the paper's c (9) or the chain's A (n x n), b, damping, armature, the motor of each joint
+#: (:func:`paa_mj.model.chain.drive_map`), then the time step
 #: [s], 1.0 for the paper's closed form (else 0.0) and the number of links, counted from the end. The robot's
 #: constants come first so that the closed form reads them in place (no view is made in the step).
 _DT, _PAPER, _LINKS = -3, -2, -1
@@ -45,12 +46,13 @@ def acceleration_into(constants, q, qd, tau, out, work):
         return
     A = constants[:n * n].reshape((n, n))
     chain.acceleration_into(A, constants[n * n:n * n + n], constants[n * n + n:n * n + 2 * n],
-                            constants[n * n + 2 * n:n * n + 3 * n], q, qd, tau, out, work)
+                            constants[n * n + 2 * n:n * n + 3 * n], constants[n * n + 3 * n:n * n + 4 * n], q, qd,
+                            tau, out, work)
 
 
 @register_jitable
 def rk4_step(constants, q, qd, tau, work):
-    """One RK4 step (module docstring) of ``q``, ``qd`` (n) in place, ``tau`` (n - 1) [N m] held; ``work`` is scratch
+    """One RK4 step (module docstring) of ``q``, ``qd`` (n) in place, ``tau`` (m) [N m] held; ``work`` is scratch
     space of at least :func:`work_size` numbers (allocated once by the caller: the step allocates nothing).
 
     ``work`` holds the stage's q, qd, qdd and the weighted sums of qd and qdd (n each), addressed by offset: the

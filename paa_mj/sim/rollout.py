@@ -100,7 +100,8 @@ def simulate_mujoco(robot: Robot, controller="vcl", x0: ArrayLike | None = None,
                       None if np.isnan(switch) else float(switch), task=task,
                       meta={"robot": robot.name, "engine": "mujoco", "integrator": integrator_name(model), "dt": dt,
                             "sample_dt": every * dt, "x0": x0[0].tolist(), "t_final": float(t_final),
-                            **describe_controller(controllers[0]), "torque_limit": _limit_meta(plan)},
+                            **describe_controller(controllers[0]), "torque_limit": _limit_meta(plan),
+                            **robot.params.actuation_meta()},
                       robot_xml=robot.xml)
     when = float(out["t_end"][0])
     traj.meta["success"] = bool(out["success"][0])

@@ -233,14 +233,14 @@ def check_state(qpos, qvel, warnings):
 
 
 @njit(cache=True)
-def add_effort_work(ctrl, qvel, dt, effort, work):
+def add_effort_work(ctrl, qvel, joints, dt, effort, work):
     """The integrals after a step of ``dt`` [s] with ``ctrl`` (:math:`\\tau`) held: (``effort`` +
-    :math:`|\\tau|^2 dt` [N^2 m^2 s], ``work`` + :math:`|\\tau \\cdot \\dot q_a| dt` [J]), :math:`\\dot q_a` =
-    ``qvel[1:]`` after the step."""
+    :math:`|\\tau|^2 dt` [N^2 m^2 s], ``work`` + :math:`|\\tau \\cdot \\dot q_a| dt` [J]), :math:`\\dot q_a` the
+    speeds after the step of the driven ``joints`` (m, 0-based, as floats: motor j drives joint ``joints[j]``)."""
     e, p = 0.0, 0.0
     for j in range(ctrl.size):
         e += ctrl[j] * ctrl[j]
-        p += ctrl[j] * qvel[j + 1]
+        p += ctrl[j] * qvel[int(joints[j])]
     return effort + e * dt, work + abs(p) * dt
 
 
@@ -264,7 +264,7 @@ def after_physics(r, step, physics, run, state, samples):
     keeps its last good state); True when the rollout ends."""
     st = state.rollouts[r]
     ctrl, qpos, qvel = physics.ctrl, physics.qpos, physics.qvel
-    st.effort, st.work = add_effort_work(ctrl, qvel, run.dt, st.effort, st.work)
+    st.effort, st.work = add_effort_work(ctrl, qvel, run.joints, run.dt, st.effort, st.work)
     status = check_state(qpos, qvel, physics.warnings)
     if status != RUNNING:
         st.status = status

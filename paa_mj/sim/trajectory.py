@@ -84,6 +84,11 @@ class Trajectory:
         return int(self.q.shape[-1])
 
     @property
+    def driven_joints(self) -> list:
+        """The joints (1-based) the torques' columns act on: the metadata's ``driven_joints``, else 2..n."""
+        return list(self.meta.get("driven_joints", range(2, self.n_links + 1)))
+
+    @property
     def goal(self) -> str:
         """The name of the goal the run aimed at."""
         return self.task.name
@@ -147,7 +152,7 @@ class Trajectory:
         peaks = self.meta.get("max_abs_tau")
         if limit is None or peaks is None:
             return ""
-        hit = [i + 2 for i, (p, lim) in enumerate(zip(peaks, limit)) if np.isfinite(lim) and p >= lim * (1 - 1e-9)]
+        hit = [j for j, p, lim in zip(self.driven_joints, peaks, limit) if np.isfinite(lim) and p >= lim * (1 - 1e-9)]
         return f", the torque of joint{'s' * (len(hit) > 1)} {', '.join(map(str, hit))} at its limit" if hit else ""
 
     def summary(self) -> dict:
@@ -179,14 +184,14 @@ class Trajectory:
             arrays["robot_sha256"] = np.asarray(self.robot_sha256)
         n = self.n_links
         header = ",".join(["t", *(f"q{i + 1}" for i in range(n)), *(f"d{i + 1}" for i in range(n)),
-                           *(f"tau{i + 2}" for i in range(n - 1)), "E_minus_Er", "V", "mode"])
+                           *(f"tau{j}" for j in self.driven_joints), "E_minus_Er", "V", "mode"])
         table = np.column_stack([self.t, self.q, self.qd, self.tau, self.E_minus_Er, self.V, self.mode])
 
         def csv(path):
             # 12 digits: a sample time of k dt is written as the step's time (6.25e-05, 0.03), never rounded to a
             # microsecond (steps of 62.5 us and less) nor shown as k dt's rounding (0.030000000000000002)
             np.savetxt(path, table, delimiter=",", header=header, comments="",
-                       fmt=["%.12g"] + ["%.17g"] * (3 * n + 1) + ["%d"])
+                       fmt=["%.12g"] + ["%.17g"] * (2 * n + self.tau.shape[1] + 2) + ["%d"])
 
         return write_set(out_dir, {
             f"{stem}.npz": npz_writer(**arrays, switch_time=np.nan if self.switch_time is None else self.switch_time,

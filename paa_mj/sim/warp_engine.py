@@ -256,7 +256,7 @@ def _after_kernel(wp, effort_work, state_status):
     F32, F64, F64_3, V64, I32 = _array_types(wp)
 
     @wp.kernel(module="unique", enable_backward=False)
-    def after(qpos: F32, qvel: F32, q: F64, qd: F64, u: F64, counts: I32, sums: F64, last_state: F64,
+    def after(qpos: F32, qvel: F32, q: F64, qd: F64, u: F64, counts: I32, sums: F64, last_state: F64, joints: V64,
               dt: wp.float64):
         r = wp.tid()
         n = qpos.shape[1]
@@ -264,7 +264,7 @@ def _after_kernel(wp, effort_work, state_status):
             for i in range(n):
                 q[r, i] = wp.float64(qpos[r, i])
                 qd[r, i] = wp.float64(qvel[r, i])
-            effort, work = effort_work(u[r], qd[r], dt, sums[r, _EFFORT], sums[r, _WORK])
+            effort, work = effort_work(u[r], qd[r], joints, dt, sums[r, _EFFORT], sums[r, _WORK])
             sums[r, _EFFORT] = effort
             sums[r, _WORK] = work
             status = state_status(q[r], qd[r])
@@ -307,20 +307,22 @@ class _Worlds:
         # the state in float64: the start itself (a start at the goal is at the goal, not at its float32 rounding),
         # then MuJoCo Warp's after each step; measured; the law's torque; the command; the pushes' forces
         self.q, self.qd, self.seen = put(plan.x0[:, :links]), put(plan.x0[:, links:]), zeros(n, 2 * links)
-        self.tau, self.u, self.force = zeros(n, links - 1), zeros(n, links - 1), zeros(n, links)
+        motors = plan.n_motors
+        self.tau, self.u, self.force = zeros(n, motors), zeros(n, motors), zeros(n, links)
         self.params, self.memory, self.limits = put(params), put(memory), put(settings.limits)
         self.noise = put(np.stack([rollouts["noise_q"], rollouts["noise_qd"], rollouts["torque_noise"]], 1))
         self.delays = put(rollouts["delay"].astype(np.int32), wp.int32)
         self.ids = put(rollouts["id"].astype(np.int64), wp.int64)
-        self.delay_line = zeros(n, int(np.max(rollouts["delay"], initial=0)) + 1, links - 1)
+        self.delay_line = zeros(n, int(np.max(rollouts["delay"], initial=0)) + 1, motors)
         self.pushes, self.push_end = put(settings.pushes), put(rollouts["push_end"])
         self.task, self.cert, self.level = put(plan.run.task), put(settings.cert), put(rollouts["retire_level"])
+        self.joints = put(plan.run.joints)
         counts = np.zeros((n, len(COUNTS)), np.int32)
         counts[:, COUNTS.index("switch")] = -1  # no switch yet
         self.counts = put(counts, wp.int32)
         self.sums = zeros(n, len(SUMS))
         self.books = put(np.full((n, 3), -1, np.int32), wp.int32)
-        self.peak, self.last_tau, self.last_state = zeros(n, links - 1), zeros(n, links - 1), put(plan.x0)
+        self.peak, self.last_tau, self.last_state = zeros(n, motors), zeros(n, motors), put(plan.x0)
 
     def store(self, state):
         """These worlds' records read back into their rows of the run's :class:`~paa_mj.sim.records.State`."""
@@ -342,7 +344,7 @@ class _Worlds:
         own rows alone, so it goes on exactly as it would have among the others."""
         wp = self.wp
         taken = object.__new__(_Worlds)
-        taken.wp, taken.mjw, taken.plant, taken.task = wp, self.mjw, self.plant, self.task
+        taken.wp, taken.mjw, taken.plant, taken.task, taken.joints = wp, self.mjw, self.plant, self.task, self.joints
         taken.rows = self.rows[keep]
         taken.model, taken.data = self.model, device_data(self.mjw, self.plant, len(keep))
         for name in CARRIED:
@@ -364,7 +366,7 @@ def run(plan: engine.Plan, controllers, *, device=None, progress=False, desc="ro
     triple, params, memory = device_controllers(plan, controllers)
     wp, mjw = load_warp()
     device = device_name(wp, device)
-    state = new_state(len(plan), plan.n_links, memory.shape[1], 0)
+    state = new_state(len(plan), plan.n_links, memory.shape[1], 0, plan.n_motors)
     with wp.ScopedDevice(device):
         _check_room(wp, mjw, plan, params, memory, device)
         kernels = _kernels(wp, triple, plan.n_links)
@@ -425,7 +427,7 @@ class _Steps:
                           w.memory, w.limits, w.noise, w.delays, w.ids, w.delay_line, w.pushes, w.push_end, w.task,
                           w.cert, w.level, w.counts, w.sums, w.books, w.peak, w.last_tau, w.last_state,
                           int(plan.n_steps), dt, bool(plan.run.retire), int(plan.run.seed)]
-        after_inputs = [d.qpos, d.qvel, w.q, w.qd, w.u, w.counts, w.sums, w.last_state, dt]
+        after_inputs = [d.qpos, d.qvel, w.q, w.qd, w.u, w.counts, w.sums, w.last_state, w.joints, dt]
         control_cmd = wp.launch(control, dim=n, inputs=control_inputs, record_cmd=True)
         after_cmd = wp.launch(after, dim=n, inputs=after_inputs, record_cmd=True)
 

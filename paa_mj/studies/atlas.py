@@ -112,7 +112,7 @@ def scale(params: RobotParams, name: str, factor: float) -> RobotParams:
         lc[i] *= factor
         J[i] *= factor**2
     return RobotParams(m=m, l=l, lc=lc, J=J, g=params.g, name=params.name, damping=params.damping,
-                       armature=params.armature)
+                       armature=params.armature, actuated=params.actuated)
 
 
 def grid_factors(low, high, grid):

@@ -129,7 +129,7 @@ def _names(controllers):
 def _limit(robot, task, torque_limit):
     """The leaderboard's torque limit [N m]: the one given, or the peak torques of vcl's run from the task's start,
     checked to be physical."""
-    motors = robot.params.n_links - 1
+    motors = robot.params.n_motors
     if torque_limit is not None:
         limit = np.full(motors, float(torque_limit))
     else:

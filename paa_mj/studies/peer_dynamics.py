@@ -108,7 +108,7 @@ def _drake_maps(plant, mj_model):
     joints = [mujoco.mj_id2name(mj_model, mujoco.mjtObj.mjOBJ_JOINT, j) for j in range(mj_model.njnt)]
     order = np.array([plant.GetJointByName(name).velocity_start() for name in joints])
     B = plant.MakeActuationMatrix()  # (nv, nu), Drake's velocities
-    if B.shape != (n, n - 1):
+    if B.shape != (n, mj_model.nu):
         raise PaaError(f"Drake reads {B.shape[1]} actuators from the model, MuJoCo {mj_model.nu}")
     B_mj = B[order]  # rows in MuJoCo's joint order
     return order, B_mj

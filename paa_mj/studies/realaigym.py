@@ -87,16 +87,17 @@ def hanging(n):
 
 def plant(robot: Robot, change=None, *, global_test=False):
     """Their plant's constants for ``robot`` (no damping, friction or rotor inertia, as their protocols set), with
-    one ``change`` (name, value) of the model criterion; ``global_test``: every joint driven, joint 1 at the
-    largest motor limit (their ``mpar_nolim``)."""
+    one ``change`` (name, value) of the model criterion; ``global_test``: every joint driven, each passive one at
+    the largest motor limit (their ``mpar_nolim``: [6, 6] for both their acrobot and their pendubot)."""
     p = robot.params
     m, l, lc, J = (np.array(a, float) for a in (p.m, p.l, p.lc, p.J))
     n = len(m)
     pivot = J + m * lc**2
     damping, coulomb, rotor = np.zeros(n), np.zeros(n), 0.0
-    limit = np.concatenate([[0.0], np.asarray(robot.torque_limits, float)])
+    limit = np.zeros(n)
+    limit[list(p.actuated)] = np.asarray(robot.torque_limits, float)
     if global_test:
-        limit[0] = float(np.max(limit[1:]))
+        limit[list(p.passive)] = float(np.max(robot.torque_limits))
     if change is not None:
         name, value = change
         i = int(name.lstrip("mrIbcf")[0]) - 1 if name != "Ir" else None
@@ -112,7 +113,8 @@ def plant(robot: Robot, change=None, *, global_test=False):
             damping[i] = value
         elif name.startswith("cf"):
             coulomb[i] = value
-    return protocol.plant_constants(m, l, lc, pivot - m * lc**2, p.g, damping, coulomb, limit, rotor, GEAR_RATIO)
+    return protocol.plant_constants(m, l, lc, pivot - m * lc**2, p.g, damping, coulomb, limit, rotor, GEAR_RATIO,
+                                    p.actuated)
 
 
 def model_levels(robot: Robot) -> dict:
@@ -246,8 +248,8 @@ class Runs:
         for k in range(U.shape[0]):
             if protocol.measure_or_reset_compiled(A, P, X, k, T, delay_steps, sigma_meas, normals[k], reset, resetting,
                                                   x_meas, seen, u, work):
-                tau = torque_of(self.controller, seen[:n], seen[n:], float(T[k]))
-                protocol.command(u, np.asarray(tau, float))
+                tau = torque_of(self.controller, seen[:n], seen[n:], float(T[k]), motors=self.robot.params.n_motors)
+                protocol.command(P, u, np.asarray(tau, float))
             if not protocol.advance_compiled(A, P, X, U, k, T, dt, u, responsiveness, sigma_u, normals[k],
                                              perturbation, pulses, work, mass, force):
                 return k + 1

@@ -88,9 +88,11 @@ def lqr_gain(am: AnalyticModel, task: Task, Q=None, R=None):
     return lqr_solution(am, task, Q, R)[0]
 
 
-def lqr_weight_matrices(n_links, Q=None, R=None):
-    """(Q, R) of (67), each the paper's where None: Q = 1e4 I (2n x 2n), R = I (n - 1 x n - 1)."""
-    return (LQR_WEIGHT * np.eye(2 * n_links) if Q is None else Q, np.eye(n_links - 1) if R is None else R)
+def lqr_weight_matrices(n_links, Q=None, R=None, n_motors=None):
+    """(Q, R) of (67), each the paper's where None: Q = 1e4 I (2n x 2n), R = I (m x m, m = ``n_motors``, default
+    n - 1)."""
+    motors = n_links - 1 if n_motors is None else n_motors
+    return (LQR_WEIGHT * np.eye(2 * n_links) if Q is None else Q, np.eye(motors) if R is None else R)
 
 
 def lqr_solution(am: AnalyticModel, task: Task, Q=None, R=None):
@@ -99,7 +101,7 @@ def lqr_solution(am: AnalyticModel, task: Task, Q=None, R=None):
     for the weights and the errors)."""
     from scipy.linalg import solve_continuous_are
 
-    Q, R = lqr_weight_matrices(am.n_links, Q, R)
+    Q, R = lqr_weight_matrices(am.n_links, Q, R, am.n_motors)
     A, Bl = goal_linearization(am, task)
     try:
         S = solve_continuous_are(A, Bl, Q, R)
@@ -172,7 +174,20 @@ def balance_time_step(am: AnalyticModel, tasks, dt=1e-3, halvings=8, Q=None, R=N
     return None if None in steps else min(steps)
 
 
+def require_passive_first(am: AnalyticModel, what: str, name: str | None = None):
+    """Refuse, in one line that says why, ``what`` (the paper's controllers (40), (12), the conditions of
+    Theorem 1, Spong's acrobot swing-up) on a robot whose passive joint is not joint 1 alone: their energy
+    shaping, their virtual constraints and the proofs are written for B = [0; I] (a torque on every joint but the
+    one on the bar)."""
+    if not am.passive_first:
+        robot = name or am.params.name
+        raise PaaError(f"{what} needs joint 1 alone passive (B = [0; I], a motor on every joint but the one on the"
+                       f" bar: it is built on that); robot {robot} has {am.params.actuation_text()} (the LQR, trajopt"
+                       " and your own controllers run on it)")
+
+
 def theorem1_covers(am: AnalyticModel, task: Task) -> bool:
     """Whether Theorem 1 (and the paper's closed forms of (40)) covers the robot and task: the paper's gymnast
-    shape (three links, no damping, no armature) and its folded goal UDD (8). The one test of it."""
+    shape (three links, no damping, no armature, joint 1 passive) and its folded goal UDD (8). The one test of
+    it."""
     return bool(am.paper_shape and task.name == "folded")

@@ -320,9 +320,9 @@ def _sos_part(am, task, K, S, Q, R, rho_torque):
     return rho, rho_sos, upper, certificate
 
 
-def _finite_limits(u_max, n_links):
-    """Each motor's torque limit (n - 1,) [N m], or None where ``u_max`` is None or limits none of them."""
-    limits = None if u_max is None else np.broadcast_to(np.asarray(u_max, float), (n_links - 1,))
+def _finite_limits(u_max, n_motors):
+    """Each motor's torque limit (m,) [N m], or None where ``u_max`` is None or limits none of them."""
+    limits = None if u_max is None else np.broadcast_to(np.asarray(u_max, float), (n_motors,))
     return limits if limits is not None and np.any(np.isfinite(limits)) else None
 
 
@@ -338,7 +338,7 @@ def region_of_attraction(am: AnalyticModel, task: Task, K, S, Q, R, *, u_max=Non
         The goal (and region (68) for the fraction inside).
     K, S : ndarray
         (K, S) of :func:`~paa_mj.theory.linear.lqr_solution` with weights Q, R.
-    u_max : float, (n - 1,) or None
+    u_max : float, (m,) or None
         Torque limit per motor [N m] (inf or None: none).
     dt : float
         The control step [s].
@@ -354,7 +354,7 @@ def region_of_attraction(am: AnalyticModel, task: Task, K, S, Q, R, *, u_max=Non
     """
     K, S = np.asarray(K, float), np.asarray(S, float)
     method = choose_method(method, am.n_links)
-    limits = _finite_limits(u_max, am.n_links)
+    limits = _finite_limits(u_max, am.n_motors)
 
     def compute():
         return _region_of_attraction(am, task, K, S, Q, R, limits, dt, method, samples, seed, box_samples,
@@ -395,7 +395,7 @@ def switch_level(am: AnalyticModel, task: Task, Q, R, *, u_max=None, dt, method=
     from .linear import lqr_solution
 
     method = choose_method(method, am.n_links)
-    limits = _finite_limits(u_max, am.n_links)
+    limits = _finite_limits(u_max, am.n_motors)
     Q, R = np.asarray(Q, float), np.asarray(R, float)
     key = (am.key(), task, Q.tobytes(), R.tobytes(), None if limits is None else limits.tobytes(), float(dt), method)
     if key not in _SWITCH_LEVELS:

@@ -130,7 +130,8 @@ def test_signal_then_rerun_is_byte_identical_to_an_uninterrupted_run(tmp_path, s
     assert "Traceback" not in stderr and len(stderr.strip().splitlines()) == 1
     summary = json.loads(stdout)
     assert summary["interrupted"] is True and 0 < summary["completed_fraction"] < 1
-    assert not [p for p in os.listdir(out) if p.startswith(".") and p not in (".chunks", ".paa-mj.lock")]
+    assert not [p for p in os.listdir(out)
+                if p.startswith(".") and p not in (".chunks", ".paa-mj.lock", ".paa-mj-study.json")]
     assert main(_basin_cmd(out)[3:]) == 0  # the same command resumes (in this process: the stop was the real one)
     assert _files(out) == uninterrupted
 

@@ -315,5 +315,8 @@ def test_every_controller_of_a_leaderboard_meets_the_same_torque_noise(capsys):
 def test_chunks_of_an_older_version_do_not_pile_up(tmp_path, capsys):
     legacy = tmp_path / ".chunks" / ("0123456789abcdef" + "0123")
     legacy.mkdir(parents=True)
-    assert main(["basin", "--grid", "2", "--t-final", "0.1", "--scheduler", "inline", "--out", str(tmp_path)]) == 0
+    args = ["basin", "--grid", "2", "--t-final", "0.1", "--scheduler", "inline", "--out", str(tmp_path)]
+    assert main(args) == 2 and legacy.exists()  # another study's: refused, never removed unasked
+    assert "keeps the finished chunks of another basin study" in capsys.readouterr().err
+    assert main([*args, "--fresh"]) == 0
     assert not legacy.exists() and len(list((tmp_path / ".chunks").iterdir())) == 1

@@ -166,3 +166,31 @@ def test_the_papers_family_runs_as_before_byte_for_byte(run, args, stored):
     of the numbers of every robot of the paper's family: make it on purpose, and write the files anew with it."""
     result = run(*args)
     assert result.stdout == (BASELINE / stored).read_text()
+
+
+def test_fantonis_swing_up_makes_their_lyapunov_function_decrease_as_designed():
+    """Fantoni, Lozano & Spong's law on the stored pendubot: at random states, V_dot = k_E E~ E_dot + k_D qd1 qdd1 +
+    k_P q1~ qd1 with E_dot = qd1 tau (no damping) and qdd1 from (1) is -k_V qd1^2, the compiled law and NumPy's
+    agree, and it refuses the acrobot and a k_D at its bound in one line."""
+    from paa_mj.control.pendubot import FantoniController, kd_bound
+
+    robot = load_robot("realaigym_pendubot")
+    am = robot.analytic
+    law = FantoniController(am)
+    g = law.gains
+    rng = np.random.default_rng(2000)
+    q, qd = rng.uniform(-np.pi, np.pi, (50, 2)), rng.uniform(-4, 4, (50, 2))
+    tau = law.torque(q, qd)
+    E_err = am.energy(q, qd) - np.sum(am.gravity_constants)
+    qdd = am.acceleration(q, qd, tau)
+    v_dot = g["k_e"] * E_err * qd[:, 0] * tau[:, 0] + g["k_d"] * qd[:, 0] * qdd[:, 0] + g["k_p"] * q[:, 0] * qd[:, 0]
+    np.testing.assert_allclose(v_dot, -g["k_v"] * qd[:, 0] ** 2, rtol=1e-9, atol=1e-9)
+    form = law.compiled()
+    out = np.empty(1)
+    for k in range(5):
+        form.kernel(np.concatenate([q[k], qd[k]]), 0.0, form.params, form.memory.copy(), out)
+        assert out[0] == pytest.approx(tau[k, 0], rel=1e-12)
+    with pytest.raises(PaaError, match="the motor at joint 1"):
+        FantoniController(load_robot("realaigym_acrobot").analytic)
+    with pytest.raises(PaaError, match="must be above"):
+        FantoniController(am, k_d=kd_bound(am))

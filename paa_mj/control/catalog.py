@@ -18,6 +18,9 @@ DESCRIPTIONS = {
     "trajopt": "minimum-time kip by collocation, tracked by TVLQR, then (67)",
     "trajopt-effort": "least-effort kip over a duration, tracked by TVLQR, then (67)",
     "spong": "Spong's acrobot swing-up, then LQR below a cost-to-go (Drake's defaults; 2 links, --goal stretched)",
+    "fantoni": "Fantoni, Lozano & Spong's (2000) energy-based pendubot swing-up, then LQR (67) on entering (68) (2"
+               " links, the motor at joint 1, --goal stretched)",
+    "fantoni-only": "Fantoni, Lozano & Spong's pendubot swing-up alone",
 }
 #: Controllers that take the gains kD, kP, kV of (40) / (12).
 GAIN_CONTROLLERS = ("vcl", "vcl-only", "vcl-roa", "vc", "vc-only", "vc-roa")
@@ -25,10 +28,10 @@ GAIN_CONTROLLERS = ("vcl", "vcl-only", "vcl-roa", "vc", "vc-only", "vc-roa")
 PLANNERS = ("trajopt", "trajopt-effort")
 #: Controllers that balance by the LQR (67), with the option lqr_weights = (q, r): Q = q I, R = r I (the paper's
 #: q = 1e4, r = 1 by default).
-LQR_CONTROLLERS = ("vcl", "vcl-roa", "vc", "vc-roa", "lqr", "trajopt", "trajopt-effort")
+LQR_CONTROLLERS = ("vcl", "vcl-roa", "vc", "vc-roa", "lqr", "trajopt", "trajopt-effort", "fantoni")
 #: Controllers that switch from a swing-up to (67), with the option switch = "region" ((68), the default) or "roa"
 #: (the LQR's cost-to-go below the level of its region of attraction, :mod:`paa_mj.theory.roa`).
-SWITCHED = ("vcl", "vc")
+SWITCHED = ("vcl", "vc", "fantoni")
 #: Controllers that can hand over on the LQR's region of attraction, whose level takes the run's torque limits
 #: (option limit: the model's actuator ranges capped by it).
 ROA_SWITCHED = SWITCHED + ("vcl-roa", "vc-roa")

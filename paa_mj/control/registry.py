@@ -199,11 +199,24 @@ def build_spong(robot, task, gains=None, check=True):
     return SpongController(robot.analytic, task=task)
 
 
+def build_fantoni_only(robot, task, gains=None, check=True):
+    """Fantoni, Lozano & Spong's pendubot swing-up (:mod:`paa_mj.control.pendubot`) alone."""
+    from .pendubot import FantoniController
+
+    return FantoniController(robot.analytic, task=task)
+
+
+def build_fantoni(robot, task, gains=None, check=True, lqr_weights=None, switch=None, limit=None):
+    """The pendubot's swing-up of Fantoni et al., then (67) switched by (68) (or by the LQR's region of attraction)."""
+    return _switched(robot, task, build_fantoni_only(robot, task), "fantoni", lqr_weights, switch, limit)
+
+
 BUILTIN = {name: (builder, DESCRIPTIONS[name]) for name, builder in (
     ("vcl", build_vcl), ("vcl-only", build_vcl_only), ("vcl-roa", build_vcl_roa), ("vc", build_vc),
     ("vc-only", build_vc_only), ("vc-roa", build_vc_roa),
     ("lqr", build_lqr), ("passive", build_passive), ("trajopt", build_trajopt),
-    ("trajopt-effort", build_trajopt_effort), ("spong", build_spong))}
+    ("trajopt-effort", build_trajopt_effort), ("spong", build_spong), ("fantoni", build_fantoni),
+    ("fantoni-only", build_fantoni_only))}
 
 
 def register(name: str, builder, description: str):

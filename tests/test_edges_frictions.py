@@ -36,3 +36,11 @@ def test_a_bar_whose_total_was_a_bound_finishes_at_the_count_reached(monkeypatch
     progress_module.finish(bar)
     last = stream.getvalue().strip().splitlines()[-1]
     assert "150/150" in last and "100%" in last
+
+
+def test_a_terminal_bar_of_simulated_seconds_shows_them_rounded():
+    from tqdm import tqdm
+
+    line = tqdm.format_meter(11.778875, 30.0, 5, bar_format=progress_module.FLOAT_BAR, ncols=100,
+                             unit="s simulated", prefix="rollouts")
+    assert "11.8/30.0" in line and "11.778875" not in line

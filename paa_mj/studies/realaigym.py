@@ -38,7 +38,7 @@ import numpy as np
 
 from ..control.base import controller_name, reset_controller, torque_of
 from ..errors import PaaError
-from ..limits import MIN_TORQUE_FRACTION, check_seed
+from ..limits import check_seed
 from ..model.robot import Robot
 from ..model.states import wrap
 from ..sim import protocol
@@ -290,22 +290,6 @@ def _saved_rows(T, X, U):
     return T[:len(U)], X[:len(U)], U
 
 
-#: A run "never left its start" when no coordinate moved more than this [rad, rad/s].
-STILL = 1e-9
-
-
-def no_action(robot: Robot, X, U) -> dict:
-    """``{"no_action": {"max_abs_tau", "max_motion"}}`` for a run whose controller exerted no torque (below
-    :data:`~paa_mj.limits.MIN_TORQUE_FRACTION` of the robot's gravity torque) and whose robot never left its start
-    (:data:`STILL`): a controller at rest at an equilibrium of its own law; else ``{}``."""
-    peak = float(np.max(np.abs(U))) if np.size(U) else 0.0
-    moved = float(np.max(np.abs(np.asarray(X) - np.asarray(X)[0]))) if len(X) else 0.0
-    gravity = float(max(abs(float(b)) for b in robot.analytic.gravity_constants))
-    if peak < MIN_TORQUE_FRACTION * gravity and moved < STILL:
-        return {"no_action": {"max_abs_tau": peak, "max_motion": moved}}
-    return {}
-
-
 def performance_v2(robot: Robot, controller, task: Task, x0=None, engine="cpu", device=None) -> dict:
     """Their simulation_v2 run and scores (module docstring); ``engine``, ``device``: :class:`Runs`'s."""
     runs = Runs(robot, controller, engine, device)
@@ -313,7 +297,8 @@ def performance_v2(robot: Robot, controller, task: Task, x0=None, engine="cpu", 
     X, U = runs.run(plant(robot), hanging(runs.n) if x0 is None else x0, T)
     rows = _saved_rows(T[:len(X)], X, U)
     result = scores.performance(*rows, up_rows(robot, task, X[:len(U)]), T_FINAL)
-    summary = {"criteria": result, "score": result["score_v2"], "steps": len(U), **no_action(robot, X, U)}
+    summary = {"criteria": result, "score": result["score_v2"], "steps": len(U),
+               **scores.no_action(X, U, robot.analytic.gravity_constants)}
     if len(X) < len(T):
         summary["diverged_at"] = float(T[len(X) - 1])
     return summary, dict(zip("TXU", rows))
@@ -335,7 +320,8 @@ def global_v3(robot: Robot, controller, task: Task, x0=None, seed=777, engine="c
     up = up_rows(robot, task, X[:len(U)])
     time_up = scores.uptime(Tr, up)
     summary = {"time_up": time_up, "score": time_up / T_FINAL_GLOBAL, "reset_times": times.tolist(),
-               "steps": len(U), "diverged": len(X) < len(T), **no_action(robot, X, U)}
+               "steps": len(U), "diverged": len(X) < len(T),
+               **scores.no_action(X, U, robot.analytic.gravity_constants)}
     return summary, {"T": Tr, "X": Xr, "U": U, "height": scores.tip_height(Xr, robot.params.l), "up": up,
                      "threshold": up_threshold(robot, task)}
 

@@ -25,6 +25,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..limits import MIN_TORQUE_FRACTION
+
 #: Their simulation_v2 weights and normalisations (``calculate_leaderboard_score.py``).
 V2_NORMS = {"swingup_time": 20.0, "energy": 60.0, "tau_cost": 20.0, "tau_smoothness": 0.1, "velocity_cost": 400.0}
 #: Their simulation_v1 weights and normalisations (the archived leaderboard's).
@@ -125,3 +127,20 @@ def final_state_success(x_final, goal, eps=(0.35, 0.35, 1.0, 1.0)):
     eps = np.asarray(eps, float)
     eps_q, eps_v = (eps[:n], eps[n:]) if eps.size == 2 * n else (np.full(n, eps[0]), np.full(n, eps[-1]))
     return bool(np.all(np.abs(error) < eps_q) and np.all(np.abs(x[n:] - goal[n:]) < eps_v))
+
+
+#: A run "never left its start" when no coordinate moved more than this [rad, rad/s].
+STILL = 1e-9
+
+
+def no_action(X, U, gravity_constants) -> dict:
+    """``{"no_action": {"max_abs_tau", "max_motion"}}`` for a run (states X, torques U) whose controller exerted no
+    torque (below :data:`~paa_mj.limits.MIN_TORQUE_FRACTION` of the robot's gravity torque, its largest gravity
+    constant b_k [J]) and whose robot never left its start (:data:`STILL`): a controller at rest at an equilibrium
+    of its own law, whose scores say nothing of it; else ``{}``."""
+    peak = float(np.max(np.abs(U))) if np.size(U) else 0.0
+    moved = float(np.max(np.abs(np.asarray(X) - np.asarray(X)[0]))) if len(X) else 0.0
+    gravity = float(np.max(np.abs(np.asarray(gravity_constants, float))))
+    if peak < MIN_TORQUE_FRACTION * gravity and moved < STILL:
+        return {"no_action": {"max_abs_tau": peak, "max_motion": moved}}
+    return {}

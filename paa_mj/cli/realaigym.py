@@ -1,10 +1,10 @@
 """``paa-mj realaigym``: RealAIGym's benchmark protocols (performance v2, robustness v2, global policy v3)."""
 from __future__ import annotations
 
-from ..errors import PaaError
+from ..errors import PaaError, SimulationDiverged
 from .studies import check_engine_args
-from .common import (check_fresh, controller_parent, finish, folder, finite, initial_state, output_lock, print_json, robot_parent,
-                     seed, spec_from_args)
+from .common import (check_fresh, controller_parent, engine_option, finish, folder, finite, initial_state, note, output_lock, print_json,
+                     robot_parent, seed, spec_from_args)
 
 
 def cmd_realaigym(args):
@@ -76,10 +76,7 @@ def register(sub, parser_class):
     p.add_argument("--out", type=folder, metavar="DIR", help="folder for realaigym.json, the CSV or the charts"
                    " (robustness: the finished runs too, a rerun resumes)")
     p.add_argument("--fresh", action="store_true", help="forget the runs kept in --out")
-    p.add_argument("--engine", choices=ENGINES, default="cpu",
-                   help="cpu: their simulator compiled on this machine's CPU; warp: every run a thread of a Warp"
-                        " device, the controller on the device too (pip install 'paa_mj[gpu]'; float64; every built-in"
-                        " controller, not a Python one)")
+    engine_option(p, ENGINES, extra=" (here their simulator in float64)")
     p.add_argument("--device", metavar="NAME",
                    help="the Warp device of --engine warp: cpu, cuda:0, ... (default: $PAA_MJ_WARP_DEVICE, else the"
                         " first GPU, else cpu)")

@@ -31,7 +31,20 @@ def cmd_realaigym(args):
         print_json(summary)
     else:
         _print(summary, args.out)
-    return finish(summary["interrupted"], f"{100 * summary['completed_fraction']:.0f} % of the runs done", args.out)
+    code = finish(summary["interrupted"], f"{100 * summary['completed_fraction']:.0f} % of the runs done", args.out)
+    diverged = summary["result"].get("diverged")
+    if code == 0 and diverged:  # one run, diverged: said and exited as simulate says it (what it computed is kept)
+        from ..control.catalog import GAIN_CONTROLLERS, HANDS_OVER
+        from ..sim.verdict import outcome_words
+
+        words = outcome_words(status=diverged, success=False, task=task, t_final=0.0, switch_time=None,
+                              t_region=None, hands_over=spec.name in HANDS_OVER, final_state=[],
+                              gains=spec.name in GAIN_CONTROLLERS, engine="protocol")
+        raise SimulationDiverged(f"simulation {words}" + (f" (kept in {args.out})" if args.out else ""))
+    if code == 0 and summary["result"].get("diverged_runs"):  # a study's runs: counted, each a failure
+        note(f"{summary['result']['diverged_runs']} of {summary['result']['runs']} runs diverged (non-finite, or joint"
+             f" speeds above the engines' limit), each counted a failure")
+    return code
 
 
 def _print(summary, out):

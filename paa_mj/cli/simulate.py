@@ -109,7 +109,13 @@ def cmd_simulate(args):
               f" ({summary['integrator']}, dt = {summary['dt']}), {summary['final_time']:.3f} s")
         if summary.get("gains"):
             print(f"  gains                {_gains_line(robot, traj, summary['gains'])}")
-        print(f"  switch to balance    {'never' if st is None else f'{st:.4f} s'}")
+        from ..control.catalog import HANDS_OVER
+
+        if summary.get("controller") not in HANDS_OVER:  # no swing-up to hand over from: no switch to speak of
+            print("  switch to balance    none (" + ("the balance (67) from the start)" if st == 0.0 else
+                                                   "the controller hands over to no balance)"))
+        else:
+            print(f"  switch to balance    {'never' if st is None else f'{st:.4f} s'}")
         print(f"  outcome              {summary['outcome']}")
         goal = "UDD" if traj.goal == "folded" and traj.n_links == 3 else f"the {traj.goal} goal"
         label = f"balanced at {goal}"

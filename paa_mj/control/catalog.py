@@ -19,6 +19,9 @@ DESCRIPTIONS = {
     "trajopt-effort": "least-effort kip over a duration, tracked by TVLQR, then (67)",
     "spong": "Spong's acrobot swing-up, then LQR below a cost-to-go (Drake's defaults; 2 links, --goal stretched)",
 }
+#: Controllers that swing up, then hand over to the balance (67): a run of them has a switch to speak of (the
+#: others, the LQR alone, passive or a user's, have none).
+HANDS_OVER = ("vcl", "vcl-roa", "vc", "vc-roa", "trajopt", "trajopt-effort", "spong")
 #: Controllers that take the gains kD, kP, kV of (40) / (12).
 GAIN_CONTROLLERS = ("vcl", "vcl-only", "vcl-roa", "vc", "vc-only", "vc-roa")
 #: Controllers that plan a kip, with options limit, duration and intervals.

@@ -479,7 +479,7 @@ def test_the_analytic_engine_refuses_a_policy_held_over_its_period(policy_file):
                  *map(str, X0_NEAR_UDD), "--t-final", "1")
     assert result.returncode == 2 and result.stderr == (
         "paa-mj: error: the analytic engine integrates laws continuous in time, and mine.py:Trained holds each torque"
-        " for 10 ms (a sampled-data controller); use --engine mujoco\n")
+        " for 10 ms (a sampled-data controller); use --engine cpu\n")
 
 
 def test_the_analytic_engine_refuses_a_held_policy_inside_a_switched_controller(policy_file, gymnast):

@@ -457,7 +457,7 @@ def test_refusals_on_the_warp_engine(gymnast, folded, warp_modules):
             return np.zeros(q.shape[:-1] + (2,))
 
     x0 = np.r_[folded.goal, np.zeros(3)][None]
-    with pytest.raises(PaaError, match=r"controller Mine has no law on the device .* use --engine mujoco"):
+    with pytest.raises(PaaError, match=r"controller Mine has no law on the device .* use --engine cpu"):
         simulate_batch(gymnast, x0, 0.01, controller=Mine(gymnast), engine="warp", device=DEVICE)
     with pytest.raises(PaaError, match="records no trajectories"):
         simulate_batch(gymnast, x0, 0.01, record=True, engine="warp", device=DEVICE)

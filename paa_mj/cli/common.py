@@ -175,6 +175,35 @@ def search_parent(searches=""):
     return p
 
 
+#: The engines of ``--engine``: one vocabulary in every command, each name meaning the same wherever it is offered.
+ENGINE_WORDS = {
+    "cpu": "compiled rollouts on this machine's CPU cores (MuJoCo; for realaigym, their simulator)",
+    "warp": "every rollout a world of a Warp device, the controller on the device too (pip install 'paa_mj[gpu]';"
+            " every built-in controller, not a Python one)",
+    "analytic": "the analytic model (1) by solve_ivp with continuous-time control",
+}
+#: Former spellings of the engines, still accepted: ``mujoco`` was the CPU engine's name in simulate and the studies.
+ENGINE_ALIASES = {"mujoco": "cpu"}
+
+
+def engine_option(parser, names, internal=None, extra=""):
+    """Add ``--engine`` to ``parser``: the engines ``names`` of :data:`ENGINE_WORDS` (the first the default), read
+    through :data:`ENGINE_ALIASES`; the command gets ``internal[name]`` (its own name for the engine) or the name."""
+    internal = internal or {}
+
+    def parse(text):
+        name = ENGINE_ALIASES.get(text, text)
+        if name not in names:
+            raise argparse.ArgumentTypeError(f"invalid choice: {text!r} (choose from {', '.join(names)})")
+        return internal.get(name, name)
+
+    words = "; ".join(f"{name}: {ENGINE_WORDS[name]}" for name in names)
+    aliases = ", ".join(f"{old}: the former name of {new}" for old, new in ENGINE_ALIASES.items() if new in names)
+    parser.add_argument("--engine", type=parse, default=names[0], metavar="{" + ",".join(names) + "}",
+                        help=f"{words}{extra}" + (f" ({aliases}, still accepted)" if aliases else "")
+                        + f" (default: {names[0]})")
+
+
 def robot_parent(default="gymnast", searches=True):
     p = argparse.ArgumentParser(add_help=False, parents=[search_parent()] if searches else [])
     p.add_argument("--robot", default=default, metavar="{gymnast,example2,acrobot,chain4,realaigym_acrobot,...,PATH.xml}",

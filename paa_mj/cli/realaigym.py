@@ -1,10 +1,10 @@
 """``paa-mj realaigym``: RealAIGym's benchmark protocols (performance v2, robustness v2, global policy v3)."""
 from __future__ import annotations
 
-from ..errors import PaaError
+from ..errors import PaaError, SimulationDiverged
 from .studies import check_engine_args
-from .common import (check_fresh, controller_parent, finish, folder, finite, initial_state, note, output_lock,
-                     print_json, robot_parent, seed, spec_from_args)
+from .common import (check_fresh, controller_parent, engine_option, finish, folder, finite, initial_state, note,
+                     output_lock, print_json, robot_parent, seed, spec_from_args)
 
 
 def cmd_realaigym(args):
@@ -37,8 +37,21 @@ def cmd_realaigym(args):
         print_json(summary)
     else:
         _print(summary, args.out)
-    return finish(summary["interrupted"], f"{100 * summary['completed_fraction']:.0f} % of the runs done"
+    code = finish(summary["interrupted"], f"{100 * summary['completed_fraction']:.0f} % of the runs done"
                   f" ({summary['not_run']} not run: null in the JSON)", args.out)
+    diverged = summary["result"].get("diverged")
+    if code == 0 and diverged:  # one run, diverged: said and exited as simulate says it (what it computed is kept)
+        from ..control.catalog import GAIN_CONTROLLERS, HANDS_OVER
+        from ..sim.verdict import outcome_words
+
+        words = outcome_words(status=diverged, success=False, task=task, t_final=0.0, switch_time=None,
+                              t_region=None, hands_over=spec.name in HANDS_OVER, final_state=[],
+                              gains=spec.name in GAIN_CONTROLLERS, engine="protocol")
+        raise SimulationDiverged(f"simulation {words}" + (f" (kept in {args.out})" if args.out else ""))
+    if code == 0 and summary["result"].get("diverged_runs"):  # a study's runs: counted, each a failure
+        note(f"{summary['result']['diverged_runs']} of {summary['result']['runs']} runs diverged (non-finite, or joint"
+             f" speeds above the engines' limit), each counted a failure")
+    return code
 
 
 def _print(summary, out):
@@ -85,10 +98,7 @@ def register(sub, parser_class):
     p.add_argument("--fresh", action="store_true",
                    help="start over in --out: forget the runs kept there, and replace another protocol's or study's"
                         " results (default: resume; a folder holding another's is refused)")
-    p.add_argument("--engine", choices=ENGINES, default="cpu",
-                   help="cpu: their simulator compiled on this machine's CPU; warp: every run a thread of a Warp"
-                        " device, the controller on the device too (pip install 'paa_mj[gpu]'; float64; every built-in"
-                        " controller, not a Python one)")
+    engine_option(p, ENGINES, extra=" (here their simulator in float64)")
     p.add_argument("--device", metavar="NAME",
                    help="the Warp device of --engine warp: cpu, cuda:0, ... (default: $PAA_MJ_WARP_DEVICE, else the"
                         " first GPU, else cpu)")

@@ -4,7 +4,7 @@ from __future__ import annotations
 import argparse
 
 from ..errors import PaaError, SimulationDiverged
-from .common import (controller_parent, file_path, finish, finite, goal_parent, initial_state, output_lock,
+from .common import (controller_parent, engine_option, file_path, finish, finite, goal_parent, initial_state, output_lock,
                      output_parent, physics_parent, positive, positive_int, print_json, robot_parent, spec_from_args,
                      task_from_args)
 
@@ -13,8 +13,7 @@ def run_parent(robot_default="gymnast"):
     """Options of a recorded rollout (simulate, render)."""
     p = argparse.ArgumentParser(add_help=False, parents=[robot_parent(robot_default), goal_parent(),
                                                          controller_parent(), physics_parent()])
-    p.add_argument("--engine", choices=("mujoco", "analytic"), default="mujoco",
-                   help="MuJoCo, or the analytic model (1) by solve_ivp with continuous-time control")
+    engine_option(p, ("cpu", "analytic"), internal={"cpu": "mujoco"})
     p.add_argument("--x0", type=finite, nargs="+", metavar="X",
                    help="initial q1..qn d1..dn [rad, rad/s], 2n numbers (default: the task's start: hanging at rest,"
                         " (65) for the gymnast: -pi 0 0 0 0 0; at the stretched goal link 1 turned a little off"
@@ -30,7 +29,7 @@ def _check_engine_options(args):
         if given:
             raise PaaError(f"{' and '.join(given)} {'do' if len(given) > 1 else 'does'} not apply to --engine analytic"
                            " (solve_ivp, continuous-time control); drop "
-                           + ("them" if len(given) > 1 else "it") + " or use --engine mujoco")
+                           + ("them" if len(given) > 1 else "it") + " or use --engine cpu")
     if args.sample_dt > args.t_final:
         raise PaaError(f"--sample-dt {args.sample_dt:g} s is longer than --t-final {args.t_final:g} s")
 
@@ -110,7 +109,13 @@ def cmd_simulate(args):
               f" ({summary['integrator']}, dt = {summary['dt']}), {summary['final_time']:.3f} s")
         if summary.get("gains"):
             print(f"  gains                {_gains_line(robot, traj, summary['gains'])}")
-        print(f"  switch to balance    {'never' if st is None else f'{st:.4f} s'}")
+        from ..control.catalog import HANDS_OVER
+
+        if summary.get("controller") not in HANDS_OVER:  # no swing-up to hand over from: no switch to speak of
+            print("  switch to balance    none (" + ("the balance (67) from the start)" if st == 0.0 else
+                                                   "the controller hands over to no balance)"))
+        else:
+            print(f"  switch to balance    {'never' if st is None else f'{st:.4f} s'}")
         print(f"  outcome              {summary['outcome']}")
         goal = "UDD" if traj.goal == "folded" and traj.n_links == 3 else f"the {traj.goal} goal"
         label = f"balanced at {goal}"
@@ -130,7 +135,8 @@ def _gains_line(robot, traj, gains):
     from ..control.gains import gains_origin
 
     values = ", ".join(f"{k} = {gains[k]:.6g}" for k in ("kD", "kP", "kV"))
-    return f"{values} ({gains_origin(robot.analytic, traj.task, robot.gains, gains)})"
+    # the family rule taken in place of the stored gains is described once, by the note on stderr
+    return f"{values} ({gains_origin(robot.analytic, traj.task, robot.gains, gains, noted=True)})"
 
 
 def cmd_render(args):

@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 from ..errors import PaaError
-from .common import (check_fresh, controller_parent, finish, goal_parent, non_negative, note, output_lock, output_parent,
+from .common import (check_fresh, controller_parent, engine_option, finish, goal_parent, non_negative, note, output_lock, output_parent,
                      positive, positive_int, print_json, robot_parent, seed, spec_from_args, study_parent, task_from_args,
                      whole_number, TASK_HORIZON)
 
@@ -39,10 +39,8 @@ def engine_parent():
     import argparse
 
     p = argparse.ArgumentParser(add_help=False)
-    p.add_argument("--engine", choices=("mujoco", "warp"), default="mujoco",
-                   help="mujoco: MuJoCo and the compiled controllers on the CPU's cores; warp: every run a world of"
-                        " MuJoCo Warp, the controller on the device too (pip install 'paa_mj[gpu]'; float32; every"
-                        " built-in controller, not a Python one; chunks inline unless --scheduler)")
+    engine_option(p, ("cpu", "warp"), internal={"cpu": "mujoco"},
+                  extra=" (here MuJoCo Warp in float32; chunks inline unless --scheduler)")
     p.add_argument("--device", metavar="NAME",
                    help="the Warp device of --engine warp: cpu, cuda:0, ... (default: $PAA_MJ_WARP_DEVICE, else the"
                         " first GPU, else cpu)")

@@ -22,6 +22,9 @@ DESCRIPTIONS = {
                " links, the motor at joint 1, --goal stretched)",
     "fantoni-only": "Fantoni, Lozano & Spong's pendubot swing-up alone",
 }
+#: Controllers that swing up, then hand over to the balance (67): a run of them has a switch to speak of (the
+#: others, the LQR alone, passive or a user's, have none).
+HANDS_OVER = ("vcl", "vcl-roa", "vc", "vc-roa", "trajopt", "trajopt-effort", "spong")
 #: Controllers that take the gains kD, kP, kV of (40) / (12).
 GAIN_CONTROLLERS = ("vcl", "vcl-only", "vcl-roa", "vc", "vc-only", "vc-roa")
 #: Controllers that plan a kip, with options limit, duration and intervals.

@@ -102,10 +102,11 @@ def gains_text(gains: dict) -> str:
     return " ".join(f"--{k} {gains[k]:.6g}" for k in ("kD", "kP", "kV") if k in gains)
 
 
-def gains_origin(model: AnalyticModel, task: Task, stored: dict | None, gains: dict) -> str:
+def gains_origin(model: AnalyticModel, task: Task, stored: dict | None, gains: dict, noted: bool = False) -> str:
     """Where a run's ``gains`` come from, in words: the family rule's for the task's goal, the robot's stored gains
     (they may be both: :command:`make-model` stores the rule's gains for the folded goal), the command's, or gain
-    by gain where they mix (a kD given, kP and kV of the rule)."""
+    by gain where they mix (a kD given, kP and kV of the rule). The rule is described unless ``noted``: a run that
+    took the rule's gains in place of the stored ones said so, rule and all, in its :class:`GainsNote`."""
     keys = ("kD", "kP", "kV")
 
     def same(other, which=keys):
@@ -115,7 +116,8 @@ def gains_origin(model: AnalyticModel, task: Task, stored: dict | None, gains: d
     rule = f"the family rule's for the {task.name} goal"
     stored_words = "the model's stored gains" if same(stored) else ""
     if same(rule_gains):
-        rule = f"{rule}: {FAMILY_RULE.describe()}"
+        if stored_words or not noted:
+            rule = f"{rule}: {FAMILY_RULE.describe()}"
         return f"{stored_words}, {rule}" if stored_words else rule
     if stored_words:
         return stored_words

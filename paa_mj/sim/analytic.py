@@ -118,7 +118,7 @@ def _check_continuous(law):
     period = getattr(law, "period", None)
     if isinstance(period, (int, float, np.integer, np.floating)) and period > 0:
         raise PaaError(f"the analytic engine integrates laws continuous in time, and {controller_name(law)} holds"
-                       f" each torque for {float(period) * 1e3:g} ms (a sampled-data controller); use --engine mujoco")
+                       f" each torque for {float(period) * 1e3:g} ms (a sampled-data controller); use --engine cpu")
 
 
 def _phases(controller):
@@ -133,7 +133,7 @@ def _phases(controller):
     mode_of(controller, (1,))  # a mode that cannot be read, or is not an integer, is refused in one line
     if not isinstance(getattr(controller, "mode", 0), (int, np.integer)):
         raise PaaError(f"the analytic engine cannot integrate {type(controller).__name__}: it keeps a state that"
-                       " is not a switching condition; use --engine mujoco")
+                       " is not a switching condition; use --engine cpu")
     return [controller], None
 
 
@@ -351,7 +351,7 @@ class _Integration:
             # SciPy's own floor is relative to t, none near t = 0: a law that jumps (a wrapped angle at +-pi, a
             # bang-bang rule) would be chased for ever
             return (f"the integrator's step fell below {MIN_STEP:g} s (a torque law that jumps, or a stiff closed"
-                    " loop): use --engine mujoco")
+                    " loop): use --engine cpu")
         if np.any(np.abs(solver.y[self.n:]) > MAX_SPEED):
             return STATUS_TEXT[RUNAWAY]
         return None

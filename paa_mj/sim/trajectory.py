@@ -14,17 +14,9 @@ from ..model.params import MAX_LINKS
 from ..provenance import text_sha256
 from ..task import Task
 from .retirement import sampling_advice
-from .step import NONFINITE_TORQUE, STATUS_TEXT
 
 FIELDS = ("t", "q", "qd", "tau", "E_minus_Er", "V", "mode")
 
-
-
-def _try(remedies) -> str:
-    """"; try a, b or c" (nothing without a remedy)."""
-    if not remedies:
-        return ""
-    return "; try " + (", ".join(remedies[:-1]) + " or " if len(remedies) > 1 else "") + remedies[-1]
 
 
 def seconds_or_none(value):
@@ -98,38 +90,28 @@ class Trajectory:
         return bool(len(self)) and bool(self.task.balanced(self.q[-1], self.qd[-1]))
 
     def outcome(self) -> str:
-        """What became of the run, in one sentence, and what to try where the goal was not reached: diverged (when,
-        and after which switch), never entered region (68), entered it without switching, switched without
-        balancing; with the torque limit named where the torques reached it."""
-        status = self.meta.get("status", "")
-        switched = "" if self.switch_time is None else f" after switching to (67) at t = {self.switch_time:.4f} s"
-        saturated = self._saturation()
-        # a balance that cannot hold at this step is the reason, and its remedy replaces the generic ones
-        unstable = self._unstable_balance()
-        # remedies only where they apply: gains to a gain controller, --dt to MuJoCo, --switch to (68)'s hand-over
-        gains, region = bool(self.meta.get("gains")), str(self.meta.get("switch") or "").startswith("region")
-        if status.startswith("diverged"):
-            # a torque of NaN or inf is the law's own doing: no time step mends it
-            law = STATUS_TEXT[NONFINITE_TORQUE] in status
-            remedies = ["gains with a larger margin over kD_min (41) (paa-mj theory shows the family rule's)"] * gains \
-                + ["a smaller --dt"] * (self.meta.get("engine") != "analytic" and not law) \
-                + ["--switch roa"] * (region and not law) + ["a controller whose torque is finite at every state"] * (
-                    law and not gains)
-            return f"{status}{switched}{saturated}" + (unstable or _try(remedies))
-        if status.startswith("interrupted"):  # what it had done by then: no verdict on the whole run
-            where = f"at the {self.goal} goal" if self.balanced() else f"not at the {self.goal} goal"
-            return (f"{status}, before the end of its {self.meta.get('t_final', 0.0):g} s, {where}{switched}"
-                    f"{saturated}; run it whole for its outcome")
-        if self.meta.get("success", self.balanced()):
-            return f"reached the {self.goal} goal and held it (the task's success){switched}{saturated}"
-        longer = ["a longer --t-final"] + ["other gains (paa-mj gain-search compares rules of gains)"] * gains
-        if self.switch_time is None:
-            entered = self._entered_region()
-            if entered is None:
-                return (f"never entered region (68) in {self.meta.get('t_final', 0.0):g} s{saturated}{_try(longer)}")
-            return f"entered region (68) at t = {entered:.4f} s but never handed over to (67){saturated}"
-        return f"not balanced at the {self.goal} goal at the end{switched}{saturated}" + (
-            unstable or _try(["--switch roa (a certified hand-over)"] * region + ["a longer --t-final"]))
+        """What became of the run, in one sentence from its own records (:func:`~paa_mj.sim.verdict.outcome_words`,
+        every command's words), and what to try where the goal was not reached; with the torque limit named where
+        the torques reached it."""
+        from ..control.catalog import HANDS_OVER
+        from .verdict import outcome_words
+
+        controller = str(self.meta.get("controller", ""))
+        return outcome_words(
+            status=self.meta.get("status", ""), success=bool(self.meta.get("success", self.balanced())),
+            balanced=self.balanced(), task=self.task, t_final=self.meta.get("t_final", 0.0),
+            switch_time=self.switch_time, t_region=self._entered_region(),
+            hands_over=controller in HANDS_OVER,
+            final_state=self.final_state if len(self) else [], recent_speeds=self._recent_speeds(),
+            saturated=self._saturation(),
+            unstable=self._unstable_balance(), gains=bool(self.meta.get("gains")), engine=self.meta.get("engine"),
+            region=str(self.meta.get("switch") or "").startswith("region"))
+
+    def _recent_speeds(self):
+        """The largest joint speed [rad/s] of each sample of the run's last second (None before a second)."""
+        if not len(self) or self.t[-1] - self.t[0] < 1.0:
+            return None
+        return np.max(np.abs(self.qd[self.t >= self.t[-1] - 1.0]), axis=1)
 
     def _entered_region(self):
         """The first entry into region (68) [s] as the engine judged it at every step (``meta["t_region"]``), else

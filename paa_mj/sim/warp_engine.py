@@ -95,7 +95,7 @@ def device_controllers(plan: engine.Plan, controllers):
         triple = device_law(forms[key], controller_name(controllers[keys.index(key)]))
         if kernels is not None and triple != kernels:
             raise PaaError("the warp engine runs one controller law for every rollout of a batch (gains and models"
-                           " may differ): split the batch, or use --engine mujoco")
+                           " may differ): split the batch, or use --engine cpu")
         kernels = triple
     # a row per distinct controller, zero-padded, then each rollout's row of these tables
     position = {key: k for k, key in enumerate(dict.fromkeys(keys))}
@@ -109,7 +109,7 @@ def device_controllers(plan: engine.Plan, controllers):
     return kernels, params[which], memory[which]
 
 
-def device_law(packed, name, instead="--engine mujoco"):
+def device_law(packed, name, instead="--engine cpu"):
     """The kernels (first, second, condition) of a packed compiled controller (None: it has no compiled form), or a
     one-line refusal naming the controller ``name`` where one of them has no device form (and the engine to use
     ``instead``)."""
@@ -123,9 +123,9 @@ def device_law(packed, name, instead="--engine mujoco"):
 def _check_plan(plan: engine.Plan):
     if len(plan.models) != 1:
         raise PaaError("the warp engine runs the nominal plant for every rollout (no plant model error yet): use"
-                       " --engine mujoco")
+                       " --engine cpu")
     if plan.run.every:
-        raise PaaError("the warp engine records no trajectories (record=False, or use --engine mujoco)")
+        raise PaaError("the warp engine records no trajectories (record=False, or use --engine cpu)")
     if plan.n_steps >= 2**31 - 1:
         raise PaaError(f"the warp engine counts steps in 32 bits: {plan.n_steps} steps are too many")
 

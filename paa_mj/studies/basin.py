@@ -14,7 +14,7 @@ from ..errors import PaaError
 from ..provenance import text_sha256
 from ..limits import check_memory, check_steps
 from ..model.robot import Robot
-from ..model.states import Q_DUU, wrap_angle
+from ..sim import verdict
 from ..task import Task, as_task
 from .runner import CHUNK, RolloutSet, applied_limit, engine_definition, peak_torques, run_study
 from .settings import BASIN_MAX_GRID as MAX_GRID, BASIN_RANGE as DEFAULT_RANGE
@@ -26,7 +26,7 @@ SUCCESS, LOST, STUCK_DUU, NEVER, DIVERGED = range(len(OUTCOME_NAMES))
 #: The outcome code of a run not run (an interrupted study's; False in its ``completed`` mask).
 NOT_RUN_CODE = -1
 #: A final state within this distance of DUU (each coordinate, rad and rad/s) is "stuck at DUU".
-DUU_TOL = 0.05
+DUU_TOL = verdict.DUU_TOL
 
 
 def coordinates(n_links=3):
@@ -64,12 +64,7 @@ def basin_grid(axes, grid, n_links=3):
 def classify(result, task: Task) -> np.ndarray:
     """The outcome code of each rollout (:data:`OUTCOME_NAMES`); "stuck at DUU" only for the gymnast's folded goal,
     where DUU is the other limit of Theorem 1."""
-    final = np.nan_to_num(result.final_state, nan=1e9)
-    if task.n_links == 3 and task.name == "folded":
-        near_duu = np.max(np.abs(np.concatenate([wrap_angle(final[:, :3] - Q_DUU), final[:, 3:]], axis=1)),
-                          axis=1) < DUU_TOL
-    else:
-        near_duu = np.zeros(len(final), bool)
+    near_duu = verdict.near_duu(result.final_state, task)  # the words of every command (paa_mj.sim.verdict)
     switched = np.isfinite(result.switch_time)
     code = np.where(switched, LOST, np.where(near_duu, STUCK_DUU, NEVER))
     code = np.where(result.success, SUCCESS, code)

@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..control.catalog import PLANNERS, hands_over_on_roa
+from ..control.catalog import HANDS_OVER, PLANNERS, hands_over_on_roa
 from ..control.registry import ControllerSpec
 from ..errors import PaaError
 from ..limits import physical_torque_scale
@@ -44,6 +44,8 @@ from ..provenance import text_sha256
 from ..model.robot import Robot
 from ..sim.batch import kip_peak_torques, simulate_batch
 from ..sim.integrators import integrator_name
+from ..sim.step import STATUS_TEXT
+from ..sim.verdict import diverged_words, outcome_words
 from ..task import Task, as_task
 from .basin import basin
 from .robustness import MAX_TRIALS, robustness
@@ -62,15 +64,13 @@ def _spec(name, limit, task):
     return ControllerSpec(name, options=options, task=task)
 
 
-def _why(result, i, t_final, task: Task):
-    if result.diverged[i]:
-        return f"diverged at t = {result.t_end[i]:.3f} s"
-    if not np.isfinite(result.t_region[i]):
-        return f"never entered region (68) in {t_final:g} s"
-    if not np.isfinite(result.switch_time[i]):
-        return "entered region (68) but never switched to the balance controller"
-    where = "region (68)" if task.success_region == task.switch_region else "the success region"
-    return f"not inside {where} throughout the last {task.success_window:g} s of the run"
+def _why(result, i, t_final, task: Task, controller):
+    """Why run ``i`` of ``result`` did not succeed: the words of every command (:mod:`paa_mj.sim.verdict`)."""
+    status = diverged_words(float(result.t_end[i]), STATUS_TEXT[int(result.status[i])]) if result.diverged[i] else "ok"
+    return outcome_words(status=status, success=False, task=task, t_final=t_final,
+                         switch_time=_none(result.switch_time[i]), t_region=_none(result.t_region[i]),
+                         hands_over=getattr(controller, "name", controller) in HANDS_OVER,
+                         final_state=result.final_state[i], remedies=False)
 
 
 def _none(value):
@@ -95,7 +95,7 @@ def performance(robot: Robot, controller, limit, task: Task, t_final=None):
                "max_tau": result.max_abs_tau[0].tolist(), "int_tau2": float(result.int_tau2[0]),
                "work": float(result.work[0]), "smoothness": float(result.smoothness[0]),
                "max_speed": float(result.max_speed[0]), "success": success, "balanced": bool(result.balanced[0]),
-               "why": None if success else _why(result, 0, t_final, task)}
+               "why": None if success else _why(result, 0, t_final, task, controller)}
     return metrics, trajectory
 
 

@@ -44,6 +44,8 @@ from ..model.states import wrap
 from ..sim import protocol
 from ..sim.batch import check_engine
 from ..sim.engine import pack
+from ..sim.step import MAX_SPEED
+from ..sim.verdict import diverged_words, divergence
 from ..task import Task, as_task
 from . import realaigym_scores as scores
 from .settings import REALAIGYM_ENGINES as ENGINES, REALAIGYM_PROTOCOLS as PROTOCOLS
@@ -296,12 +298,19 @@ def performance_v2(robot: Robot, controller, task: Task, x0=None, engine="cpu", 
     T = their_times(T_FINAL)
     X, U = runs.run(plant(robot), hanging(runs.n) if x0 is None else x0, T)
     rows = _saved_rows(T[:len(X)], X, U)
-    result = scores.performance(*rows, up_rows(robot, task, X[:len(U)]), T_FINAL)
+    with np.errstate(all="ignore"):  # a diverged run's costs: said once, as every command says it (below)
+        result = scores.performance(*rows, up_rows(robot, task, X[:len(U)]), T_FINAL)
     summary = {"criteria": result, "score": result["score_v2"], "steps": len(U),
+               "diverged": _diverged(T[:len(X)], X, U, runs.n),
                **scores.no_action(X, U, robot.analytic.gravity_constants)}
-    if len(X) < len(T):
-        summary["diverged_at"] = float(T[len(X) - 1])
     return summary, dict(zip("TXU", rows))
+
+
+def _diverged(T, X, U, n):
+    """How a run of their simulator diverged, in every command's words (:func:`~paa_mj.sim.verdict.divergence`:
+    their simulator runs on past a non-finite torque or a runaway), or None."""
+    found = divergence(T, X, U, n)
+    return None if found is None else diverged_words(*found)
 
 
 def global_v3(robot: Robot, controller, task: Task, x0=None, seed=777, engine="cpu", device=None) -> dict:
@@ -320,7 +329,7 @@ def global_v3(robot: Robot, controller, task: Task, x0=None, seed=777, engine="c
     up = up_rows(robot, task, X[:len(U)])
     time_up = scores.uptime(Tr, up)
     summary = {"time_up": time_up, "score": time_up / T_FINAL_GLOBAL, "reset_times": times.tolist(),
-               "steps": len(U), "diverged": len(X) < len(T),
+               "steps": len(U), "diverged": _diverged(T[:len(X)], X, U, n),
                **scores.no_action(X, U, robot.analytic.gravity_constants)}
     return summary, {"T": Tr, "X": Xr, "U": U, "height": scores.tip_height(Xr, robot.params.l), "up": up,
                      "threshold": up_threshold(robot, task)}
@@ -433,7 +442,13 @@ def _robustness_summary(robot, task, cases, final, steps, n_steps, interrupted):
             entry["success"] = [NOT_RUN if NOT_RUN in runs else
                                 bool(scores.level_successes([runs] if repeated else [runs[0]], repeated)[0])
                                 for runs in entry["runs"]]
-    result = {"criteria": criteria, **runs_done(finished), "interrupted": interrupted}
+            entry["success"] = [bool(s) for s in scores.level_successes(
+                entry["runs"] if repeated else [r[0] for r in entry["runs"]], repeated)]
+    with np.errstate(invalid="ignore"):
+        runaway = ~np.all(np.isfinite(final), axis=1) | (np.max(np.abs(final[:, final.shape[1] // 2:]), axis=1,
+                                                                   initial=0.0) > MAX_SPEED)
+    result = {"criteria": criteria, **runs_done(finished), "interrupted": interrupted,
+              "diverged_runs": int(np.sum(finished & runaway))}
     if finished.all():
         per_criterion = {c: [e["success"] for e in criteria[c].values()] for c in scores.ROBUSTNESS_CRITERIA}
         result["scores"] = scores.robustness_score(per_criterion)

@@ -13,8 +13,7 @@ def cmd_theory(args):
     from ..theory.conditions import chain_kd_min
     from ..theory.linear import theorem1_covers
 
-    from ..control.gains import FAMILY_RULE, family_gains
-    from ..control.registry import resolve_gains
+    from ..control.gains import FAMILY_RULE, family_gains, resolve_gains
     from ..limits import MAX_SECONDS
 
     if args.kd_budget is not None and args.kd_budget > MAX_SECONDS:

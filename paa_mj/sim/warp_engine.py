@@ -33,7 +33,8 @@ float32: a rollout agrees with the CPU engine's float64 to about 1e-6 over 200 s
 within float32 rounding of it until the dynamics amplify the difference (``tests/test_warp.py`` states what it
 checks).
 
-What runs here: the controllers whose compiled laws translate (:data:`DEVICE_LAWS`: ``vcl``, ``vc`` and their
+What runs here: the controllers whose records declare that their compiled laws translate (:data:`DEVICE_LAWS`;
+among the package's: ``vcl``, ``vc`` and their
 ``-only`` and ``-roa`` forms on every chain and goal (the paper's closed forms for the gymnast at its folded goal,
 the chain's law elsewhere, its scratch in the controller's memory), ``lqr``, ``passive``, switched by region (68),
 the ROA level or time; ``spong`` on the acrobot; ``trajopt`` and ``trajopt-effort``, their TVLQR then the LQR),
@@ -46,6 +47,7 @@ any work.
 # where the kernels are defined (:func:`_array_types`), and read by Warp as objects.
 import numpy as np
 
+from ..control import catalog
 from ..control.base import controller_name
 from ..errors import PaaError
 from ..progress import progress as progress_bar
@@ -64,25 +66,21 @@ GRAPH_STEPS = 64
 
 
 def _device_laws():
-    """The compiled kernels whose translation to Warp is tested, by the name of the controller they serve."""
-    from ..control.combined import time_condition
-    from ..control.energy import chain_energy_kernel, conventional_kernel, vcl_kernel
-    from ..control.lqr import lqr_kernel
-    from ..control.passive import passive_kernel
-    from ..control.region import level_condition, region_condition
-    from ..control.spong import spong_kernel
-    from ..control.tvlqr import tvlqr_kernel
+    """The compiled kernels whose translation to Warp is tested: those of every controller whose record says it has
+    a device law (:class:`~paa_mj.control.record.ControllerRecord`), by kernel, with the names of the controllers
+    they serve; and the engine's "never" condition of a controller with one law."""
+    from ..control.registry import RECORDS
 
-    return {vcl_kernel: "(40)", conventional_kernel: "(12)", chain_energy_kernel: "(40) or (12) on any chain",
-            lqr_kernel: "LQR (67)", passive_kernel: "passive",
-            spong_kernel: "Spong's swing-up and LQR", tvlqr_kernel: "TVLQR tracking",
-            region_condition: "region (68)", level_condition: "ROA level", time_condition: "time",
-            engine._never: "never"}
+    laws = {engine._never: ("never",)}
+    for name, record in RECORDS.items():
+        if record.device:
+            for k in record.kernels:
+                laws[k] = laws.get(k, ()) + (name,)
+    return laws
 
 
-#: What ``--engine warp`` runs: the controllers whose laws have a device form (module docstring).
-DEVICE_LAWS = ("vcl", "vc", "vcl-only", "vc-only", "vcl-roa", "vc-roa", "lqr", "passive", "spong", "trajopt",
-               "trajopt-effort")
+#: What ``--engine warp`` runs: the controllers whose records say their laws have a device form (module docstring).
+DEVICE_LAWS = catalog.DEVICE_CONTROLLERS
 _REFUSAL = ("controller {name} has no law on the device (the warp engine runs {laws}); use {instead}")
 
 

@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import math
 
+from ..control import catalog
+
 # --- basin (:mod:`paa_mj.studies.basin`) ------------------------------------------------------------
 
 #: The coordinates a basin grid can span (the state [q1, q2, q3, d1, d2, d3]).
@@ -35,7 +37,8 @@ STARTS = ("random", "hanging")
 
 # --- the leaderboard (:mod:`paa_mj.studies.compare`) ------------------------------------------------
 
-COMPARE_CONTROLLERS = ("vcl", "vc", "trajopt", "trajopt-effort")
+#: The leaderboard's controllers by default: those whose records say so (``compare=True``).
+COMPARE_CONTROLLERS = catalog.COMPARE_CONTROLLERS
 #: One level per random robustness factor (name in :data:`ROBUSTNESS_FACTORS`: level).
 COMPARE_FACTORS = {"noise": 0.01, "torque_noise": 0.03, "pushes": 0.1, "initial_state": 0.1}
 #: The levels of each deterministic factor, swept (full size; --quick takes every second one).

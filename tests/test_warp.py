@@ -465,13 +465,15 @@ def test_refusals_on_the_warp_engine(gymnast, folded, warp_modules):
         simulate_batch(gymnast, x0, 0.01, engine="warp", device="cuda:7")
 
 
-def test_every_built_in_controller_has_a_device_law():
-    """The commands' help says the warp engine runs every built-in controller: the list of device laws is theirs
-    (each law's agreement with numba is tested above)."""
-    from paa_mj.control.registry import BUILTIN
-    from paa_mj.sim.warp_engine import DEVICE_LAWS
+def test_every_built_in_controller_with_a_compiled_law_has_a_device_law():
+    """The commands' help says the warp engine runs every built-in controller with a compiled law: the list of
+    device laws is theirs, derived from their records (each law's agreement with numba is tested above, each
+    record's kernels translate: tests/test_registered_controllers.py)."""
+    from paa_mj.control.registry import RECORDS
+    from paa_mj.sim.warp_engine import DEVICE_LAWS, _device_laws
 
-    assert sorted(DEVICE_LAWS) == sorted(BUILTIN)
+    assert sorted(DEVICE_LAWS) == sorted(name for name, record in RECORDS.items() if record.compiled)
+    assert set(_device_laws()) >= {k for name in DEVICE_LAWS for k in RECORDS[name].kernels}
 
 
 def test_translation_refuses_what_it_does_not_cover():

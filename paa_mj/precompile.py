@@ -37,7 +37,7 @@ class _Damped:
 
 def _rollouts():
     from .model import load_robot
-    from .sim.analytic import simulate_analytic
+    from .sim.analytic.engine import simulate_analytic
     from .sim.batch import simulate_batch
     from .sim.rollout import simulate_mujoco
 
@@ -91,8 +91,8 @@ def _environments():
 def _protocols():
     from .control.registry import make_controller
     from .model import load_robot
-    from .sim import protocol
-    from .studies.realaigym import Runs, plant, their_times
+    from .realaigym import simulator as protocol
+    from .realaigym.study import Runs, plant, their_times
 
     acrobot = load_robot("realaigym_acrobot")
     times = their_times(_T)

@@ -170,7 +170,7 @@ def test_a_gain_just_below_its_bound_is_not_written_as_equal_to_it():
 
 def test_the_outcome_reads_the_engine_s_entry_into_region_68_not_the_samples():
     """Sparse samples miss the entry; the sentence states the step the engine judged, on both engines."""
-    from paa_mj.sim.analytic import simulate_analytic
+    from paa_mj.sim.analytic.engine import simulate_analytic
     from paa_mj.sim.batch import simulate_batch
     from paa_mj.sim.rollout import simulate_mujoco
 

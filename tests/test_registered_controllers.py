@@ -18,8 +18,8 @@ from paa_mj.control.record import GOALS
 from paa_mj.control.registry import RECORDS, ControllerSpec
 from paa_mj.errors import PaaError, SimulationDiverged
 from paa_mj.model.robot import NAMED_ROBOTS, load_robot
-from paa_mj.sim.analytic import simulate_analytic
-from paa_mj.sim.engine import evaluate
+from paa_mj.sim.analytic.engine import simulate_analytic
+from paa_mj.sim.compiled.engine import evaluate
 from paa_mj.sim.rollout import simulate_mujoco
 from paa_mj.task import Task
 
@@ -140,8 +140,8 @@ def test_refused_in_one_line_where_it_does_not_apply(name, robot, goal):
 def test_a_device_law_translates_to_warp(name):
     """Where a record says its law runs on the device, each of its kernels translates (Warp's CPU device)."""
     pytest.importorskip("warp")
-    from paa_mj.sim.translate import device_function
-    from paa_mj.sim.warp_device import load_warp
+    from paa_mj.sim.warp.translate import device_function
+    from paa_mj.sim.warp.device import load_warp
 
     wp, _ = load_warp()
     for kernel in RECORDS[name].kernels:

@@ -51,7 +51,7 @@ class ControllerRecord:
     kernels : tuple
         The compiled kernels of its compiled form (empty: no compiled law, the engines call ``torque``).
     device : bool
-        Every one of its kernels has a device form (:mod:`paa_mj.sim.translate`): ``--engine warp`` runs it.
+        Every one of its kernels has a device form (:mod:`paa_mj.sim.warp.translate`): ``--engine warp`` runs it.
     links : int or None
         The number of links of the chains it applies to (None: any chain).
     goals : tuple of str

@@ -82,7 +82,7 @@ ATLAS_RANGE = (0.25, 4.0)
 #: The most factors per parameter.
 ATLAS_MAX_GRID = 256
 
-#: RealAIGym's protocols that ``paa-mj realaigym`` runs (:mod:`paa_mj.studies.realaigym`).
+#: RealAIGym's protocols that ``paa-mj realaigym`` runs (:mod:`paa_mj.realaigym.study`).
 REALAIGYM_PROTOCOLS = ("performance-v2", "robustness-v2", "global-v3")
 #: The engines of RealAIGym's protocols: their simulator compiled on the CPU, or on a Warp device.
 REALAIGYM_ENGINES = ("cpu", "warp")

@@ -37,7 +37,7 @@ class _Damped:
 
 def _rollouts():
     from .model import load_robot
-    from .sim.analytic import simulate_analytic
+    from .sim.analytic.engine import simulate_analytic
     from .sim.batch import simulate_batch
     from .sim.rollout import simulate_mujoco
 
@@ -49,15 +49,17 @@ def _rollouts():
 
 
 def _family():
-    from .control.registry import make_controller
+    from .control.registry import RECORDS, make_controller
     from .model import load_robot
     from .sim.rollout import simulate_mujoco
 
     acrobot = load_robot("acrobot")
-    for name in ("vcl", "spong"):
-        simulate_mujoco(acrobot, name, t_final=_T, task="stretched")
-    for name in ("vcl-only", "spong"):  # their laws over a batch of states, as ``torque`` evaluates them
-        make_controller(name, acrobot, task="stretched").torque(np.zeros((2, 2)), np.zeros((2, 2)))
+    # every compiled law that needs no plan, on the acrobot's stretched goal (every controller's record says
+    # whether it applies there): a short rollout, and its law over a batch of states as ``torque`` evaluates it
+    for name, record in RECORDS.items():
+        if record.compiled and not record.plans and record.applies_to(2, "stretched"):
+            simulate_mujoco(acrobot, name, t_final=_T, task="stretched")
+            make_controller(name, acrobot, task="stretched").torque(np.zeros((2, 2)), np.zeros((2, 2)))
     model = acrobot.analytic
     q = np.zeros((2, 2))
     model.mass_matrix(q), model.bias(q, q), model.potential(q), model.gravity_jacobian(q)
@@ -89,8 +91,8 @@ def _environments():
 def _protocols():
     from .control.registry import make_controller
     from .model import load_robot
-    from .sim import protocol
-    from .studies.realaigym import Runs, plant, their_times
+    from .realaigym import simulator as protocol
+    from .realaigym.study import Runs, plant, their_times
 
     acrobot = load_robot("realaigym_acrobot")
     times = their_times(_T)
@@ -125,7 +127,7 @@ def compile_kernels(progress=None) -> list[dict]:
     on import (they have a fixed signature). ``progress``: called with each stage's description as it starts.
     """
     start = time.process_time()
-    from .control import catalog  # noqa: F401  (imports every controller: their kernels compile on import)
+    from .control import registry  # noqa: F401  (imports every controller's module: kernels compile on import)
 
     stages = []
     for description, stage in STAGES:

@@ -45,7 +45,7 @@ def main():
     parser.add_argument("--arch", type=int, default=90, help="the CUDA architecture (90: H100, H200)")
     parser.add_argument("--scratch", type=Path, default=Path("/tmp/paa_mj_warp_aot"))
     args = parser.parse_args()
-    from paa_mj.sim.warp_device import load_warp
+    from paa_mj.sim.warp.device import load_warp
 
     wp, _ = load_warp()
     start = time.perf_counter()

@@ -305,7 +305,7 @@ BOARD_CONTROLLERS = {"acrobot": ("vcl", "vc", "lqr", f"{PFL}:LQRTheirs_C11", "tr
 
 def realaigym_board(robot_name, goal, names):
     from paa_mj.control.registry import ControllerSpec
-    from paa_mj.studies.realaigym import board
+    from paa_mj.realaigym.study import board
 
     r = robot(robot_name)
     t = task(robot_name, goal)

@@ -100,7 +100,7 @@ def test_simulated_atlas_says_how_each_kip_ended(capsys, tmp_path):
 def test_an_atlas_says_once_how_many_of_its_robots_cannot_hold_their_balance(capsys, monkeypatch, name, grid):
     """Each robot's own gain on its own plant: the warning counts the robots whose rows say the sampled LQR (67) is
     unstable, none where every row is stable (the gymnast's family, each held on the base robot before)."""
-    from paa_mj.sim import retirement
+    from paa_mj.sim.compiled import retirement
 
     monkeypatch.setattr(retirement, "_WARNED", set())  # as in a new command
     code, out, err = run(capsys, "atlas", "--robot", name, "--grid", str(grid), "--simulate", "--starts", "0",

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from paa_mj.model.robot import load_robot
-from paa_mj.sim import retirement
+from paa_mj.sim.compiled import retirement
 from paa_mj.task import Task
 from paa_mj.theory.linear import balance_time_step, lqr_gain, sampled_spectral_radius, stable_sampling_step
 

@@ -9,7 +9,7 @@ from paa_mj.control import (CombinedController, ConventionalController, Controll
 from paa_mj.errors import PaaError
 from paa_mj.model.states import Q_UDD, wrap_angle
 from paa_mj.model.vcl import psi, theta
-from paa_mj.sim.engine import evaluate
+from paa_mj.sim.compiled.engine import evaluate
 from paa_mj.task import Task
 
 from .conftest import GAINS1, GAINS2
@@ -89,28 +89,6 @@ def test_batched_torque_equals_one_at_a_time(gymnast, rng):
     batch = ctrl.torque(q, qd)
     single = np.array([ctrl.torque(q[i], qd[i]) for i in range(20)])
     np.testing.assert_allclose(batch, single, rtol=1e-13)
-
-
-@pytest.mark.parametrize("name", ["vcl", "vcl-only", "vc", "vc-only", "lqr", "passive"])
-@pytest.mark.parametrize("robot", ["gymnast", "example2"])
-def test_compiled_form_equals_numpy_path(name, robot, request, rng):
-    """The one definition, two paths: NumPy on batches and the numba kernel, to rounding."""
-    r = request.getfixturevalue(robot)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", TheoryWarning)
-        ctrl = make_controller(name, r)
-    q, qd = _random_states(rng, 600)
-    q[:100], qd[:100] = Q_UDD + rng.uniform(-0.4, 0.4, (100, 3)), rng.uniform(-0.4, 0.4, (100, 3))
-    compiled, modes = evaluate(ctrl.compiled(), q, qd)
-    expected = np.empty_like(compiled)
-    expected_modes = np.empty(len(q), int)
-    for i in range(len(q)):  # one state at a time, each from a fresh switch
-        ctrl.reset()
-        expected[i] = ctrl.torque(q[i], qd[i])
-        expected_modes[i] = int(ctrl.mode)
-    np.testing.assert_array_equal(modes, expected_modes)
-    scale = np.maximum(1.0, np.abs(expected))
-    assert np.max(np.abs(compiled - expected) / scale) < 1e-12
 
 
 def test_gain_validation(gymnast, example2):

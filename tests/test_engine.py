@@ -355,7 +355,7 @@ def test_evaluate_from_a_given_switch_flag_keeps_the_laws_scratch():
     import warnings
 
     from paa_mj.model import load_robot
-    from paa_mj.sim.engine import evaluate
+    from paa_mj.sim.compiled.engine import evaluate
 
     chain = load_robot("chain4")
     with warnings.catch_warnings():

@@ -154,7 +154,7 @@ def _energy_run(n, goal, damping, seed):
     """A random chain of n links under (40) alone, integrated exactly (DOP853), with its controller."""
     from paa_mj.control.energy import EnergyVCLController
     from paa_mj.model.robot import robot_from_xml
-    from paa_mj.sim.analytic import simulate_analytic
+    from paa_mj.sim.analytic.engine import simulate_analytic
     from paa_mj.theory.conditions import chain_kd_min
 
     rng = np.random.default_rng(seed)

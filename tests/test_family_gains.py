@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from paa_mj.control import gains as G
-from paa_mj.control.registry import ControllerSpec, resolve_gains
+from paa_mj.control.gains import resolve_gains
+from paa_mj.control.registry import ControllerSpec
 from paa_mj.model import load_robot
 from paa_mj.studies.gain_search import gain_search, search_table
 from paa_mj.task import Task
@@ -35,7 +36,7 @@ def test_stored_gains_stand_where_they_meet_the_bound_and_the_rule_says_so_elsew
     folded, stretched = Task.named("folded", gymnast), Task.named("stretched", gymnast)
     with warnings.catch_warnings():
         warnings.simplefilter("error", G.GainsNote)
-        assert resolve_gains(gymnast, folded) == gymnast.resolve_gains()
+        assert resolve_gains(gymnast, folded) == resolve_gains(gymnast)
     G._NOTED.clear()
     with pytest.warns(G.GainsNote, match=r"not above kD_min = 10111.9 of \(41\) for the stretched goal"):
         chosen = resolve_gains(gymnast, stretched)
@@ -170,7 +171,7 @@ def test_a_gain_just_below_its_bound_is_not_written_as_equal_to_it():
 
 def test_the_outcome_reads_the_engine_s_entry_into_region_68_not_the_samples():
     """Sparse samples miss the entry; the sentence states the step the engine judged, on both engines."""
-    from paa_mj.sim.analytic import simulate_analytic
+    from paa_mj.sim.analytic.engine import simulate_analytic
     from paa_mj.sim.batch import simulate_batch
     from paa_mj.sim.rollout import simulate_mujoco
 

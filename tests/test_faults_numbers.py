@@ -243,7 +243,7 @@ def _api_cases(gymnast):
     from paa_mj.control.trajopt import solve_kip
     from paa_mj.model import load_robot
     from paa_mj.sim import simulate_mujoco
-    from paa_mj.sim.analytic import simulate_analytic
+    from paa_mj.sim.analytic.engine import simulate_analytic
 
     am, x0 = gymnast.analytic, np.array([-np.pi, 0, 0, 0, 0, 0])
 

@@ -470,7 +470,7 @@ def test_a_bench_measurement_cut_short_is_no_measurement():
 def test_a_single_run_cut_short_is_raised_unless_its_caller_keeps_it():
     """Ctrl-C in a run (here raised by a Python controller at t = 0.1 s, where the engine catches it)."""
     from paa_mj.model import load_robot
-    from paa_mj.sim.analytic import simulate_analytic
+    from paa_mj.sim.analytic.engine import simulate_analytic
     from paa_mj.sim.rollout import simulate_mujoco
 
     class CtrlC:

@@ -486,7 +486,7 @@ def test_the_analytic_engine_refuses_a_held_policy_inside_a_switched_controller(
     from paa_mj.control.combined import CombinedController
     from paa_mj.control.registry import make_controller
     from paa_mj.errors import PaaError
-    from paa_mj.sim.analytic import simulate_analytic
+    from paa_mj.sim.analytic.engine import simulate_analytic
 
     policy = make_controller(f"{policy_file}:Trained", gymnast)
     vcl = make_controller("vcl", gymnast)

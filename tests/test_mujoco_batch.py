@@ -1,16 +1,17 @@
-"""The engine's plans through MuJoCo's batch API (paa_mj.sim.mujoco_batch): the engine's outcome, bit for bit."""
+"""The engine's plans through MuJoCo's batch API (paa_mj.sim.compiled.mujoco_batch): the engine's outcome, bit for bit."""
 import numpy as np
 import pytest
 
 from paa_mj.control import make_controller
 from paa_mj.errors import PaaError
-from paa_mj.sim import Disturbances, engine
+from paa_mj.sim import Disturbances
+from paa_mj.sim.compiled import engine
 from paa_mj.sim.batch import build_plan
 from paa_mj.task import as_task
 
 from .helpers import Uncompiled
 
-mujoco_batch = pytest.importorskip("paa_mj.sim.mujoco_batch")
+mujoco_batch = pytest.importorskip("paa_mj.sim.compiled.mujoco_batch")
 pytestmark = pytest.mark.skipif(not mujoco_batch.available(), reason="MuJoCo without mujoco.batch")
 
 

@@ -116,7 +116,7 @@ def test_spong_balances_with_drakes_lqr_and_wrapping(spong):
 
 
 def test_spong_compiled_form_gives_the_same_torques(spong):
-    from paa_mj.sim.engine import evaluate
+    from paa_mj.sim.compiled.engine import evaluate
 
     rng = np.random.default_rng(5)
     q = np.concatenate([rng.uniform(-4, 4, (50, 2)), rng.normal(0, 0.05, (50, 2))])

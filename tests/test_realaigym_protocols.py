@@ -7,9 +7,9 @@ import pytest
 
 from paa_mj.control.registry import ControllerSpec
 from paa_mj.model import load_robot
-from paa_mj.sim import protocol
-from paa_mj.studies import realaigym as rg
-from paa_mj.studies import realaigym_scores as sc
+from paa_mj.realaigym import simulator as protocol
+from paa_mj.realaigym import study as rg
+from paa_mj.realaigym import scores as sc
 from paa_mj.task import Task
 
 from .helpers import cli

@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 from paa_mj.control.registry import ControllerSpec
-from paa_mj.sim import protocol
-from paa_mj.sim.warp_device import warp_available
-from paa_mj.studies import realaigym as rg
+from paa_mj.realaigym import simulator as protocol
+from paa_mj.sim.warp.device import warp_available
+from paa_mj.realaigym import study as rg
 from paa_mj.task import Task
 from .helpers import cli
 

@@ -5,7 +5,7 @@ everywhere. MuJoCo Warp computes in float32, the CPU engine in float64: what is 
 allows (measured on the CI machine, RK4 at 1 ms): one rollout of the physics alone agrees with ``mj_step`` to
 about 3e-6 rad over 200 steps, the closed loop under the paper's controller to about 5e-6 (the same switches,
 books and statuses), and the laws translated to Warp, run in float64, equal numba's to 1e-12. The step's bookkeeping
-is paa_mj.sim.step's on both engines: the kernels call its translations and nothing else, and under every
+is paa_mj.sim.compiled.step's on both engines: the kernels call its translations and nothing else, and under every
 disturbance the records agree within float32's drift.
 """
 import json
@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from paa_mj.errors import PaaError
-from paa_mj.sim.warp_device import warp_available
+from paa_mj.sim.warp.device import warp_available
 
 needs_warp = pytest.mark.skipif(not warp_available(), reason="warp and mujoco_warp not installed (paa_mj[gpu])")
 DEVICE = "cpu"
@@ -58,7 +58,7 @@ def test_unknown_engine_is_refused(gymnast):
 def warp_modules():
     if not warp_available():
         pytest.skip("warp and mujoco_warp not installed (paa_mj[gpu])")
-    from paa_mj.sim.warp_device import load_warp
+    from paa_mj.sim.warp.device import load_warp
 
     return load_warp()
 
@@ -121,7 +121,7 @@ def test_physics_agrees_with_mj_step_over_200_steps(gymnast, warp_modules):
     the worlds the engines make (no room for constraint rows: the solver's work is MuJoCo's copy for nefc = 0)."""
     import mujoco
 
-    from paa_mj.sim.warp_engine import device_worlds
+    from paa_mj.sim.warp.engine import device_worlds
 
     wp, mjw = warp_modules
     rng = np.random.default_rng(0)
@@ -149,9 +149,9 @@ def test_physics_agrees_with_mj_step_over_200_steps(gymnast, warp_modules):
 def _device_evaluate(wp, form, x, n_links, t=0.0):
     """The packed compiled ``form`` translated to Warp (float64) and run at the states ``x`` (N, 2n) and the time
     ``t`` on the CPU device: (torques, modes)."""
-    from paa_mj.sim.engine import pack
-    from paa_mj.sim.step import call_controller
-    from paa_mj.sim.translate import device_function
+    from paa_mj.sim.compiled.engine import pack
+    from paa_mj.sim.compiled.step import call_controller
+    from paa_mj.sim.warp.translate import device_function
 
     p = pack(form)
     f64, size = wp.float64, 2 * n_links
@@ -187,10 +187,10 @@ def _states_around(task, n_links, seed=1):
 
 @needs_warp
 def test_translated_laws_equal_numba_in_float64(gymnast, folded, warp_modules):
-    """(40), (12), (67) and the switch (68), translated from the source numba compiles (paa_mj.sim.translate) and
+    """(40), (12), (67) and the switch (68), translated from the source numba compiles (paa_mj.sim.warp.translate) and
     run by Warp in float64: the same torques and modes as the compiled forms, to rounding."""
     from paa_mj.control import make_controller
-    from paa_mj.sim.engine import evaluate
+    from paa_mj.sim.compiled.engine import evaluate
 
     wp, _ = warp_modules
     x = _states_around(folded, 3)
@@ -211,7 +211,7 @@ def test_the_chain_s_law_on_the_device_equals_numba(robot_name, goal, name, warp
     NaN for a NaN); both modes among the states."""
     from paa_mj.control import make_controller
     from paa_mj.model import load_robot
-    from paa_mj.sim.engine import evaluate
+    from paa_mj.sim.compiled.engine import evaluate
     from paa_mj.task import Task
 
     wp, _ = warp_modules
@@ -234,7 +234,7 @@ def test_the_tracking_law_on_the_device_equals_numba(gymnast, folded, warp_modul
     device's torques equal numba's to rounding at times on a sample, between samples and past the table's end."""
     from paa_mj.control.base import CompiledForm
     from paa_mj.control.tvlqr import tvlqr_kernel
-    from paa_mj.sim.engine import evaluate
+    from paa_mj.sim.compiled.engine import evaluate
 
     wp, _ = warp_modules
     rng = np.random.default_rng(4)
@@ -316,8 +316,8 @@ def test_each_rollout_gets_its_own_controller_s_parameters(gymnast, folded):
     memory is its own controller's packed form."""
     from paa_mj.control import make_controller
     from paa_mj.sim.batch import build_plan
-    from paa_mj.sim.engine import pack
-    from paa_mj.sim.warp_engine import device_controllers
+    from paa_mj.sim.compiled.engine import pack
+    from paa_mj.sim.warp.engine import device_controllers
 
     a = make_controller("vcl", gymnast, task=folded)
     b = make_controller("vcl", gymnast, task=folded, gains={"kD": 2 * gymnast.gains["kD"]})
@@ -348,7 +348,7 @@ def test_packing_the_running_worlds_changes_no_result(gymnast, folded, warp_modu
     """The worlds still running are packed into fewer as others stop: every record of every rollout is the same,
     bit for bit, as without packing (each world's step reads its own rows only)."""
     from paa_mj.sim import simulate_batch
-    from paa_mj.sim import warp_engine
+    from paa_mj.sim.warp import engine as warp_engine
 
     x0 = _grid_around_goal(folded)
     common = dict(task=folded, dt=0.005, engine="warp", device=DEVICE)
@@ -370,13 +370,14 @@ def test_packing_the_running_worlds_changes_no_result(gymnast, folded, warp_modu
 @needs_warp
 def test_step_kernels_call_only_the_translations_of_step(warp_modules):
     """The bookkeeping of a step is written once: the Warp engine's kernels call, as Warp functions, exactly the
-    translations of paa_mj.sim.step's (the law's switch, measure_into, command_into, account, verdict, apply_pushes,
+    translations of paa_mj.sim.compiled.step's (the law's switch, measure_into, command_into, account, verdict, apply_pushes,
     add_effort_work, state_status) and no function of their own, so that the engines cannot drift apart."""
     from paa_mj.control.energy import vcl_kernel
     from paa_mj.control.lqr import lqr_kernel
     from paa_mj.control.region import region_condition
-    from paa_mj.sim import step, warp_engine
-    from paa_mj.sim.translate import device_function
+    from paa_mj.sim.compiled import step
+    from paa_mj.sim.warp import engine as warp_engine
+    from paa_mj.sim.warp.translate import device_function
 
     wp, _ = warp_modules
     triple = (vcl_kernel, lqr_kernel, region_condition)
@@ -405,7 +406,8 @@ def test_disturbances_draw_the_same_noise_as_the_cpu_engine(gymnast, folded, war
     drift."""
     from paa_mj.sim import Disturbances
     from paa_mj.sim.batch import build_plan, controllers_for
-    from paa_mj.sim import engine, warp_engine
+    from paa_mj.sim.compiled import engine
+    from paa_mj.sim.warp import engine as warp_engine
 
     x0 = _grid_around_goal(folded)[::2]
     n = len(x0)
@@ -465,19 +467,21 @@ def test_refusals_on_the_warp_engine(gymnast, folded, warp_modules):
         simulate_batch(gymnast, x0, 0.01, engine="warp", device="cuda:7")
 
 
-def test_every_built_in_controller_has_a_device_law():
-    """The commands' help says the warp engine runs every built-in controller: the list of device laws is theirs
-    (each law's agreement with numba is tested above)."""
-    from paa_mj.control.registry import BUILTIN
-    from paa_mj.sim.warp_engine import DEVICE_LAWS
+def test_every_built_in_controller_with_a_compiled_law_has_a_device_law():
+    """The commands' help says the warp engine runs every built-in controller with a compiled law: the list of
+    device laws is theirs, derived from their records (each law's agreement with numba is tested above, each
+    record's kernels translate: tests/test_registered_controllers.py)."""
+    from paa_mj.control.registry import RECORDS
+    from paa_mj.sim.warp.engine import DEVICE_LAWS, _device_laws
 
-    assert sorted(DEVICE_LAWS) == sorted(BUILTIN)
+    assert sorted(DEVICE_LAWS) == sorted(name for name, record in RECORDS.items() if record.compiled)
+    assert set(_device_laws()) >= {k for name in DEVICE_LAWS for k in RECORDS[name].kernels}
 
 
 def test_translation_refuses_what_it_does_not_cover():
     pytest.importorskip("warp")
-    from paa_mj.sim.translate import TranslationError, device_function
-    from paa_mj.sim.warp_device import load_warp
+    from paa_mj.sim.warp.translate import TranslationError, device_function
+    from paa_mj.sim.warp.device import load_warp
 
     def uses_try(x):
         try:

@@ -31,7 +31,7 @@ import sys
 
 import numpy as np
 
-from paa_mj.studies.realaigym_scores import performance, up_rows
+from paa_mj.realaigym.scores import performance, up_rows
 
 RECORDS = ("current", "pre-4cddb6c", "as-recorded")
 
@@ -49,7 +49,7 @@ def their_rows(t, x, u, record="current"):
 
 def metrics(T, X, U, l1, l2, t_final=10.0):
     """Their metrics and both scores of the rows of their CSV: T (K,), X (K, 4) in their angles, U (K, 2)
-    (paa_mj.studies.realaigym_scores.performance, the tip's goal height l1 + l2)."""
+    (paa_mj.realaigym.scores.performance, the tip's goal height l1 + l2)."""
     return performance(T, X, U, up_rows(X, (l1, l2), l1 + l2), t_final)
 
 

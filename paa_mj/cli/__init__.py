@@ -129,7 +129,7 @@ def main(argv=None):
         with warnings.catch_warnings(), mujoco_log_off():
             warnings.showwarning = _show_warning
             from ..control.gains import GainsNote, TheoryWarning
-            from ..sim.retirement import SamplingWarning
+            from ..sim.compiled.retirement import SamplingWarning
 
             warnings.simplefilter("always", TheoryWarning)
             warnings.simplefilter("always", SamplingWarning)  # said once per robot, goal, step and gain by itself

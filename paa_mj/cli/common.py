@@ -328,9 +328,9 @@ def spec_from_args(args, robot, task, name=None):
 
     Gains given on the command line replace the robot's stored ones, the others stay.
     """
-    from ..control.registry import GAIN_CONTROLLERS, ControllerSpec, resolve_gains
-
-    from ..control.catalog import LQR_CONTROLLERS, PLANNERS
+    from ..control.catalog import GAIN_CONTROLLERS, LQR_CONTROLLERS, PLANNERS, SWITCHED, hands_over_on_roa
+    from ..control.gains import resolve_gains
+    from ..control.registry import ControllerSpec
 
     name = name or args.controller
     if getattr(args, "no_switch", False):
@@ -357,14 +357,10 @@ def spec_from_args(args, robot, task, name=None):
         options.append(("lqr_weights", tuple(weights)))
     switch = getattr(args, "switch", None)
     if switch is not None:
-        from ..control.catalog import SWITCHED
-
         if name not in SWITCHED:
             raise PaaError(f"--switch applies to the controllers {', '.join(SWITCHED)}, not to {name}")
         if switch != "region":  # region (68) is the default hand-over: the spec stays the plain one
             options.append(("switch", switch))
-    from ..control.catalog import hands_over_on_roa
-
     if getattr(args, "torque_limit", None) is not None and hands_over_on_roa(name, switch):
         options.append(("limit", (args.torque_limit,) * len(robot.torque_limits)))  # the level of the run's limits
     given = {k: getattr(args, k, None) for k in ("kD", "kP", "kV")}

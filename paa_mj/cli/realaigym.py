@@ -9,8 +9,8 @@ from .common import (check_fresh, controller_parent, engine_option, finish, fold
 
 def cmd_realaigym(args):
     from ..model.robot import load_robot
-    from ..outputs.realaigym import write_realaigym
-    from ..studies.realaigym import run_protocol
+    from ..realaigym.outputs import write_realaigym
+    from ..realaigym.study import run_protocol
     from ..task import Task
 
     check_fresh(args)

@@ -54,7 +54,7 @@ def check_duration(t_final, dt):
 def run_from_args(args, progress=True):
     """Build the robot and controller from the options and run the rollout (returns robot, trajectory)."""
     from ..model.robot import load_robot
-    from ..sim.analytic import simulate_analytic
+    from ..sim.analytic.engine import simulate_analytic
     from ..sim.rollout import simulate_mujoco
 
     robot = load_robot("gymnast" if args.robot is None else args.robot)  # an empty --robot is refused

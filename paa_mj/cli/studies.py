@@ -52,7 +52,7 @@ def check_engine_args(args) -> dict:
     if args.device is not None and args.engine != "warp":
         raise PaaError("--device chooses the Warp device of --engine warp; drop it or add --engine warp")
     if args.engine == "warp":
-        from ..sim.warp_device import device_name, load_warp
+        from ..sim.warp.device import device_name, load_warp
 
         wp, _ = load_warp()
         device_name(wp, args.device)
@@ -179,7 +179,10 @@ def cmd_atlas(args):
 def cmd_bench(args):
     from ..studies.bench import format_bench, run_bench
 
-    result = run_bench(batch_size=args.batch_size, progress=not args.json, robot=args.robot, task=args.goal)
+    from ..realaigym.bench import realaigym_rows
+
+    result = run_bench(batch_size=args.batch_size, progress=not args.json, robot=args.robot, task=args.goal,
+                       realaigym=realaigym_rows)
     print_json(result) if args.json else print(format_bench(result))
     return 0
 

@@ -13,8 +13,7 @@ def cmd_theory(args):
     from ..theory.conditions import chain_kd_min
     from ..theory.linear import require_passive_first, theorem1_covers
 
-    from ..control.gains import FAMILY_RULE, family_gains
-    from ..control.registry import resolve_gains
+    from ..control.gains import FAMILY_RULE, family_gains, resolve_gains
     robot = load_robot(args.robot)
     require_passive_first(robot.analytic, "paa-mj theory (the conditions of Theorem 1, (41), (59), (60), (54))",
                           robot.name)

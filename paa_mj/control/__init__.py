@@ -1,10 +1,14 @@
 """Controllers behind one interface (:mod:`~paa_mj.control.base`), by name (:mod:`~paa_mj.control.registry`).
 
+Each built-in controller is declared once, beside its law, by a record (:mod:`~paa_mj.control.record`) that the
+catalog (:mod:`~paa_mj.control.catalog`), the registry, the engines, the studies and the tests derive from:
+
 - :mod:`~paa_mj.control.energy`: swing-up (40) and the conventional candidate (12);
 - :mod:`~paa_mj.control.lqr`: the LQR balance controller (67);
 - :mod:`~paa_mj.control.combined`: the one-way switch, with region (68) of the task as the paper's condition;
 - :mod:`~paa_mj.control.region`: the switch (68) compiled, and a candidate reading of the paper's;
-- :mod:`~paa_mj.control.gains`: the gains against the theory;
+- :mod:`~paa_mj.control.gains`: the gains, their one owner: stored, by rule, given, checked against the theory;
+- :mod:`~paa_mj.control.tvlqr`, :mod:`~paa_mj.control.trajopt`: the planned kips, tracked;
 - :mod:`~paa_mj.control.passive`: zero torque;
 - :mod:`~paa_mj.control.spong`: Spong's acrobot swing-up as Drake states it.
 

@@ -80,7 +80,7 @@ class CompiledForm:
     balance_gain : ndarray (m, 2n) or None
         The linear state feedback tau = -K x that acts in mode 1, x the error from
         the goal ((67) at UDD). The engine uses it to stop a rollout whose balance can no
-        longer fail (:mod:`paa_mj.sim.retirement`); None: never stopped early.
+        longer fail (:mod:`paa_mj.sim.compiled.retirement`); None: never stopped early.
     """
 
     kernel: object

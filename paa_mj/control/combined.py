@@ -19,8 +19,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import PaaError
 from ..task import Task
 from .base import CompiledForm, Controller, SwitchedForm, kernel, reset_controller, torque_of
+from .lqr import LQRController, lqr_weights as weights_of
 from .region import level_condition, reading_condition, reading_margin, region_condition
 
 SWING_UP, BALANCE = 0, 1
@@ -178,3 +180,37 @@ class CombinedController(Controller):
         if isinstance(self.condition, LevelCondition):
             out["switch_level"] = self.condition.rho
         return out
+
+
+#: Where a switched controller hands over to (67) (option ``switch``): region (68), or the inner estimate
+#: x^T S x <= rho of the LQR's region of attraction with the robot's torque limits (:mod:`paa_mj.theory.roa`).
+SWITCHES = ("region", "roa")
+
+
+def hand_over(robot, task: Task, lqr_weights=None, switch=None, limit=None):
+    """The condition on which a swing-up hands over to the LQR (67) on ``robot`` (a
+    :class:`~paa_mj.model.robot.Robot`): region (68) of ``task`` (``switch`` None or ``"region"``), or the LQR's
+    region of attraction with the torque limits the run applies (``switch="roa"``, ``limit`` capping the model's)."""
+    if switch in (None, "region"):
+        if limit is not None:
+            raise PaaError("the option limit applies to the hand-over on the LQR's region of attraction (switch="
+                           "\"roa\"), not to region (68)")
+        return RegionCondition(task)
+    if switch != "roa":
+        raise PaaError(f"the option switch is one of {', '.join(SWITCHES)}, got {switch!r}")
+    from ..theory.linear import lqr_weight_matrices
+    from ..theory.roa import switch_level
+
+    n, motors = robot.params.n_links, robot.params.n_motors
+    Q, R = lqr_weight_matrices(n, *weights_of(n, lqr_weights, motors), n_motors=motors)
+    S, rho = switch_level(robot.analytic, task, Q, R, u_max=robot.capped_torque_limits(limit, "the option limit"),
+                          dt=float(robot.model.opt.timestep))
+    return LevelCondition(task, S, rho)
+
+
+def switched(robot, task: Task, swing, name, lqr_weights=None, switch=None, limit=None):
+    """``swing`` until region (68) of the task (or the LQR's region of attraction with the torque limits the run
+    applies, ``switch="roa"``, ``limit`` capping the model's), then the LQR (67) at its goal (weights
+    ``lqr_weights``) on ``robot``."""
+    return CombinedController(swing, LQRController.for_model(robot.analytic, task, lqr_weights),
+                              hand_over(robot, task, lqr_weights, switch, limit), name=name)

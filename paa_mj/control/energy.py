@@ -46,7 +46,11 @@ from ..model.vcl import Psi, psi, theta
 from ..task import Task
 from ..theory.linear import require_passive_first, theorem1_covers
 from .base import Binding, CompiledForm, Controller, kernel
-from .gains import check_gains_for
+from .combined import switched
+from .gains import check_gains_for, resolve_gains
+from .lqr import lqr_kernel
+from .record import controller
+from .region import level_condition, region_condition
 
 _KD, _KP, _KV = len(eq.CONSTANTS), len(eq.CONSTANTS) + 1, len(eq.CONSTANTS) + 2
 
@@ -405,3 +409,61 @@ class ConventionalController(EnergyVCLController):
 
     name = "vc-only"
     uses_vcl = False
+
+
+# The built-in controllers of (40) and (12): each builder takes (robot, task, gains, check, **options).
+
+def _paper_gains(robot, task, gains, what):
+    """The gains of (40) or (12) (``what``) for ``robot`` and ``task``; refused first on a robot outside the paper's
+    family (:func:`~paa_mj.theory.linear.require_passive_first`)."""
+    require_passive_first(robot.analytic, what, robot.name)
+    return resolve_gains(robot, task, **(gains or {}))
+
+
+@controller("vcl", "(40) swing-up, then LQR (67) on entering region (68): the paper's controller", gains=True,
+            lqr=True, switches=True, compare=True, device=True,
+            kernels=(vcl_kernel, chain_energy_kernel, lqr_kernel, region_condition, level_condition))
+def build_vcl(robot, task, gains=None, check=True, lqr_weights=None, switch=None, limit=None):
+    """The paper's controller: (40) + (67) switched by (68) (or by the LQR's region of attraction)."""
+    return switched(robot, task, build_vcl_only(robot, task, gains, check), "vcl", lqr_weights, switch, limit)
+
+
+@controller("vcl-only", "(40) alone", gains=True, device=True, kernels=(vcl_kernel, chain_energy_kernel))
+def build_vcl_only(robot, task, gains=None, check=True):
+    """Controller (40) alone, for the whole run."""
+    return EnergyVCLController(robot.analytic, **_paper_gains(robot, task, gains, "controller (40) (vcl)"), check=check,
+                               task=task)
+
+
+@controller("vcl-roa", "(40) swing-up, then LQR (67) once its cost-to-go is below the level of its region of"
+            " attraction", gains=True, lqr=True, roa=True, device=True,
+            kernels=(vcl_kernel, chain_energy_kernel, lqr_kernel, level_condition),
+            checked=(("acrobot", "stretched"),))
+def build_vcl_roa(robot, task, gains=None, check=True, lqr_weights=None, limit=None):
+    """``vcl`` handing over to (67) on the LQR's region of attraction (``switch="roa"``) instead of (68)."""
+    return switched(robot, task, build_vcl_only(robot, task, gains, check), "vcl-roa", lqr_weights, "roa", limit)
+
+
+@controller("vc", "conventional candidate (12), then LQR (67) on entering (68)", gains=True, lqr=True,
+            switches=True, compare=True, device=True,
+            kernels=(conventional_kernel, chain_energy_kernel, lqr_kernel, region_condition, level_condition))
+def build_vc(robot, task, gains=None, check=True, lqr_weights=None, switch=None, limit=None):
+    """The conventional candidate (12) + (67) switched by (68) (or by the LQR's region of attraction)."""
+    return switched(robot, task, build_vc_only(robot, task, gains, check), "vc", lqr_weights, switch, limit)
+
+
+@controller("vc-only", "conventional candidate (12) alone", gains=True, device=True,
+            kernels=(conventional_kernel, chain_energy_kernel))
+def build_vc_only(robot, task, gains=None, check=True):
+    """The conventional candidate (12) alone."""
+    return ConventionalController(robot.analytic, **_paper_gains(robot, task, gains, "controller (12) (vc)"),
+                                  check=check, task=task)
+
+
+@controller("vc-roa", "conventional candidate (12), then LQR (67) once its cost-to-go is below its region of"
+            " attraction's level", gains=True, lqr=True, roa=True, device=True,
+            kernels=(conventional_kernel, chain_energy_kernel, lqr_kernel, level_condition),
+            checked=(("acrobot", "stretched"),))
+def build_vc_roa(robot, task, gains=None, check=True, lqr_weights=None, limit=None):
+    """``vc`` handing over to (67) on the LQR's region of attraction (``switch="roa"``) instead of (68)."""
+    return switched(robot, task, build_vc_only(robot, task, gains, check), "vc-roa", lqr_weights, "roa", limit)

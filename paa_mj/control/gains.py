@@ -1,4 +1,11 @@
-"""Gains against the theory: errors below the singularity bound (41), warnings outside Theorem 1."""
+"""The gains of (40) and (12), their one owner: stored, by rule, given; and checked against the theory.
+
+- stored: the gains a robot's model file stores (``Robot.gains``, read with the model);
+- by rule: :data:`FAMILY_RULE` (:func:`family_gains`) where the stored ones do not meet (41) for the goal
+  (:func:`default_gains`);
+- given: the user's, gain by gain over those (:func:`resolve_gains`);
+- checked: errors below the singularity bound (41), warnings outside Theorem 1 (:func:`check_gains_for`).
+"""
 from __future__ import annotations
 
 import math
@@ -157,6 +164,37 @@ def default_gains(model: AnalyticModel, task: Task, stored: dict | None, given: 
         warnings.warn(f"{'gains' if len(taken) == 3 else ', '.join(taken)} of the family rule"
                       f" ({FAMILY_RULE.describe()}): {gains_text(taken)}, since {why}", GainsNote, stacklevel=2)
     return gains
+
+
+def given_gains(robot_name: str, base: dict | None, kD=None, kP=None, kV=None) -> dict:
+    """The gains given, each checked to be a number, the rest from ``base`` (the robot's stored gains, or those of
+    :func:`default_gains`); a gain neither given nor in ``base`` is refused in one line naming the robot."""
+    given = {"kD": kD, "kP": kP, "kV": kV}
+    base = base or {}
+    missing = [k for k, v in given.items() if v is None and k not in base]
+    if missing:
+        raise PaaError(f"robot {robot_name} stores no default gains: give {', '.join('--' + k for k in missing)}")
+    resolved = {}
+    for k, v in given.items():
+        value = base[k] if v is None else v
+        if isinstance(value, (bool, np.bool_, str, bytes)):  # float() would read True as 1 and "5" as 5
+            raise PaaError(f"gain {k} must be a number, got {value!r}")
+        try:
+            resolved[k] = float(value)
+        except (TypeError, ValueError):
+            raise PaaError(f"gain {k} must be a number, got {value!r}") from None
+    return resolved
+
+
+def resolve_gains(robot, task: Task | None = None, kD=None, kP=None, kV=None) -> dict:
+    """The gains a controller of (40) / (12) takes on ``robot`` (a :class:`~paa_mj.model.robot.Robot`) for
+    ``task``: those given, the rest from the robot's stored gains (its model file's) where they meet (41) for the
+    task's goal, else from the family rule (:func:`default_gains`, which says so). Without a ``task``: the given
+    and the stored gains alone."""
+    given = {"kD": kD, "kP": kP, "kV": kV}
+    if task is None or all(v is not None for v in given.values()):
+        return given_gains(robot.name, robot.gains, **given)
+    return given_gains(robot.name, default_gains(robot.analytic, task, robot.gains, given), **given)
 
 
 class TheoryWarning(UserWarning):

@@ -20,6 +20,7 @@ from ..model.states import wrap
 from ..task import Task
 from ..theory.linear import lqr_gain
 from .base import Binding, CompiledForm, Controller, kernel
+from .record import controller
 
 
 @register_jitable
@@ -125,3 +126,9 @@ class LQRController(Controller):
         if self.weights is not None:
             out["lqr_weights"] = list(self.weights)
         return out
+
+
+@controller("lqr", "LQR (67) alone", lqr=True, device=True, kernels=(lqr_kernel,), passive=None)
+def build_lqr(robot, task, gains=None, check=True, lqr_weights=None):
+    """The LQR (67) alone, from wherever the robot starts."""
+    return LQRController.for_model(robot.analytic, task, lqr_weights)

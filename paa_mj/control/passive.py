@@ -4,6 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from .base import CompiledForm, Controller, kernel
+from .record import controller
 
 
 @kernel
@@ -23,3 +24,9 @@ class PassiveController(Controller):
 
     def compiled(self) -> CompiledForm:
         return CompiledForm(passive_kernel, np.zeros(1))
+
+
+@controller("passive", "zero torque", device=True, kernels=(passive_kernel,), passive=None)
+def build_passive(robot, task, gains=None, check=True):
+    """Zero torque."""
+    return PassiveController().bind(robot, task)

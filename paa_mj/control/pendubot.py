@@ -41,6 +41,10 @@ from ..model import chain
 from ..model.dynamics import AnalyticModel
 from ..task import Task
 from .base import Binding, CompiledForm, Controller, kernel
+from .combined import switched
+from .lqr import lqr_kernel
+from .record import controller
+from .region import level_condition, region_condition
 
 #: The default gains, relative: k_E = 1, k_D = 1.5 :func:`kd_bound`, k_P = 5 k_D, k_V = k_D: the one of 36 of a grid
 #: (k_D / bound in 1.05, 1.5, 3; k_P / k_D in 0.01, 0.1, 1, 5; k_V / k_D in 0.01, 0.1, 1) with the earliest swing-up
@@ -159,3 +163,18 @@ class FantoniController(Controller):
     def describe(self) -> dict:
         return {"controller": self.name, "gains": dict(self.gains), "source": "Fantoni, Lozano & Spong (2000),"
                 " IEEE TAC 45(4) 725-729"}
+
+
+@controller("fantoni-only", "Fantoni, Lozano & Spong's pendubot swing-up alone", links=2, passive=(2,),
+            goals=("stretched",), kernels=(fantoni_kernel,))
+def build_fantoni_only(robot, task, gains=None, check=True):
+    """Fantoni, Lozano & Spong's pendubot swing-up (module docstring) alone."""
+    return FantoniController(robot.analytic, task=task)
+
+
+@controller("fantoni", "Fantoni, Lozano & Spong's (2000) energy-based pendubot swing-up, then LQR (67) on entering"
+            " (68) (2 links, the motor at joint 1, --goal stretched)", links=2, passive=(2,), goals=("stretched",),
+            lqr=True, switches=True, kernels=(fantoni_kernel, lqr_kernel, region_condition, level_condition))
+def build_fantoni(robot, task, gains=None, check=True, lqr_weights=None, switch=None, limit=None):
+    """The pendubot's swing-up of Fantoni et al., then (67) switched by (68) (or by the LQR's region of attraction)."""
+    return switched(robot, task, build_fantoni_only(robot, task), "fantoni", lqr_weights, switch, limit)

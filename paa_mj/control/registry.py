@@ -1,27 +1,9 @@
 """Controllers by name, and users' controllers from a file, behind one recipe.
 
-Built-in names (:data:`BUILTIN`):
-
-- ``vcl``: the paper's controller, swing-up (40) then LQR (67) when the state
-  first enters region (68) (the default);
-- ``vcl-only``: (40) alone (the paper's Figs. 6-8 and 12-14);
-- ``vcl-roa``, ``vc-roa``: ``vcl`` and ``vc`` handing over when the LQR's cost-to-go falls below the level of its
-  region of attraction (option ``switch="roa"``, :mod:`paa_mj.theory.roa`), so that both hand-overs can be
-  scored side by side where controllers are named;
-- ``vc``: the conventional candidate (12) then LQR (67) by (68);
-- ``lqr``: (67) alone;
-- ``passive``: zero torque;
-- ``trajopt``: a minimum-time kip from (65) solved by direct collocation
-  (:mod:`paa_mj.control.trajopt`), tracked by time-varying LQR, then (67)
-  (:mod:`paa_mj.control.tvlqr`);
-- ``trajopt-effort``: the same with the kip of least integral of :math:`|\\tau|^2` over
-  a given duration (option ``duration``, default 3 s);
-- ``spong``: Spong's acrobot swing-up with Drake's LQR switch (:mod:`paa_mj.control.spong`), for
-  two-link robots and the stretched goal.
-
-The kips plan within :data:`HEADROOM` of the torque limit (option ``limit``,
-or the robot's actuator ranges; the command line defaults to the peak torques
-of ``vcl`` from (65)), leaving the tracking feedback room to act.
+The built-in controllers are declared beside their laws (:func:`~paa_mj.control.record.controller`; what each is
+and does: ``paa-mj simulate --help``, docs/controllers.md): importing this module imports every module that
+declares one (:func:`~paa_mj.control.catalog.record_modules`), and :data:`RECORDS` holds their records by name,
+:data:`BUILTIN` their builders and descriptions.
 
 A user's controller is ``path/to/file.py:ClassName``: the class is built as
 ``ClassName(robot)`` with the robot of :func:`paa_mj.model.load_robot` and needs
@@ -32,6 +14,7 @@ that studies send to their workers, which build the controller themselves.
 from __future__ import annotations
 
 import hashlib
+import importlib
 import importlib.util
 import sys
 from dataclasses import dataclass, replace
@@ -42,186 +25,35 @@ import numpy as np
 from ..errors import PaaError
 from ..model.params import RobotParams
 from ..task import Task, as_task
+from . import record
 from .base import Binding, Controller
-from .catalog import DESCRIPTIONS, GAIN_CONTROLLERS, OPTIONS, PLANNERS
-from .combined import CombinedController, LevelCondition, RegionCondition
-from .energy import ConventionalController, EnergyVCLController
-from .gains import default_gains
-from .lqr import LQRController
-from .passive import PassiveController
-from .trajopt import INTERVALS, solve_kip
-from .tvlqr import kip_controller
+from .catalog import record_modules
+from .gains import resolve_gains
+from .record import ControllerRecord
 
 
-def resolve_gains(robot, task, kD=None, kP=None, kV=None) -> dict:
-    """The gains given, the rest from the robot's stored gains where they meet (41) for ``task``'s goal, else from
-    the family rule (:func:`~paa_mj.control.gains.default_gains`, which says so)."""
-    given = {"kD": kD, "kP": kP, "kV": kV}
-    if all(v is not None for v in given.values()):
-        return robot.resolve_gains(**given)
-    return robot.resolve_gains(**given, defaults=default_gains(robot.analytic, task, robot.gains, given))
+def _records() -> dict:
+    """Every declared controller's record, by name, in the order of :func:`~paa_mj.control.catalog.record_modules`
+    (each module imported: its declarations register)."""
+    modules = record_modules()
+    for module in modules:
+        importlib.import_module(module)
+    order = {module: k for k, module in enumerate(modules)}
+    return dict(sorted(record.RECORDS.items(), key=lambda item: order.get(item[1].module, len(order))))
 
 
-def _gains(robot, task, gains, what):
-    """The gains of (40) or (12) (``what``) for ``robot`` and ``task``; refused first on a robot outside the paper's
-    family (:func:`~paa_mj.theory.linear.require_passive_first`)."""
-    from ..theory.linear import require_passive_first
-
-    require_passive_first(robot.analytic, what, robot.name)
-    return resolve_gains(robot, task, **(gains or {}))
+#: The built-in controllers' records, by name.
+RECORDS = _records()
+#: The built-in controllers by name: (builder, description).
+BUILTIN = {name: (r.build, r.description) for name, r in RECORDS.items()}
 
 
-#: Fraction of the torque limit a planned kip may use (the rest is the tracking controller's).
-HEADROOM = 0.9
-#: Duration of a min-effort kip when none is given [s].
-EFFORT_DURATION = 3.0
-
-
-def _kip_bound(robot, limit):
-    limits = robot.capped_torque_limits(limit, "the option limit")
-    if not np.all(np.isfinite(limits)):
-        raise PaaError("a planned kip needs a torque limit: give limit=(T2, T3) [N m] or a model with actuator ranges"
-                       " (the command line uses the peak torques of vcl from (65))")
-    return HEADROOM * limits
-
-
-# Each builder takes (robot, task, gains, check, **options) and returns the controller for that robot and task.
-
-def _planned_kip(robot, task, limit, objective, duration, intervals, plant):
-    """The kip ``robot`` plans; a controller that believes in a model other than its ``plant``'s starts IPOPT from
-    the plant's own kip (the same bounds and settings), so that a perturbed model re-plans near that plan."""
-    bound = _kip_bound(robot, limit)
-    start = None
-    if plant is not None and plant.params != robot.params:
-        start = solve_kip(plant.analytic, bound, objective, duration=duration, intervals=intervals, task=task)
-    return solve_kip(robot.analytic, bound, objective, duration=duration, intervals=intervals, task=task,
-                     start=start)
-
-
-def build_trajopt(robot, task, gains=None, check=True, limit=None, duration=None, intervals=INTERVALS,
-                  lqr_weights=None, plant=None):
-    """The minimum-time kip, tracked by TVLQR, then (67)."""
-    kip = _planned_kip(robot, task, limit, "min-time", duration, intervals, plant)
-    return kip_controller(robot.analytic, kip, task, name="trajopt", lqr_weights=lqr_weights)
-
-
-def build_trajopt_effort(robot, task, gains=None, check=True, limit=None, duration=EFFORT_DURATION,
-                         intervals=INTERVALS, lqr_weights=None, plant=None):
-    """The kip of least effort over ``duration`` seconds, tracked by TVLQR, then (67)."""
-    kip = _planned_kip(robot, task, limit, "min-effort", duration, intervals, plant)
-    return kip_controller(robot.analytic, kip, task, name="trajopt-effort", lqr_weights=lqr_weights)
-
-
-#: Where a switched controller hands over to (67) (option ``switch``): region (68), or the inner estimate
-#: x^T S x <= rho of the LQR's region of attraction with the robot's torque limits (:mod:`paa_mj.theory.roa`).
-SWITCHES = ("region", "roa")
-
-
-def _condition(robot, task, lqr_weights, switch, limit):
-    if switch in (None, "region"):
-        if limit is not None:
-            raise PaaError("the option limit applies to the hand-over on the LQR's region of attraction (switch="
-                           "\"roa\"), not to region (68)")
-        return RegionCondition(task)
-    if switch != "roa":
-        raise PaaError(f"the option switch is one of {', '.join(SWITCHES)}, got {switch!r}")
-    from ..theory.linear import lqr_weight_matrices
-    from ..theory.roa import switch_level
-    from .lqr import lqr_weights as weights_of
-
-    n, motors = robot.params.n_links, robot.params.n_motors
-    Q, R = lqr_weight_matrices(n, *weights_of(n, lqr_weights, motors), n_motors=motors)
-    S, rho = switch_level(robot.analytic, task, Q, R, u_max=robot.capped_torque_limits(limit, "the option limit"),
-                          dt=float(robot.model.opt.timestep))
-    return LevelCondition(task, S, rho)
-
-
-def _switched(robot, task, swing, name, lqr_weights=None, switch=None, limit=None):
-    """``swing`` until region (68) of the task (or the LQR's region of attraction with the torque limits the run
-    applies, ``switch="roa"``, ``limit`` capping the model's), then the LQR (67) at its goal (weights
-    ``lqr_weights``)."""
-    return CombinedController(swing, LQRController.for_model(robot.analytic, task, lqr_weights),
-                              _condition(robot, task, lqr_weights, switch, limit), name=name)
-
-
-def build_vcl(robot, task, gains=None, check=True, lqr_weights=None, switch=None, limit=None):
-    """The paper's controller: (40) + (67) switched by (68) (or by the LQR's region of attraction)."""
-    return _switched(robot, task, build_vcl_only(robot, task, gains, check), "vcl", lqr_weights, switch, limit)
-
-
-def build_vcl_only(robot, task, gains=None, check=True):
-    """Controller (40) alone, for the whole run."""
-    return EnergyVCLController(robot.analytic, **_gains(robot, task, gains, "controller (40) (vcl)"), check=check,
-                               task=task)
-
-
-def build_vc(robot, task, gains=None, check=True, lqr_weights=None, switch=None, limit=None):
-    """The conventional candidate (12) + (67) switched by (68) (or by the LQR's region of attraction)."""
-    return _switched(robot, task, build_vc_only(robot, task, gains, check), "vc", lqr_weights, switch, limit)
-
-
-def build_vc_only(robot, task, gains=None, check=True):
-    """The conventional candidate (12) alone."""
-    return ConventionalController(robot.analytic, **_gains(robot, task, gains, "controller (12) (vc)"), check=check,
-                                  task=task)
-
-
-def build_vcl_roa(robot, task, gains=None, check=True, lqr_weights=None, limit=None):
-    """``vcl`` handing over to (67) on the LQR's region of attraction (``switch="roa"``) instead of (68)."""
-    return _switched(robot, task, build_vcl_only(robot, task, gains, check), "vcl-roa", lqr_weights, "roa", limit)
-
-
-def build_vc_roa(robot, task, gains=None, check=True, lqr_weights=None, limit=None):
-    """``vc`` handing over to (67) on the LQR's region of attraction (``switch="roa"``) instead of (68)."""
-    return _switched(robot, task, build_vc_only(robot, task, gains, check), "vc-roa", lqr_weights, "roa", limit)
-
-
-def build_lqr(robot, task, gains=None, check=True, lqr_weights=None):
-    """The LQR (67) alone, from wherever the robot starts."""
-    return LQRController.for_model(robot.analytic, task, lqr_weights)
-
-
-def build_passive(robot, task, gains=None, check=True):
-    """Zero torque."""
-    return PassiveController().bind(robot, task)
-
-
-def build_spong(robot, task, gains=None, check=True):
-    """Spong's acrobot swing-up with Drake's defaults (:mod:`paa_mj.control.spong`): two links, stretched goal."""
-    from .spong import SpongController
-
-    if robot.params.n_links != 2:
-        raise PaaError(f"spong is Spong's acrobot swing-up, for robots of 2 links; {robot.name} has"
-                       f" {robot.params.n_links}")
-    from ..theory.linear import require_passive_first
-
-    require_passive_first(robot.analytic, "spong (Spong's acrobot swing-up, its motor at the elbow)", robot.name)
-    return SpongController(robot.analytic, task=task)
-
-
-def build_fantoni_only(robot, task, gains=None, check=True):
-    """Fantoni, Lozano & Spong's pendubot swing-up (:mod:`paa_mj.control.pendubot`) alone."""
-    from .pendubot import FantoniController
-
-    return FantoniController(robot.analytic, task=task)
-
-
-def build_fantoni(robot, task, gains=None, check=True, lqr_weights=None, switch=None, limit=None):
-    """The pendubot's swing-up of Fantoni et al., then (67) switched by (68) (or by the LQR's region of attraction)."""
-    return _switched(robot, task, build_fantoni_only(robot, task), "fantoni", lqr_weights, switch, limit)
-
-
-BUILTIN = {name: (builder, DESCRIPTIONS[name]) for name, builder in (
-    ("vcl", build_vcl), ("vcl-only", build_vcl_only), ("vcl-roa", build_vcl_roa), ("vc", build_vc),
-    ("vc-only", build_vc_only), ("vc-roa", build_vc_roa),
-    ("lqr", build_lqr), ("passive", build_passive), ("trajopt", build_trajopt),
-    ("trajopt-effort", build_trajopt_effort), ("spong", build_spong), ("fantoni", build_fantoni),
-    ("fantoni-only", build_fantoni_only))}
-
-
-def register(name: str, builder, description: str):
-    """Add a built-in controller: ``builder(robot, task, gains=None, check=True)`` returns it for that robot and
-    :class:`~paa_mj.task.Task`."""
+def register(name: str, builder, description: str, **capabilities):
+    """Add a built-in controller at run time: ``builder(robot, task, gains=None, check=True)`` returns it for that
+    robot and :class:`~paa_mj.task.Task`; ``capabilities`` as :class:`~paa_mj.control.record.ControllerRecord`'s.
+    (A controller of the package is declared in its module instead, with :func:`~paa_mj.control.record.controller`.)
+    """
+    RECORDS[name] = ControllerRecord(name, description, builder, getattr(builder, "__module__", ""), **capabilities)
     BUILTIN[name] = (builder, description)
 
 
@@ -277,7 +109,7 @@ class ControllerSpec:
     check : bool
         Check the gains against the theory when building.
     options : tuple of (name, value)
-        The controller's own options (:data:`~paa_mj.control.catalog.OPTIONS`).
+        The controller's own options (:attr:`~paa_mj.control.record.ControllerRecord.options`).
     task : Task or None
         The task it is built for (None: the folded task of the robot it is built on); a user's class gets it as
         ``task=`` when its constructor takes it (or its goal's name as ``goal=``).
@@ -309,15 +141,17 @@ class ControllerSpec:
             raise PaaError(f"unknown controller {self.name!r}: use one of {', '.join(BUILTIN)} or"
                            " path/to/file.py:ClassName")
         if self.gains is not None:
-            if self.name not in GAIN_CONTROLLERS:
-                raise PaaError(f"gains kD, kP, kV apply to the controllers {', '.join(GAIN_CONTROLLERS)},"
+            if self.name not in RECORDS or not RECORDS[self.name].gains:
+                gain_controllers = ", ".join(name for name, r in RECORDS.items() if r.gains)
+                raise PaaError(f"gains kD, kP, kV apply to the controllers {gain_controllers},"
                                f" not to {self.short_name}")
             object.__setattr__(self, "gains", _three_gains(self.gains))
         try:
             options = dict(self.options)
         except (TypeError, ValueError):
             raise PaaError(f"options must be (name, value) pairs, got {self.options!r}") from None
-        unknown = sorted(set(options) - set(OPTIONS.get(self.name, ())))
+        known = RECORDS[self.name].options if self.name in RECORDS else ()
+        unknown = sorted(set(options) - set(known))
         if unknown:
             raise PaaError(f"option(s) {', '.join(unknown)} do not apply to the controller {self.short_name}")
         object.__setattr__(self, "options", tuple(sorted((k, _hashable(v)) for k, v in options.items())))
@@ -357,7 +191,7 @@ class ControllerSpec:
                 return controller  # bound already (a built-in the user's class made): the run checks that binding
         else:
             gains = None if self.gains is None else dict(zip(("kD", "kP", "kV"), self.gains))
-            plant = {"plant": robot} if self.name in PLANNERS and self.believed is not None else {}
+            plant = {"plant": robot} if RECORDS[self.name].plans and self.believed is not None else {}
             controller = BUILTIN[self.name][0](believed, task, gains=gains, check=self.check, **dict(self.options),
                                                **plant)
         _bind(controller, robot, task, self.short_name)  # to the plant: believing another model is on purpose
@@ -431,7 +265,7 @@ def make_controller(name: str, robot, *, task: Task | str | None = None, gains: 
     """The controller ``name`` (built-in or ``file.py:ClassName``) for ``robot`` and ``task``, bound to both.
 
     ``task``: a :class:`~paa_mj.task.Task`, a goal's name, or None for the folded task. ``gains`` ({"kD", "kP",
-    "kV"}, any subset) override the robot's stored gains; ``options`` are the controller's own (:data:`OPTIONS`).
+    "kV"}, any subset) override the robot's stored gains; ``options`` are the controller's own (its record's).
     """
     from ..model.robot import Robot
 

@@ -60,6 +60,7 @@ from ..model import chain
 from ..model.dynamics import AnalyticModel
 from ..task import Task
 from .base import CompiledForm, Controller, kernel
+from .record import controller
 
 #: Drake's defaults (``SpongControllerParams``): energy gain k_e, elbow gains k_p [1/s^2] and k_d [1/s],
 #: the threshold of the LQR cost-to-go below which the LQR acts.
@@ -252,3 +253,14 @@ class SpongController(Controller):
         return {"controller": self.name, "k_e": self.k_e, "k_p": self.k_p, "k_d": self.k_d,
                 "switch": f"LQR cost-to-go < {self.threshold:g} (Q = diag(10, 10, 1, 1), R = 1), no hysteresis",
                 "clamp": self.clamp}
+
+
+@controller("spong", "Spong's acrobot swing-up, then LQR below a cost-to-go (Drake's defaults; 2 links, --goal"
+            " stretched)", links=2, goals=("stretched",), hands_over=True, device=True,
+            kernels=(spong_kernel,))
+def build_spong(robot, task, gains=None, check=True):
+    """Spong's acrobot swing-up with Drake's defaults (module docstring): two links, stretched goal."""
+    if robot.params.n_links != 2:
+        raise PaaError(f"spong is Spong's acrobot swing-up, for robots of 2 links; {robot.name} has"
+                       f" {robot.params.n_links}")
+    return SpongController(robot.analytic, task=task)

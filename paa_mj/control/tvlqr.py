@@ -31,10 +31,11 @@ from ..model.states import wrap
 from ..task import Task
 from ..theory.linear import LQR_Q, LQR_R, LQR_WEIGHT, goal_linearization, lqr_weight_matrices
 from .base import CompiledForm, Controller, kernel
-from .combined import CombinedController, TimeCondition
-from .lqr import LQRController
+from .combined import CombinedController, TimeCondition, time_condition
+from .lqr import LQRController, lqr_kernel
 from ..model.equations import casadi_module
-from .trajopt import Kip, dynamics_function
+from .record import controller
+from .trajopt import INTERVALS, Kip, dynamics_function, solve_kip
 
 #: Table step of the tracking controller [s] (the physics step of the named robots).
 TABLE_DT = 1e-3
@@ -213,3 +214,52 @@ def kip_controller(model: AnalyticModel, kip: Kip, task: Task, name="trajopt", l
     tracking = TVLQRController(model, kip, task)
     return CombinedController(tracking, LQRController.for_model(model, task, lqr_weights), TimeCondition(kip.duration),
                               name=name)
+
+
+# The planned kips, tracked: ``trajopt`` and ``trajopt-effort``. Each builder takes (robot, task, gains, check,
+# **options) and, where the controller believes in a model other than the plant's, the ``plant``.
+
+#: Fraction of the torque limit a planned kip may use (the rest is the tracking controller's).
+HEADROOM = 0.9
+#: Duration of a min-effort kip when none is given [s].
+EFFORT_DURATION = 3.0
+
+
+def _kip_bound(robot, limit):
+    limits = robot.capped_torque_limits(limit, "the option limit")
+    if not np.all(np.isfinite(limits)):
+        raise PaaError("a planned kip needs a torque limit: give limit=(T2, T3) [N m] or a model with actuator ranges"
+                       " (the command line uses the peak torques of vcl from (65))")
+    return HEADROOM * limits
+
+
+def _planned_kip(robot, task, limit, objective, duration, intervals, plant):
+    """The kip ``robot`` plans within :data:`HEADROOM` of the torque limit (option ``limit``, or the robot's
+    actuator ranges); a controller that believes in a model other than its ``plant``'s starts IPOPT from the
+    plant's own kip (the same bounds and settings), so that a perturbed model re-plans near that plan."""
+    bound = _kip_bound(robot, limit)
+    start = None
+    if plant is not None and plant.params != robot.params:
+        start = solve_kip(plant.analytic, bound, objective, duration=duration, intervals=intervals, task=task)
+    return solve_kip(robot.analytic, bound, objective, duration=duration, intervals=intervals, task=task,
+                     start=start)
+
+
+@controller("trajopt", "minimum-time kip by collocation, tracked by TVLQR, then (67)", plans=True, lqr=True,
+            passive=None, compare=True, device=True, kernels=(tvlqr_kernel, lqr_kernel, time_condition),
+            checked=(("gymnast", "folded"),), check_options=(("limit", (470.0, 217.0)), ("intervals", 16)))
+def build_trajopt(robot, task, gains=None, check=True, limit=None, duration=None, intervals=INTERVALS,
+                  lqr_weights=None, plant=None):
+    """The minimum-time kip, tracked by TVLQR, then (67)."""
+    kip = _planned_kip(robot, task, limit, "min-time", duration, intervals, plant)
+    return kip_controller(robot.analytic, kip, task, name="trajopt", lqr_weights=lqr_weights)
+
+
+@controller("trajopt-effort", "least-effort kip over a duration, tracked by TVLQR, then (67)", plans=True,
+            lqr=True, passive=None, compare=True, device=True, kernels=(tvlqr_kernel, lqr_kernel, time_condition),
+            checked=(("gymnast", "folded"),), check_options=(("limit", (470.0, 217.0)), ("intervals", 16)))
+def build_trajopt_effort(robot, task, gains=None, check=True, limit=None, duration=EFFORT_DURATION,
+                         intervals=INTERVALS, lqr_weights=None, plant=None):
+    """The kip of least effort over ``duration`` seconds, tracked by TVLQR, then (67)."""
+    kip = _planned_kip(robot, task, limit, "min-effort", duration, intervals, plant)
+    return kip_controller(robot.analytic, kip, task, name="trajopt-effort", lqr_weights=lqr_weights)

@@ -24,9 +24,9 @@ observations and n - 1 actions (:mod:`paa_mj.envs.spaces`), and its rewards meas
 Dynamics
     One environment step holds the torque over ``frame_skip`` physics steps of MuJoCo (RK4, the model's
     step, 1 ms for the stored robots): a control period of 10 ms in v1, 1 ms in v0 at 1 ms. The physics runs in compiled code
-    (``mj_step`` called from numba, as :mod:`paa_mj.sim.engine` does), the same code for one
+    (``mj_step`` called from numba, as :mod:`paa_mj.sim.compiled.engine` does), the same code for one
     environment and for the vector environment. ``physics="analytic"`` steps the robot's own equations
-    of motion by the same RK4 instead (:mod:`paa_mj.sim.rk4`; a model of another integrator is refused): the
+    of motion by the same RK4 instead (:mod:`paa_mj.sim.analytic.rk4`; a model of another integrator is refused): the
     same equations, states that agree with MuJoCo's to rounding, at under a tenth of the cost (``paa-mj bench``).
 Termination and truncation
     Terminated when the state diverges (non-finite, speeds above 1e4 rad/s, MuJoCo warnings); the
@@ -121,7 +121,7 @@ class GymnastEnv(gym.Env):
         Size of the rendered frames [pixels], in [16, 4096].
     physics : "mujoco" or "analytic"
         ``mj_step`` of the robot's MuJoCo model (default), or the classic RK4 of the robot's own equations of
-        motion (:func:`paa_mj.sim.rk4.rk4_step`, the same time step, the torque held over it): the same
+        motion (:func:`paa_mj.sim.analytic.rk4.rk4_step`, the same time step, the torque held over it): the same
         equations as MuJoCo's (``paa-mj check``), over ten times cheaper a step, agreeing with MuJoCo's
         steps to rounding, not bit for bit; rounding grows where the motion is chaotic (a swing-up), so
         episodes of the two agree closely while they balance and statistically, not state for state, over a

@@ -4,8 +4,8 @@ of every Gymnasium environment of the package.
 One environment (:class:`~paa_mj.envs.single.GymnastEnv`) holds one :class:`Robots`, the vector environment
 (:class:`~paa_mj.envs.vector.GymnastVectorEnv`) N: the same code computes both, so they agree bit for bit.
 With ``physics="mujoco"`` each robot is an MjData stepped by ``mj_step`` called from numba (as
-:mod:`paa_mj.sim.step` does); with ``"analytic"`` its state lives in the package's own arrays and is stepped by
-RK4 of the robot's equations of motion (:func:`paa_mj.sim.rk4.rk4_step`). Compiled code reads three records:
+:mod:`paa_mj.sim.compiled.step` does); with ``"analytic"`` its state lives in the package's own arrays and is stepped by
+RK4 of the robot's equations of motion (:func:`paa_mj.sim.analytic.rk4.rk4_step`). Compiled code reads three records:
 
 - :class:`Physics`: the robots' data (addresses), or the constants of their equations;
 - :class:`Rules`: the task (:attr:`~paa_mj.task.Task.params`), the torque limits and the reward;
@@ -34,15 +34,15 @@ from numba.extending import intrinsic, register_jitable
 
 from ..mujoco_log import mujoco_log_off
 from ..sim.integrators import integrator_name
-from ..sim.mujoco_lib import mj_step as _mj_step
-from ..sim.rk4 import rk4_constants, rk4_step, work_size
-from ..sim.step import _WARNINGS, MAX_SPEED
+from ..sim.compiled.mujoco_lib import mj_step as _mj_step
+from ..sim.analytic.rk4 import rk4_constants, rk4_step, work_size
+from ..sim.compiled.step import _WARNINGS, MAX_SPEED
 from ..task import (BOOK, P_SWITCH_ANGLE, P_SWITCH_SPEED, book_start, book_succeeded, book_update, state_terms,
                     switch_margin_of)
 from .spaces import _observe_into, _observe_rows
 
 #: The physics an environment can run: MuJoCo's ``mj_step`` (the default), or the chain's own equations of
-#: motion integrated by the same RK4 (:func:`paa_mj.sim.rk4.rk4_step`), over ten times cheaper.
+#: motion integrated by the same RK4 (:func:`paa_mj.sim.analytic.rk4.rk4_step`), over ten times cheaper.
 PHYSICS = ("mujoco", "analytic")
 #: The reward kinds: v0's, the kip's and balance's (module docstring).
 REWARD_V0, REWARD_KIP, REWARD_BALANCE = range(3)
@@ -77,7 +77,7 @@ class Physics(NamedTuple):
     model: int
     addresses: np.ndarray  # (N, 5) of intp: the columns _DATA.._WARN
     warn_stride: int
-    constants: np.ndarray  # :func:`~paa_mj.sim.rk4.rk4_constants` (physics "analytic")
+    constants: np.ndarray  # :func:`~paa_mj.sim.analytic.rk4.rk4_constants` (physics "analytic")
     frame_skip: int
 
 

@@ -13,7 +13,7 @@ What it saves is the Python around the physics, not the physics: at the default 
 ``mj_step`` of 1 ms) ``mj_step`` alone is about two thirds of a single environment's step and above 95% of
 this one's, so N single environments cost about 1.5 times as much CPU per step, no more; at 1 ms, 4 to 5 times
 (``paa-mj bench``: ``vector_env_speedup``, ``vector_env_speedup_bound``, ``vector_env_physics_share``).
-With ``physics="analytic"`` (RK4 of the robot's own equations, :mod:`paa_mj.sim.rk4`) the physics itself is
+With ``physics="analytic"`` (RK4 of the robot's own equations, :mod:`paa_mj.sim.analytic.rk4`) the physics itself is
 under a tenth of MuJoCo's, and the vector environment is about 5 times cheaper a step than N single environments
 on the same physics at 10 ms, 18 times cheaper than N single environments on MuJoCo's (``paa-mj bench``:
 ``vector_env_analytic_speedup``, ``vector_env_analytic_vs_single_mujoco``).
@@ -44,7 +44,7 @@ from numba import njit
 
 from ..mujoco_log import mujoco_log_off
 from ..sim.batch import ENGINES  # MuJoCo on the CPU (physics mujoco or analytic), or MuJoCo Warp
-from ..sim.mujoco_lib import mj_step as _mj_step
+from ..sim.compiled.mujoco_lib import mj_step as _mj_step
 from ..task import book_succeeded
 from .single import GymnastEnv, perturbed
 from .spaces import _check_options, _check_x0, _real_array, _whole, action_to_torque

@@ -5,7 +5,7 @@
 ``episodes``, ``rules``, resets, snapshots), and the host's arrays stay what the environment reads: an
 environment step sends the states, torques and books of the robots to the device, runs ``frame_skip`` physics
 steps of every world there, each followed by a kernel that keeps the task's book of success
-(:func:`~paa_mj.task.book_update`, translated from the same source: :mod:`paa_mj.sim.translate`) and stops a
+(:func:`~paa_mj.task.book_update`, translated from the same source: :mod:`paa_mj.sim.warp.translate`) and stops a
 robot whose state is not finite or runs away (back at its last good state), then reads the states and books back
 and computes the observations, rewards and margins on the host with the compiled code of the CPU physics
 (:func:`~paa_mj.envs.stepper.finish_rows`). MuJoCo Warp computes in float32: the observations agree with the
@@ -15,9 +15,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..sim.step import MAX_SPEED
-from ..sim.warp_device import device_name, load_warp
-from ..sim.warp_engine import device_worlds, world_bytes
+from ..sim.compiled.step import MAX_SPEED
+from ..sim.warp.device import device_name, load_warp
+from ..sim.warp.engine import device_worlds, world_bytes
 from ..task import BOOK, book_update
 from .stepper import EpisodeRecords, finish_rows
 
@@ -28,7 +28,7 @@ def _kernels(wp, n_links):
     key = (id(wp), n_links)
     if key in _KERNELS:
         return _KERNELS[key]
-    from ..sim.translate import device_function
+    from ..sim.warp.translate import device_function
 
     book = device_function(wp, book_update, state_size=2 * n_links)
 

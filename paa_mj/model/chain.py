@@ -76,7 +76,7 @@ def drive_map(n, actuated=None) -> np.ndarray:
 @register_jitable
 def matrix_view(work, start, rows, cols):
     """``work[start:start + rows cols]`` as a (rows, cols) matrix that shares its numbers: how a compiled law takes
-    its 2-d scratch from one flat float64 array, as :func:`paa_mj.sim.translate` runs it on a Warp device too.
+    its 2-d scratch from one flat float64 array, as :func:`paa_mj.sim.warp.translate` runs it on a Warp device too.
     ``work`` must be contiguous (a controller's memory is): NumPy would copy another silently."""
     return np.ascontiguousarray(work[start:start + rows * cols]).reshape((rows, cols))
 

@@ -39,7 +39,8 @@ class Robot:
     analytic : AnalyticModel
         The paper's model (1)-(7) with ``params``.
     gains : dict or None
-        Default gains ``{"kD", "kP", "kV"}`` of controller (40) stored in the model file.
+        The gains ``{"kD", "kP", "kV"}`` of controller (40) the model file stores, as read (what a controller
+        takes is :func:`paa_mj.control.gains.resolve_gains`'s).
     torque_limits : ndarray (m,)
         The motors' torque limits [N m] from the model's actuator ranges (+inf: none).
     xml : str
@@ -53,25 +54,6 @@ class Robot:
     gains: dict | None
     torque_limits: np.ndarray
     xml: str
-
-    def resolve_gains(self, kD=None, kP=None, kV=None, defaults=None) -> dict:
-        """Gains given by the user, falling back for the rest on ``defaults`` (default: the model's stored gains;
-        :func:`paa_mj.control.registry.resolve_gains` gives those of a task)."""
-        given = {"kD": kD, "kP": kP, "kV": kV}
-        base = (self.gains or {}) if defaults is None else defaults
-        missing = [k for k, v in given.items() if v is None and k not in base]
-        if missing:
-            raise PaaError(f"robot {self.name} stores no default gains: give {', '.join('--' + k for k in missing)}")
-        resolved = {}
-        for k, v in given.items():
-            value = base[k] if v is None else v
-            if isinstance(value, (bool, np.bool_, str, bytes)):  # float() would read True as 1 and "5" as 5
-                raise PaaError(f"gain {k} must be a number, got {value!r}")
-            try:
-                resolved[k] = float(value)
-            except (TypeError, ValueError):
-                raise PaaError(f"gain {k} must be a number, got {value!r}") from None
-        return resolved
 
     def capped_torque_limits(self, requested=None, what="the torque limit", rollouts=None) -> np.ndarray:
         """Each motor's torque limit a run applies [N m], (m,), or one row per rollout (``rollouts``, m)

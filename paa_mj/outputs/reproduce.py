@@ -21,7 +21,7 @@ from ..progress import progress, stage
 from ..io import ensure_dir, write_json, write_text
 from ..model.robot import load_robot
 from ..task import Task
-from ..sim.analytic import simulate_analytic
+from ..sim.analytic.engine import simulate_analytic
 from ..sim.rollout import simulate_mujoco
 from ..studies import switching
 from ..studies.basin import basin

@@ -1,19 +1,29 @@
-"""Rollouts: MuJoCo single and batch through one compiled engine, and the exact analytic closed loop.
+"""Rollouts: MuJoCo single and batch through one compiled engine, the exact analytic closed loop, MuJoCo Warp.
 
-- :mod:`~paa_mj.sim.records`: the records the compiled engine reads and writes;
-- :mod:`~paa_mj.sim.step`: one step of a rollout, compiled;
-- :mod:`~paa_mj.sim.engine`: the rollout engine (controller + ``mj_step`` in compiled code);
-- :mod:`~paa_mj.sim.batch`: :func:`simulate_batch`, many rollouts with per-rollout plants and :class:`Disturbances`;
+The engines, each in a room of its own:
+
+- :mod:`~paa_mj.sim.compiled`: the compiled CPU engine and its step (records, step, engine, retirement, MuJoCo from
+  numba, ``mujoco.batch`` head to head);
+- :mod:`~paa_mj.sim.analytic`: :func:`simulate_analytic`, (1) integrated by ``solve_ivp``, and the RK4 of the
+  robot's own equations;
+- :mod:`~paa_mj.sim.warp`: the engine on MuJoCo Warp (extra ``gpu``), the compiled step translated to Warp.
+
+What they share, here:
+
+- :mod:`~paa_mj.sim.batch`: :func:`simulate_batch`, many rollouts with per-rollout plants and :class:`Disturbances`,
+  on the engine asked for;
 - :mod:`~paa_mj.sim.rollout`: :func:`simulate_mujoco`, one rollout recorded as a :class:`Trajectory`;
-- :mod:`~paa_mj.sim.analytic`: :func:`simulate_analytic`, (1) integrated by ``solve_ivp``;
-- :mod:`~paa_mj.sim.trajectory`: the record and its files.
+- :mod:`~paa_mj.sim.trajectory`: the record and its files;
+- :mod:`~paa_mj.sim.inputs`, :mod:`~paa_mj.sim.noise`, :mod:`~paa_mj.sim.integrators`: starts and durations, the
+  counter-based noise, MuJoCo's integrators.
 
-Every entry point takes the :class:`~paa_mj.task.Task` its runs aim at and are judged by.
+Every entry point takes the :class:`~paa_mj.task.Task` its runs aim at and are judged by. RealAIGym's own simulator
+is in :mod:`paa_mj.realaigym`.
 """
 from ..lazy import lazy_exports
 
 _EXPORTS = {
-    "simulate_analytic": ".analytic",
+    "simulate_analytic": ".analytic.engine",
     "BatchResult": ".batch",
     "Disturbances": ".batch",
     "simulate_batch": ".batch",

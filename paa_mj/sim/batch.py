@@ -1,7 +1,7 @@
 """Many closed-loop MuJoCo rollouts at once, any controller, with per-rollout plants and disturbances.
 
-:func:`simulate_batch` turns its arguments into a :class:`~paa_mj.sim.engine.Plan`
-and runs it with :func:`~paa_mj.sim.engine.run`: compiled controllers at
+:func:`simulate_batch` turns its arguments into a :class:`~paa_mj.sim.compiled.engine.Plan`
+and runs it with :func:`~paa_mj.sim.compiled.engine.run`: compiled controllers at
 compiled speed on all cores, others through ``torque`` on the whole batch.
 Each rollout may have its own initial state, controller (gains, or the model the
 controller believes in), plant (the model MuJoCo simulates), torque limit and
@@ -26,12 +26,12 @@ from ..model.params import RobotParams
 from ..model.robot import Robot
 from ..progress import progress as progress_bar
 from ..task import B_LAST_FAR, Task, as_task, entered_times
-from . import engine
-from .engine import DIVERGED, FINISHED, RETIRED, RUNNING, STATUS_TEXT, STOPPED, run as run_engine
+from .compiled import engine
+from .compiled.engine import DIVERGED, FINISHED, RETIRED, RUNNING, STATUS_TEXT, STOPPED, run as run_engine
 from .inputs import check_initial_states, check_robot, per_rollout, sample_interval, steps_for
 from .integrators import mujoco_model_for
-from .records import SETTING, Run, Settings
-from .retirement import certificate_size, retirement_certificate, warn_unstable_sampling
+from .compiled.records import SETTING, Run, Settings
+from .compiled.retirement import certificate_size, retirement_certificate, warn_unstable_sampling
 
 #: Per-rollout outcome arrays of a :class:`BatchResult`, in the order they are saved.
 OUTCOMES = ("x0", "switch_time", "balanced", "final_state", "E_minus_Er_final", "V_final", "max_abs_tau", "diverged",
@@ -66,7 +66,7 @@ class Disturbances:
     rollout_ids: ArrayLike | None = None
 
     def settings(self, n, n_links, torque_limits):
-        """The checked :class:`~paa_mj.sim.records.Settings` of ``n`` rollouts, torque limits (n, m) given
+        """The checked :class:`~paa_mj.sim.compiled.records.Settings` of ``n`` rollouts, torque limits (n, m) given
         (retirement left off: :func:`build_plan` adds it)."""
         noise = per_rollout(self.noise_std, n, 2, "measurement noise", 0.0)
         tau_noise = per_rollout(self.torque_noise, n, 1, "torque noise", 0.0)[:, 0]
@@ -129,7 +129,7 @@ class BatchResult:
     diverged : stopped for a non-finite or runaway state, a non-finite torque or a MuJoCo warning.
     success : the task's success (:attr:`~paa_mj.task.Task.success_definition`; the controller's mode plays no part).
     t_end : when the rollout stopped [s] (t_final, retirement, or the last good state).
-    status : engine status code (:data:`~paa_mj.sim.step.STATUS_TEXT`).
+    status : engine status code (:data:`~paa_mj.sim.compiled.step.STATUS_TEXT`).
     t_region : first entry of the true state into region (68) [s], NaN if never.
     t_balanced : from when on the state stayed within the balance tolerance of the goal [s], NaN if not balanced.
     int_tau2 : integral of :math:`|\\tau|^2` dt [N^2 m^2 s]; work : integral of :math:`|\\tau \\cdot \\dot q_a|` dt [J].
@@ -337,13 +337,13 @@ def simulate_batch(robot: Robot, x0: ArrayLike, t_final: float | None = None, *,
     record : bool
         Keep full trajectories (t, q, qd, tau, mode every ``sample_dt``).
     retire : bool
-        Stop each rollout once its balance can no longer fail (:mod:`paa_mj.sim.retirement`).
+        Stop each rollout once its balance can no longer fail (:mod:`paa_mj.sim.compiled.retirement`).
     nthread : int, optional
         Threads for compiled controllers (default: all cores).
     engine : "mujoco" or "warp"
-        ``mujoco``: MuJoCo's ``mj_step`` and the compiled controllers on the CPU's cores (:mod:`paa_mj.sim.engine`);
+        ``mujoco``: MuJoCo's ``mj_step`` and the compiled controllers on the CPU's cores (:mod:`paa_mj.sim.compiled.engine`);
         ``warp``: every rollout a world of MuJoCo Warp, the controller on the device too
-        (:mod:`paa_mj.sim.warp_engine`, ``pip install "paa_mj[gpu]"``; float32, what it runs is listed there).
+        (:mod:`paa_mj.sim.warp.engine`, ``pip install "paa_mj[gpu]"``; float32, what it runs is listed there).
     device : str, optional
         The Warp device of ``engine="warp"`` (``cpu``, ``cuda:0``; default ``$PAA_MJ_WARP_DEVICE`` or the first GPU).
     partial : bool
@@ -364,7 +364,7 @@ def simulate_batch(robot: Robot, x0: ArrayLike, t_final: float | None = None, *,
                       torque_limit=torque_limit, disturbances=disturbances or NO_DISTURBANCES, every=every,
                       retire=retire)
     if engine == "warp":
-        from . import warp_engine
+        from .warp import engine as warp_engine
 
         outcome = warp_engine.run(plan, controllers, device=device, progress=progress, desc=f"{n} rollouts")
     else:

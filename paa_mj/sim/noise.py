@@ -2,7 +2,7 @@
 
 A draw is a function of (seed, rollout id, step, k) alone (SplitMix64 mixing, then Box-Muller). The integers
 become floats by explicit conversions, as the Warp engine's translation of the same source needs
-(:mod:`paa_mj.sim.translate`; numba converts the same way where left implicit).
+(:mod:`paa_mj.sim.warp.translate`; numba converts the same way where left implicit).
 The engine uses k = i for the measurement noise of angle i, n + i for speed i, and 2n + j for the
 torque noise of motor j (n links).
 """

@@ -1,4 +1,4 @@
-"""One closed-loop rollout in MuJoCo, recorded: the engine of :mod:`paa_mj.sim.engine` with one state.
+"""One closed-loop rollout in MuJoCo, recorded: the engine of :mod:`paa_mj.sim.compiled.engine` with one state.
 
 The controller reads the state every physics step and its torque is held over
 the step (zero-order hold, also across the four stages of RK4). A compiled
@@ -16,7 +16,7 @@ from ..errors import SimulationDiverged
 from ..model.robot import Robot
 from ..task import Task, as_task
 from ..theory.linear import sampled_balance
-from . import engine
+from .compiled import engine
 from .batch import NO_DISTURBANCES, Disturbances, _lyapunov, build_plan, controllers_for, outcome_arrays
 from .inputs import check_initial_state, check_robot, sample_interval
 from .integrators import integrator_name, mujoco_model_for

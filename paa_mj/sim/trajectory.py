@@ -13,7 +13,7 @@ from ..io import json_writer, npz_writer, write_set
 from ..model.params import MAX_LINKS
 from ..provenance import text_sha256
 from ..task import Task
-from .retirement import sampling_advice
+from .compiled.retirement import sampling_advice
 
 FIELDS = ("t", "q", "qd", "tau", "E_minus_Er", "V", "mode")
 

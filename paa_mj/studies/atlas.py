@@ -36,7 +36,7 @@ import numpy as np
 from ..control.registry import ControllerSpec
 from ..errors import PaaError
 from ..provenance import text_sha256
-from ..sim.retirement import SamplingWarning
+from ..sim.compiled.retirement import SamplingWarning
 from ..limits import check_memory, check_seed, check_steps
 from ..model.dynamics import AnalyticModel
 from ..model.params import RobotParams
@@ -306,7 +306,7 @@ def _simulate(robot, family, arrays, starts, t_final, seed, scheduler, out_dir, 
 
 @contextlib.contextmanager
 def _sampling_warnings_summed(robots):
-    """One :class:`~paa_mj.sim.retirement.SamplingWarning` for the family instead of one per robot (each scaled robot
+    """One :class:`~paa_mj.sim.compiled.retirement.SamplingWarning` for the family instead of one per robot (each scaled robot
     carries its base robot's name, and a 16 x 16 atlas would say it 256 times); other warnings pass through."""
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", SamplingWarning)

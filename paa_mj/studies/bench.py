@@ -5,7 +5,7 @@
 * python: the same with the controller called through ``torque`` from Python every step;
 * batch: :func:`paa_mj.sim.batch.simulate_batch` of random states, all cores, no early stop, per state-step;
 * mujoco.batch: the batch's work (its plan, ``mujoco_batch_seconds`` long) through the engine and through MuJoCo's
-  batch API (:mod:`paa_mj.sim.mujoco_batch`), measured in turns: ``mujoco_batch_vs_engine_ratio`` (time of
+  batch API (:mod:`paa_mj.sim.compiled.mujoco_batch`), measured in turns: ``mujoco_batch_vs_engine_ratio`` (time of
   ``mujoco.batch`` / time of the engine, all cores, wall clock), ``mujoco_batch_vs_engine_ratio_1thread`` (the same
   on one thread, CPU time) and ``mujoco_batch_agreement`` (whether the two outcomes are identical bit for bit, the
   largest difference of their final states, whether every rollout's outcome is the same);
@@ -19,7 +19,7 @@
   the same steps: ``vector_env_physics_share`` (physics / vector) and ``vector_env_speedup_bound``
   (single / physics, the most any vector environment on MuJoCo's ``mj_step`` can reach), at the default
   10 ms control period (10 RK4 steps, mostly physics) and at 1 ms (``..._frame_skip_1``, mostly Python);
-  the same with ``physics="analytic"`` (RK4 of the robot's own equations, :mod:`paa_mj.sim.rk4`):
+  the same with ``physics="analytic"`` (RK4 of the robot's own equations, :mod:`paa_mj.sim.analytic.rk4`):
   ``vector_env_analytic_speedup`` (single / vector, both analytic) and
   ``vector_env_analytic_vs_single_mujoco`` (single environments on MuJoCo, the default, / the analytic vector);
 * kD_min: CPU time of the certified search for kD_min (41) of a chain of 7 uniform rods, folded goal
@@ -39,8 +39,8 @@ from ..control.registry import make_controller
 from ..limits import check_steps
 from ..model.robot import load_robot
 from ..task import Task, as_task
-from ..sim.analytic import simulate_analytic
-from ..sim import engine, mujoco_batch
+from ..sim.analytic.engine import simulate_analytic
+from ..sim.compiled import engine, mujoco_batch
 from ..sim.batch import build_plan, simulate_batch
 from ..sim.rollout import simulate_mujoco
 
@@ -252,14 +252,16 @@ def mujoco_batch_rows(robot, task, controller, x0, seconds, repeats) -> dict:
 
 def run_bench(batch_size=1024, batch_seconds=2.0, repeats=3, basin_grid=16, basin_seconds=30.0, progress=False,
               vector_envs=64, vector_steps=50, robot="gymnast", task=None, rollout_seconds=30.0,
-              python_seconds=2.0, bare_steps=20000, realaigym=True, kd_links=7,
+              python_seconds=2.0, bare_steps=20000, realaigym=None, kd_links=7,
               mujoco_batch_seconds=0.5):
     """Measure every cost of the module docstring; each is the best of ``repeats`` runs (the basin: of 2).
 
     ``rollout_seconds`` [s] is the length of the single MuJoCo and analytic rollouts (``mujoco_30s_seconds``,
     ``analytic_30s_seconds``: 30 s unless asked otherwise, ``rollout_t_final`` in the result), ``python_seconds``
     [s] that of the Python controllers' runs, ``bare_steps`` the number of bare ``mj_step`` calls timed;
-    ``realaigym``: also time one whole robustness v2 of RealAIGym's (``realaigym_robustness_v2_cpu_s``);
+    ``realaigym``: a function ``(bare_step, progress) -> rows`` that also times one whole robustness v2 of
+    RealAIGym's (:func:`paa_mj.realaigym.bench.realaigym_rows`: ``realaigym_robustness_v2_cpu_s``; ``paa-mj bench``
+    passes it), None: not timed;
     ``kd_links``: the links of the chain whose kD_min (41) is timed; ``mujoco_batch_seconds`` [s]: the length of the
     batch's rollouts in the ``mujoco.batch`` head to head.
 
@@ -301,7 +303,7 @@ def run_bench(batch_size=1024, batch_seconds=2.0, repeats=3, basin_grid=16, basi
                                                   task=task), 1)
     vector = _vector_rows(vector_envs, vector_steps, repeats) if name == "gymnast" and task.name == "folded" \
         else {}
-    protocols = _realaigym_rows(bare_step, progress) if realaigym else {}
+    protocols = realaigym(bare_step, progress) if realaigym else {}
     bound = _kd_min_rows(kd_links)
     return {
         "robot": robot.name, "goal": task.name,
@@ -359,23 +361,6 @@ def _kd_min_rows(n_links) -> dict:
     kd = search(n_links)
     return {"kd_min_links": n_links, "kd_min_cpu_s": time.process_time() - start, "kd_min_boxes": kd.boxes,
             "kd_min_certified": kd.certified}
-
-
-def _realaigym_rows(bare_step, progress) -> dict:
-    """CPU time of one controller's whole robustness v2 of RealAIGym (Spong's swing-up on their acrobot, compiled),
-    and its cost per simulated step against a bare mj_step."""
-    from ..control.registry import ControllerSpec
-    from .realaigym import T_FINAL, run_protocol, their_times
-
-    acrobot = load_robot("realaigym_acrobot")
-    spec = ControllerSpec("spong", task=as_task("stretched", acrobot))
-    run_protocol("performance-v2", acrobot, spec, "stretched")  # compile (or load) the kernels first
-    start = time.process_time()
-    summary, _ = _whole(run_protocol("robustness-v2", acrobot, spec, "stretched", progress=progress))
-    cpu = time.process_time() - start
-    steps = summary["result"]["runs"] * (len(their_times(T_FINAL)) - 1)
-    return {"realaigym_robustness_v2_cpu_s": cpu, "realaigym_robustness_v2_runs": summary["result"]["runs"],
-            "realaigym_step_ratio": cpu / steps / bare_step}
 
 
 def _vector_rows(vector_envs, vector_steps, repeats) -> dict:

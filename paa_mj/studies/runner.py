@@ -344,7 +344,7 @@ def run_study(robot: Robot, rollouts: RolloutSet, t_final: float, *, seed=0, sch
     n = len(rollouts)
     check_engine(engine, device)
     if engine == "warp":
-        from ..sim.warp_device import load_warp
+        from ..sim.warp.device import load_warp
 
         load_warp()  # here, before any chunk: a missing install is one line, not one per chunk
     if not (isinstance(chunk, (int, np.integer)) and not isinstance(chunk, bool) and chunk >= 1):

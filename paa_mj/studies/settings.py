@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import math
 
+from ..control import catalog
+
 # --- basin (:mod:`paa_mj.studies.basin`) ------------------------------------------------------------
 
 #: The coordinates a basin grid can span (the state [q1, q2, q3, d1, d2, d3]).
@@ -35,7 +37,8 @@ STARTS = ("random", "hanging")
 
 # --- the leaderboard (:mod:`paa_mj.studies.compare`) ------------------------------------------------
 
-COMPARE_CONTROLLERS = ("vcl", "vc", "trajopt", "trajopt-effort")
+#: The leaderboard's controllers by default: those whose records say so (``compare=True``).
+COMPARE_CONTROLLERS = catalog.COMPARE_CONTROLLERS
 #: One level per random robustness factor (name in :data:`ROBUSTNESS_FACTORS`: level).
 COMPARE_FACTORS = {"noise": 0.01, "torque_noise": 0.03, "pushes": 0.1, "initial_state": 0.1}
 #: The levels of each deterministic factor, swept (full size; --quick takes every second one).
@@ -79,7 +82,7 @@ ATLAS_RANGE = (0.25, 4.0)
 #: The most factors per parameter.
 ATLAS_MAX_GRID = 256
 
-#: RealAIGym's protocols that ``paa-mj realaigym`` runs (:mod:`paa_mj.studies.realaigym`).
+#: RealAIGym's protocols that ``paa-mj realaigym`` runs (:mod:`paa_mj.realaigym.study`).
 REALAIGYM_PROTOCOLS = ("performance-v2", "robustness-v2", "global-v3")
 #: The engines of RealAIGym's protocols: their simulator compiled on the CPU, or on a Warp device.
 REALAIGYM_ENGINES = ("cpu", "warp")

@@ -23,7 +23,7 @@ from ..control.registry import make_controller
 from ..model.robot import Robot
 from ..task import Task
 from ..progress import progress as progress_bar
-from ..sim.analytic import exact_field
+from ..sim.analytic.engine import exact_field
 from ..sim.batch import simulate_batch
 from ..sim.rollout import simulate_mujoco
 

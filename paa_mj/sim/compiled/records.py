@@ -18,9 +18,9 @@ from typing import NamedTuple
 import numpy as np
 from numba import typeof
 
-from ..task import BOOK
+from ...task import BOOK
 
-#: A rollout's counters and sums: its step, status (:data:`~paa_mj.sim.step.STATUS_TEXT`), the step of its first
+#: A rollout's counters and sums: its step, status (:data:`~paa_mj.sim.compiled.step.STATUS_TEXT`), the step of its first
 #: switch to mode 1 (-1: never), samples recorded, the controller's last mode; the integrals of :math:`|\tau|^2`
 #: [N^2 m^2 s] and of :math:`|\tau \cdot \dot q_a|` [J], the sum of squared torque changes per second [N^2 m^2 / s^2] and the
 #: peak joint speed [rad/s].
@@ -51,7 +51,7 @@ class Settings(NamedTuple):
 
     rollouts: np.ndarray  # (N,) of SETTING
     limits: np.ndarray  # (N, m) torque limits [N m]
-    cert: np.ndarray  # (N, 3 (2n)^2) retirement certificates (:mod:`paa_mj.sim.retirement`)
+    cert: np.ndarray  # (N, 3 (2n)^2) retirement certificates (:mod:`paa_mj.sim.compiled.retirement`)
     pushes: np.ndarray  # (N, K, 2 + n): (t_center [s], sigma [s], f_1..f_n [N m])
 
 

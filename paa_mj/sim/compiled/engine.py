@@ -3,10 +3,10 @@
 Every rollout of the package, single or batched, runs through :func:`run`, for any chain of the
 family: its arrays are sized from the model (n joints, n - 1 motors) and its task (the goal q*,
 region (68) around it, success) is the :class:`~paa_mj.task.Task` of the plan, data, not constants
-of the step. A step is :mod:`paa_mj.sim.step`'s; the records it reads are :mod:`paa_mj.sim.records`'.
+of the step. A step is :mod:`paa_mj.sim.compiled.step`'s; the records it reads are :mod:`paa_mj.sim.compiled.records`'.
 
 A controller with a compiled form (:class:`~paa_mj.control.base.CompiledForm`)
-runs with ``mj_step`` called from numba (:mod:`paa_mj.sim.mujoco_lib`), so nothing
+runs with ``mj_step`` called from numba (:mod:`paa_mj.sim.compiled.mujoco_lib`), so nothing
 of Python happens between steps; rollouts are spread over threads that take one
 rollout at a time. Any other controller runs with the same per-step code, its
 ``torque`` called on the whole batch between steps. Both give the same numbers
@@ -25,11 +25,11 @@ import mujoco
 import numpy as np
 from numba import typeof
 
-from ..control.base import CompiledForm, SwitchedForm, check_binding, kernel, mode_of, reset_controller, torque_of
-from ..errors import PaaError
-from ..mujoco_log import mujoco_log_off
-from ..progress import progress as progress_bar
-from ..task import Task
+from ...control.base import CompiledForm, SwitchedForm, check_binding, kernel, mode_of, reset_controller, torque_of
+from ...errors import PaaError
+from ...mujoco_log import mujoco_log_off
+from ...progress import progress as progress_bar
+from ...task import Task
 from .mujoco_lib import COMPILED_PHYSICS
 from .records import Run, Settings, State, new_samples, new_state, physics_of
 from .retirement import RETIRE_FRACTION, certificate_size, retirement_certificate
@@ -120,10 +120,10 @@ class Plan:
         Initial states [q, qd] (n joints of the models).
     settings : Settings
         Each rollout's disturbances, torque limits, retirement certificate and pushes
-        (:class:`~paa_mj.sim.records.Settings`).
+        (:class:`~paa_mj.sim.compiled.records.Settings`).
     run : Run
         Time step, steps, sampling interval (0: record nothing), retirement and seed
-        (:class:`~paa_mj.sim.records.Run`).
+        (:class:`~paa_mj.sim.compiled.records.Run`).
     """
 
     robot: object
@@ -162,7 +162,7 @@ class Plan:
 
 @dataclass
 class Outcome:
-    """The engine's raw result: each rollout's :class:`~paa_mj.sim.records.State`, and the samples if recorded."""
+    """The engine's raw result: each rollout's :class:`~paa_mj.sim.compiled.records.State`, and the samples if recorded."""
 
     state: State
     samples: dict | None

@@ -1,4 +1,4 @@
-"""One step of a rollout, compiled: what the engine (:mod:`paa_mj.sim.engine`) runs between two ``mj_step``.
+"""One step of a rollout, compiled: what the engine (:mod:`paa_mj.sim.compiled.engine`) runs between two ``mj_step``.
 
 Each step of a rollout:
 
@@ -8,18 +8,18 @@ Each step of a rollout:
    of RK4) (:func:`actuate`);
 3. outcomes are updated (switch, peak torques, integrals of effort, the task's book of success), a sample
    is recorded every ``every`` steps, and a rollout whose balance can no longer fail is retired
-   (:mod:`paa_mj.sim.retirement`);
+   (:mod:`paa_mj.sim.compiled.retirement`);
 4. optional pushes (generalized forces on the joints) are applied and ``mj_step`` advances the physics; a
    non-finite state, speeds above :data:`MAX_SPEED` or a MuJoCo warning stop the rollout as *diverged*,
    keeping the last good state (:func:`finish_step`: :func:`before_physics`, ``mj_step``, :func:`after_physics`;
-   :mod:`paa_mj.sim.mujoco_batch` calls the two around ``mujoco.batch``'s step instead).
+   :mod:`paa_mj.sim.compiled.mujoco_batch` calls the two around ``mujoco.batch``'s step instead).
 
 Each equation of a step is written once, in a function of plain arrays and numbers: :func:`measure_into`,
 :func:`command_into`, :func:`account`, :func:`verdict`, :func:`add_effort_work` and :func:`state_status`. The
 engine's functions (:func:`measure`, :func:`actuate`, :func:`finish_step`, :func:`check_state`) unpack the
-records of :mod:`paa_mj.sim.records` (``run``, ``settings``, ``state``, ``samples`` and one thread's
-``physics``) and call them; the engine on MuJoCo Warp (:mod:`paa_mj.sim.warp_engine`) calls their translations
-to Warp (:mod:`paa_mj.sim.translate`), so that the two engines cannot keep different books.
+records of :mod:`paa_mj.sim.compiled.records` (``run``, ``settings``, ``state``, ``samples`` and one thread's
+``physics``) and call them; the engine on MuJoCo Warp (:mod:`paa_mj.sim.warp.engine`) calls their translations
+to Warp (:mod:`paa_mj.sim.warp.translate`), so that the two engines cannot keep different books.
 """
 from __future__ import annotations
 
@@ -28,10 +28,10 @@ import math
 import numpy as np
 from numba import njit, types
 
-from ..control.base import KERNEL_TYPE
-from ..task import P_GOAL, book_start, book_update
+from ...control.base import KERNEL_TYPE
+from ...task import P_GOAL, book_start, book_update
 from .mujoco_lib import WARNINGS, mj_reset as _mj_reset, mj_step as _mj_step
-from .noise import gaussian
+from ..noise import gaussian
 from .records import PHYSICS_T, RUN_T, SAMPLES_T, SETTINGS_T, STATE_T
 from .retirement import modal_bound
 
@@ -146,7 +146,7 @@ def account(step, mode, dt, task, qpos, qvel, ctrl, book, peak, last_tau, last_s
 @njit(cache=True)
 def verdict(step, n_steps, finite, retire, mode, level, t, push_end, cert, qpos, qvel, task):
     """The rollout's status after the records of ``step`` (time ``t`` [s]): NONFINITE_TORQUE (``finite`` False),
-    RETIRED (``retire``, in mode 1 past its pushes, its :func:`~paa_mj.sim.retirement.modal_bound` at or below
+    RETIRED (``retire``, in mode 1 past its pushes, its :func:`~paa_mj.sim.compiled.retirement.modal_bound` at or below
     ``level`` > 0), FINISHED (the last step) or RUNNING."""
     if not finite:
         return NONFINITE_TORQUE
@@ -334,7 +334,7 @@ def begin_rollout(r, physics, x0, state, memory0):
 
 @njit(cache=True)
 def call_controller(first, second, condition, x, t, params, memory, tau):
-    """One evaluation of a packed controller (:func:`paa_mj.sim.engine.pack`): ``first`` until ``condition`` first
+    """One evaluation of a packed controller (:func:`paa_mj.sim.compiled.engine.pack`): ``first`` until ``condition`` first
     holds, then ``second`` for good; returns the mode of the controller that acted."""
     n1, n2, s1, s2 = int(params[0]), int(params[1]), int(params[2]), int(params[3])
     if memory[0] == 0.0 and condition(x, t, params[4 + n1 + n2:], memory[:1], tau) != 0:
@@ -345,7 +345,7 @@ def call_controller(first, second, condition, x, t, params, memory, tau):
 
 
 _C1 = types.float64[::1]
-#: The records' layouts (:mod:`paa_mj.sim.records`), as :func:`python_step` is compiled for them too: the helpers
+#: The records' layouts (:mod:`paa_mj.sim.compiled.records`), as :func:`python_step` is compiled for them too: the helpers
 #: both call are then compiled once, not once per layout.
 _ADVANCE_SIG = types.int64(KERNEL_TYPE, KERNEL_TYPE, KERNEL_TYPE, types.int64, types.int64, _C1, PHYSICS_T, RUN_T,
                            SETTINGS_T, STATE_T, SAMPLES_T)

@@ -1,14 +1,14 @@
 """RealAIGym's simulator on a Warp device: many rollouts of their protocols at once, the controller on the device.
 
-``--engine warp`` of ``paa-mj realaigym`` runs each rollout of :mod:`paa_mj.sim.protocol` as one thread of a
+``--engine warp`` of ``paa-mj realaigym`` runs each rollout of :mod:`paa_mj.realaigym.simulator` as one thread of a
 Warp kernel (a GPU, or Warp's CPU device). The kernel holds no equation of its own: each step it calls the
-translations to Warp (:mod:`paa_mj.sim.translate`) of the functions the CPU's
-:func:`~paa_mj.sim.protocol.rollout_compiled` calls, in the same order:
+translations to Warp (:mod:`paa_mj.sim.warp.translate`) of the functions the CPU's
+:func:`~paa_mj.realaigym.simulator.rollout_compiled` calls, in the same order:
 
-1. :func:`~paa_mj.sim.protocol.measure_or_reset`: the measurement (delay and noise) and the global test's reset;
-2. the controller's compiled law (:func:`~paa_mj.sim.step.call_controller` with its two laws and the switch) and
-   :func:`~paa_mj.sim.protocol.command`;
-3. :func:`~paa_mj.sim.protocol.advance`: the motor (responsiveness, noise, saturation, pulses) and their RK4 step.
+1. :func:`~paa_mj.realaigym.simulator.measure_or_reset`: the measurement (delay and noise) and the global test's reset;
+2. the controller's compiled law (:func:`~paa_mj.sim.compiled.step.call_controller` with its two laws and the switch) and
+   :func:`~paa_mj.realaigym.simulator.command`;
+3. :func:`~paa_mj.realaigym.simulator.advance`: the motor (responsiveness, noise, saturation, pulses) and their RK4 step.
 
 Unlike the engine on MuJoCo Warp, everything here is float64: their simulator is this package's own code, so the
 device computes what the CPU computes, to the rounding of the device's ``sin``, ``cos`` and ``atan``
@@ -16,15 +16,15 @@ device computes what the CPU computes, to the rounding of the device's ``sin``, 
 protocol to the CPU's summary). Every rollout keeps its whole trajectory on the device (the delay reads back along it), so a
 batch is refused in one line where it would not fit in the device's memory.
 
-What runs here: the controllers whose compiled laws translate (:data:`~paa_mj.sim.warp_engine.DEVICE_LAWS`);
+What runs here: the controllers whose compiled laws translate (:data:`~paa_mj.sim.warp.engine.DEVICE_LAWS`);
 anything else is refused in one line before any work.
 """
 # No ``from __future__ import annotations``: the kernel's annotations are Warp's array types, made at run time.
 import numpy as np
 
-from . import protocol
-from .step import call_controller
-from .warp_device import device_name, load_warp
+from . import simulator as protocol
+from ..sim.compiled.step import call_controller
+from ..sim.warp.device import device_name, load_warp
 
 __all__ = ["Rollouts", "run"]
 
@@ -36,15 +36,15 @@ _KERNELS = {}
 
 class Rollouts:
     """The inputs of a batch of rollouts of their simulator over the times ``T`` (K,), one row each: the plants P
-    (R, :func:`~paa_mj.sim.protocol.plant_constants`), the starts (R, 2n) and each rollout's disturbances (the
-    keyword arguments of :meth:`paa_mj.studies.realaigym.Runs.run`, already in steps and arrays)."""
+    (R, :func:`~paa_mj.realaigym.simulator.plant_constants`), the starts (R, 2n) and each rollout's disturbances (the
+    keyword arguments of :meth:`paa_mj.realaigym.study.Runs.run`, already in steps and arrays)."""
 
     def __init__(self, n_links, T, dt):
         self.n, self.T, self.dt = n_links, np.ascontiguousarray(T, float), float(dt)
         self.rows = []
 
     def add(self, P, x0, delay_steps, sigma_meas, responsiveness, sigma_u, normals, perturbation, reset):
-        """One rollout, with the arguments :func:`~paa_mj.sim.protocol.rollout_compiled` takes after X, U, T and dt
+        """One rollout, with the arguments :func:`~paa_mj.realaigym.simulator.rollout_compiled` takes after X, U, T and dt
         (the normals, the pulses and the reset record None where the run has none)."""
         self.rows.append((np.asarray(P, float), np.asarray(x0, float), int(delay_steps),
                           np.asarray(sigma_meas, float), float(responsiveness), np.asarray(sigma_u, float), normals,
@@ -56,8 +56,8 @@ class Rollouts:
 
 def _functions(wp, triple, n_links):
     """The step's functions on the device, float64, for a chain of ``n_links``: the law (``triple`` of compiled
-    kernels switched by :func:`~paa_mj.sim.step.call_controller`), then measure_or_reset, command, advance."""
-    from .translate import device_function
+    kernels switched by :func:`~paa_mj.sim.compiled.step.call_controller`), then measure_or_reset, command, advance."""
+    from ..sim.warp.translate import device_function
 
     def translated(fn, bind=None):
         return device_function(wp, fn, bind=bind, real=wp.float64, state_size=2 * n_links)
@@ -76,7 +76,7 @@ def _kernel(wp, triple, n_links):
 
 def _rollout_kernel(wp, law, measure_or_reset, command, advance):
     """The kernel: steps k0..k1 - 1 of each rollout still running, the loop of
-    :func:`~paa_mj.sim.protocol.rollout_compiled`; ``done`` counts each rollout's steps (fewer once it blew up, and
+    :func:`~paa_mj.realaigym.simulator.rollout_compiled`; ``done`` counts each rollout's steps (fewer once it blew up, and
     ``stopped`` marks it so)."""
     F64, F64_3 = wp.array2d(dtype=wp.float64), wp.array3d(dtype=wp.float64)
     V64, I32 = wp.array(dtype=wp.float64), wp.array(dtype=wp.int32)
@@ -156,11 +156,11 @@ def _check_room(wp, arrays, device):
 
 
 def run(batch: Rollouts, packed, name, *, device=None, advanced=None):
-    """Every rollout of ``batch`` with the packed compiled controller ``packed`` (:func:`paa_mj.sim.engine.pack`,
+    """Every rollout of ``batch`` with the packed compiled controller ``packed`` (:func:`paa_mj.sim.compiled.engine.pack`,
     whose law must have a device form; ``name``: the controller's, for a refusal): the states X (R, K, 2n) and the
     applied torques U (R, K - 1, n), NaN past each rollout's end, the steps each ran (R,) and whether Ctrl-C stopped
     the batch. ``advanced(steps)`` is told of the rollouts' steps after each :data:`SEGMENT`."""
-    from .warp_engine import device_law
+    from ..sim.warp.engine import device_law
 
     triple = device_law(packed, name, instead="--engine cpu")
     wp, _ = load_warp()

@@ -19,9 +19,9 @@ import warnings
 import numpy as np
 from numba import njit
 
-from ..control.base import balance_gain_of
-from ..model.states import wrap
-from ..theory.linear import sampled_balance, sampled_closed_loop
+from ...control.base import balance_gain_of
+from ...model.states import wrap
+from ...theory.linear import sampled_balance, sampled_closed_loop
 
 #: A rollout retires when its modal bound is below this fraction of the task's settled tolerance.
 RETIRE_FRACTION = 0.9

@@ -20,7 +20,7 @@ def _csv_writer(T, X, U):
 def robustness_figure(summary):
     """Success against level for each criterion, one panel each (a row per model parameter), as their
     leaderboard's robustness plots show it."""
-    from .plots import new_figure
+    from ..outputs.plots import new_figure
 
     criteria = summary["result"]["criteria"]
     rows = [(c, p, e) for c, entries in criteria.items() for p, e in entries.items()]
@@ -42,7 +42,7 @@ def robustness_figure(summary):
 def global_figure(summary, T, height, up, threshold):
     """The tip's height over the global-policy test, the times counted as up (shaded), their threshold where the
     goal has one, and the reset times."""
-    from .plots import new_figure
+    from ..outputs.plots import new_figure
 
     fig, ax = new_figure(figsize=(8, 3))
     ax.plot(T, height, lw=0.7, color="C0", label="tip height")
@@ -63,7 +63,7 @@ def global_figure(summary, T, height, up, threshold):
 def write_realaigym(out_dir, summary, arrays):
     """realaigym.json (the summary), and per protocol: sim_swingup.csv (their columns), the robustness chart or the global test's
     chart (PNG, SVG), as one set."""
-    from .plots import figure_writers
+    from ..outputs.plots import figure_writers
 
     writers = {"realaigym.json": json_writer(summary)}
     if "T" in arrays:

@@ -12,7 +12,7 @@ import contextlib
 import os
 import sys
 
-from ..errors import PaaError
+from ...errors import PaaError
 
 #: How to get the engine.
 INSTALL = "pip install 'paa_mj[gpu]'"
@@ -59,7 +59,7 @@ def load_warp():
     wp.config.log_level = max(getattr(wp.config, "log_level", 0), getattr(wp, "LOG_WARNING", 30))
     wp.config.quiet = True
     if not os.environ.get("WARP_CACHE_PATH"):
-        from ..provenance import cache_root
+        from ...provenance import cache_root
 
         wp.config.kernel_cache_dir = str(cache_root() / "warp")
     try:

@@ -17,19 +17,19 @@ import numpy as np
 from numba import njit, types
 from tqdm import tqdm
 
-from ..control.base import (KERNEL_TYPE, CompiledForm, KernelAddress, check_binding, controller_name, mode_of,
+from ...control.base import (KERNEL_TYPE, CompiledForm, KernelAddress, check_binding, controller_name, mode_of,
                             reset_controller, torque_of)
-from ..control.combined import CombinedController
-from ..errors import PaaError, SimulationDiverged
-from ..limits import check_memory, check_steps, positive_finite
-from ..model.robot import Robot
-from ..task import BOOK, Task, as_task, book_rows, entered_times
-from .batch import controllers_for
-from .inputs import check_initial_state, check_robot, sample_interval, steps_for
+from ...control.combined import CombinedController
+from ...errors import PaaError, SimulationDiverged
+from ...limits import check_memory, check_steps, positive_finite
+from ...model.robot import Robot
+from ...task import BOOK, Task, as_task, book_rows, entered_times
+from ..batch import controllers_for
+from ..inputs import check_initial_state, check_robot, sample_interval, steps_for
 from .rk4 import acceleration_into, rk4_constants, work_size
-from .rollout import describe_controller, trajectory_quantities
-from .step import MAX_SPEED, NONFINITE_TORQUE, RUNAWAY, STATUS_TEXT
-from .trajectory import Trajectory, seconds_or_none
+from ..rollout import describe_controller, trajectory_quantities
+from ..compiled.step import MAX_SPEED, NONFINITE_TORQUE, RUNAWAY, STATUS_TEXT
+from ..trajectory import Trajectory, seconds_or_none
 
 
 #: Smallest step of the adaptive integrator [s]; a smooth closed loop of this model takes steps of 1e-5 s or more.
@@ -54,7 +54,7 @@ def closed_loop_field(kernel, x, t, params, memory, limits, constants, out, work
 
     The law is the kernel of a stateless controller (:class:`~paa_mj.control.base.CompiledForm`), called with a
     fresh copy of its initial ``memory`` at every evaluation, as its ``torque`` would be; the accelerations are
-    those of :func:`paa_mj.sim.rk4.acceleration_into` (``constants`` of :func:`~paa_mj.sim.rk4.rk4_constants`).
+    those of :func:`paa_mj.sim.analytic.rk4.acceleration_into` (``constants`` of :func:`~paa_mj.sim.analytic.rk4.rk4_constants`).
     """
     n, motors = x.size // 2, limits.size
     tau = np.empty(motors)

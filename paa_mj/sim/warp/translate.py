@@ -4,7 +4,7 @@ The controllers' laws, the task's regions and book of success, the retirement bo
 Python in the package (numba's ``register_jitable`` or ``njit`` functions, also run by NumPy); Warp compiles
 a restricted Python too (``@wp.func``). :func:`device_function` turns one of the package's functions, with
 everything it calls, into a Warp function by rewriting its syntax tree, so that the engine on MuJoCo Warp
-(:mod:`paa_mj.sim.warp_engine`) evaluates the very source the CPU engine compiles:
+(:mod:`paa_mj.sim.warp.engine`) evaluates the very source the CPU engine compiles:
 
 - ``np.cos``, ``np.arctan2``, ``math.sqrt``, ``math.isfinite`` ... become Warp's built-ins; ``math.pi`` and float
   constants of the modules become numbers of the device's float type (``real``, float32 by default);
@@ -21,11 +21,11 @@ everything it calls, into a Warp function by rewriting its syntax tree, so that 
 - types are never converted implicitly: a function meant for arrays of several float types converts where they
   meet, as the noise's ``np.float64(...)`` does (a no-op where numba's arrays are float64 already);
 - every function called is translated the same way; arguments named in ``bind`` are fixed to given Warp
-  functions (the controller pair and switch of :func:`paa_mj.sim.step.call_controller`).
+  functions (the controller pair and switch of :func:`paa_mj.sim.compiled.step.call_controller`).
 
 A construct outside this subset raises :class:`TranslationError` naming the function and the line. The
 translated source is kept in :mod:`linecache` (Warp reads a function's source) and Warp caches what it compiles
-on disk under the package's cache folder (:func:`paa_mj.sim.warp_device.load_warp`).
+on disk under the package's cache folder (:func:`paa_mj.sim.warp.device.load_warp`).
 """
 from __future__ import annotations
 
@@ -39,8 +39,8 @@ import typing
 
 import numpy as np
 
-from ..errors import PaaError
-from ..model import chain
+from ...errors import PaaError
+from ...model import chain
 
 
 class TranslationError(PaaError):

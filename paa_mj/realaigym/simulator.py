@@ -39,7 +39,7 @@ from numba.extending import register_jitable
 
 from ..model import chain
 from ..control.base import KERNEL_TYPE
-from .step import evaluate_once
+from ..sim.compiled.step import evaluate_once
 
 _C1, _C2 = types.float64[::1], types.float64[:, ::1]
 
@@ -294,11 +294,11 @@ def measure_or_reset(A, P, X, k, T, delay_steps, sigma_meas, normals_k, reset, r
                   types.float64, _C1, _C2, _C2, _C1), cache=True, nogil=True)
 def rollout_compiled(first, second, condition, params, memory, P, X, U, T, dt, delay_steps, sigma_meas,
                      responsiveness, sigma_u, normals, perturbation, reset):
-    """A whole rollout with a compiled controller (:func:`~paa_mj.sim.step.evaluate_once`): X (N + 1, 2n) holds x0
+    """A whole rollout with a compiled controller (:func:`~paa_mj.sim.compiled.step.evaluate_once`): X (N + 1, 2n) holds x0
     in its first row and gets the states (their angles), U (N, n) the applied torques; ``reset``: the global-policy
     test's record (:func:`reset_command`), empty for none. Returns the steps run (N, or fewer when the state blew
     up). Releases the GIL: rollouts run on threads side by side. The device engine
-    (:mod:`paa_mj.sim.protocol_warp`) runs this loop's body."""
+    (:mod:`paa_mj.realaigym.simulator_warp`) runs this loop's body."""
     n = X.shape[1] // 2
     A = inertia_constants(P, n)
     work, mass, force = scratch(n)

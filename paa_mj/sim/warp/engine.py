@@ -1,24 +1,24 @@
 """The rollout engine on MuJoCo Warp: N rollouts as N worlds of one device, the controller on the device too.
 
 ``engine="warp"`` of :func:`~paa_mj.sim.batch.simulate_batch` (``--engine warp`` of the studies) runs a
-:class:`~paa_mj.sim.engine.Plan` here instead of :func:`paa_mj.sim.engine.run`, and returns the same
-:class:`~paa_mj.sim.engine.Outcome`, so that every outcome, summary and file of a study is computed as before.
-Each step of every world, on the device (a GPU, or Warp's CPU device), is :mod:`paa_mj.sim.step`'s: the
+:class:`~paa_mj.sim.compiled.engine.Plan` here instead of :func:`paa_mj.sim.compiled.engine.run`, and returns the same
+:class:`~paa_mj.sim.compiled.engine.Outcome`, so that every outcome, summary and file of a study is computed as before.
+Each step of every world, on the device (a GPU, or Warp's CPU device), is :mod:`paa_mj.sim.compiled.step`'s: the
 kernels hold no equation of their own, they unpack the device arrays and call the translations to Warp
-(:mod:`paa_mj.sim.translate`) of the very functions the CPU engine compiles:
+(:mod:`paa_mj.sim.warp.translate`) of the very functions the CPU engine compiles:
 
-1. ``control`` measures the state (:func:`~paa_mj.sim.step.measure_into`: the same counter-based noise draws),
-   evaluates the controller (its compiled form, :func:`~paa_mj.sim.step.call_controller` with its two laws and
-   the switch), turns its torque into ``ctrl`` (:func:`~paa_mj.sim.step.command_into`: delay line, torque
-   noise, saturation), keeps the rollout's records (:func:`~paa_mj.sim.step.account`: switch, the task's book of
+1. ``control`` measures the state (:func:`~paa_mj.sim.compiled.step.measure_into`: the same counter-based noise draws),
+   evaluates the controller (its compiled form, :func:`~paa_mj.sim.compiled.step.call_controller` with its two laws and
+   the switch), turns its torque into ``ctrl`` (:func:`~paa_mj.sim.compiled.step.command_into`: delay line, torque
+   noise, saturation), keeps the rollout's records (:func:`~paa_mj.sim.compiled.step.account`: switch, the task's book of
    success, peak and last torques, smoothness, peak speed, the last good state) and stops a rollout that asked
-   for a non-finite torque, retired or finished (:func:`~paa_mj.sim.step.verdict`), as
-   :func:`paa_mj.sim.step.actuate` does; then the pushes (:func:`~paa_mj.sim.step.apply_pushes`);
+   for a non-finite torque, retired or finished (:func:`~paa_mj.sim.compiled.step.verdict`), as
+   :func:`paa_mj.sim.compiled.step.actuate` does; then the pushes (:func:`~paa_mj.sim.compiled.step.apply_pushes`);
 2. ``mujoco_warp.step`` advances every world (the robot's integrator and time step; no room for constraint rows,
    :func:`device_worlds`, so the acceleration is the smooth one as in MuJoCo for ``nefc = 0``);
-3. ``after`` adds the step's effort and work (:func:`~paa_mj.sim.step.add_effort_work`) and stops a world whose
-   state is not finite or runs away (:func:`~paa_mj.sim.step.state_status`), back at its last good state, as
-   :func:`paa_mj.sim.step.finish_step` does.
+3. ``after`` adds the step's effort and work (:func:`~paa_mj.sim.compiled.step.add_effort_work`) and stops a world whose
+   state is not finite or runs away (:func:`~paa_mj.sim.compiled.step.state_status`), back at its last good state, as
+   :func:`paa_mj.sim.compiled.step.finish_step` does.
 
 The records are one row a rollout, float64 and int32 (:data:`COUNTS`, :data:`SUMS`); the controller runs in
 float64 too. Only MuJoCo Warp's own arrays are float32: the state is read from them after each step and
@@ -33,7 +33,8 @@ float32: a rollout agrees with the CPU engine's float64 to about 1e-6 over 200 s
 within float32 rounding of it until the dynamics amplify the difference (``tests/test_warp.py`` states what it
 checks).
 
-What runs here: the controllers whose compiled laws translate (:data:`DEVICE_LAWS`: ``vcl``, ``vc`` and their
+What runs here: the controllers whose records declare that their compiled laws translate (:data:`DEVICE_LAWS`;
+among the package's: ``vcl``, ``vc`` and their
 ``-only`` and ``-roa`` forms on every chain and goal (the paper's closed forms for the gymnast at its folded goal,
 the chain's law elsewhere, its scratch in the controller's memory), ``lqr``, ``passive``, switched by region (68),
 the ROA level or time; ``spong`` on the acrobot; ``trajopt`` and ``trajopt-effort``, their TVLQR then the LQR),
@@ -46,14 +47,15 @@ any work.
 # where the kernels are defined (:func:`_array_types`), and read by Warp as objects.
 import numpy as np
 
-from ..control.base import controller_name
-from ..errors import PaaError
-from ..progress import progress as progress_bar
-from . import engine
-from .records import new_state
-from .step import RUNNING, account, add_effort_work, apply_pushes, call_controller, command_into, \
+from ...control import catalog
+from ...control.base import controller_name
+from ...errors import PaaError
+from ...progress import progress as progress_bar
+from ..compiled import engine
+from ..compiled.records import new_state
+from ..compiled.step import RUNNING, account, add_effort_work, apply_pushes, call_controller, command_into, \
     measure_into, state_status, verdict
-from .warp_device import device_name, load_warp
+from .device import device_name, load_warp
 
 __all__ = ["DEVICE_LAWS", "device_controllers", "device_law", "device_data", "device_model", "device_worlds", "run"]
 
@@ -64,25 +66,21 @@ GRAPH_STEPS = 64
 
 
 def _device_laws():
-    """The compiled kernels whose translation to Warp is tested, by the name of the controller they serve."""
-    from ..control.combined import time_condition
-    from ..control.energy import chain_energy_kernel, conventional_kernel, vcl_kernel
-    from ..control.lqr import lqr_kernel
-    from ..control.passive import passive_kernel
-    from ..control.region import level_condition, region_condition
-    from ..control.spong import spong_kernel
-    from ..control.tvlqr import tvlqr_kernel
+    """The compiled kernels whose translation to Warp is tested: those of every controller whose record says it has
+    a device law (:class:`~paa_mj.control.record.ControllerRecord`), by kernel, with the names of the controllers
+    they serve; and the engine's "never" condition of a controller with one law."""
+    from ...control.registry import RECORDS
 
-    return {vcl_kernel: "(40)", conventional_kernel: "(12)", chain_energy_kernel: "(40) or (12) on any chain",
-            lqr_kernel: "LQR (67)", passive_kernel: "passive",
-            spong_kernel: "Spong's swing-up and LQR", tvlqr_kernel: "TVLQR tracking",
-            region_condition: "region (68)", level_condition: "ROA level", time_condition: "time",
-            engine._never: "never"}
+    laws = {engine._never: ("never",)}
+    for name, record in RECORDS.items():
+        if record.device:
+            for k in record.kernels:
+                laws[k] = laws.get(k, ()) + (name,)
+    return laws
 
 
-#: What ``--engine warp`` runs: the controllers whose laws have a device form (module docstring).
-DEVICE_LAWS = ("vcl", "vc", "vcl-only", "vc-only", "vcl-roa", "vc-roa", "lqr", "passive", "spong", "trajopt",
-               "trajopt-effort")
+#: What ``--engine warp`` runs: the controllers whose records say their laws have a device form (module docstring).
+DEVICE_LAWS = catalog.DEVICE_CONTROLLERS
 _REFUSAL = ("controller {name} has no law on the device (the warp engine runs {laws}); use {instead}")
 
 
@@ -145,7 +143,7 @@ def device_data(mjw, copy, n_worlds):
     room for contacts or constraint rows, so that MuJoCo Warp copies the smooth acceleration as MuJoCo does for
     ``nefc = 0`` instead of running its solver over empty rows, and 1024 x 1024 worlds fit in the device's memory.
     """
-    from ..model.mjcf_read import makes_no_constraints
+    from ...model.mjcf_read import makes_no_constraints
 
     sizes = {"nconmax": 0, "njmax": 0} if makes_no_constraints(copy) else {}
     return mjw.make_data(copy, nworld=n_worlds, **sizes)
@@ -165,7 +163,7 @@ CARRIED = ("qpos", "qvel", "act", "ctrl", "qfrc_applied", "qacc_warmstart", "tim
 _KERNELS = {}
 
 #: The columns of the device's per-rollout counts (int32) and sums (float64): the fields of
-#: :data:`~paa_mj.sim.records.ROLLOUT` the kernels keep.
+#: :data:`~paa_mj.sim.compiled.records.ROLLOUT` the kernels keep.
 COUNTS = ("step", "status", "switch", "mode")
 SUMS = ("effort", "work", "smooth", "speed")
 _STEP, _STATUS, _SWITCH, _MODE = range(4)
@@ -173,8 +171,8 @@ _EFFORT, _WORK, _SMOOTH, _SPEED = range(4)
 
 
 def _device_functions(wp, triple, n_links):
-    """The step's functions on the device, translated from :mod:`paa_mj.sim.step` (float64, a state of 2
-    ``n_links``): the law (``triple`` of compiled kernels, switched by :func:`~paa_mj.sim.step.call_controller`),
+    """The step's functions on the device, translated from :mod:`paa_mj.sim.compiled.step` (float64, a state of 2
+    ``n_links``): the law (``triple`` of compiled kernels, switched by :func:`~paa_mj.sim.compiled.step.call_controller`),
     then measure, command, account, verdict, pushes, effort and state, in the order the kernels call them."""
     from .translate import device_function
 
@@ -205,8 +203,8 @@ def _array_types(wp):
 
 
 def _control_kernel(wp, law, measure, command, account, verdict, push):
-    """The kernel of a step up to the physics: :mod:`paa_mj.sim.step`'s functions on the float64 state ``q``,
-    ``qd`` as :func:`~paa_mj.sim.step.actuate` calls them; ``ctrl`` and the pushes written to MuJoCo Warp's float32
+    """The kernel of a step up to the physics: :mod:`paa_mj.sim.compiled.step`'s functions on the float64 state ``q``,
+    ``qd`` as :func:`~paa_mj.sim.compiled.step.actuate` calls them; ``ctrl`` and the pushes written to MuJoCo Warp's float32
     arrays."""
     F32, F64, F64_3, V64, I32 = _array_types(wp)
 
@@ -250,8 +248,8 @@ def _control_kernel(wp, law, measure, command, account, verdict, push):
 
 def _after_kernel(wp, effort_work, state_status):
     """The kernel of a step after the physics: MuJoCo Warp's float32 state read into the float64 ``q``, ``qd``,
-    then :func:`~paa_mj.sim.step.add_effort_work` and :func:`~paa_mj.sim.step.state_status` as
-    :func:`~paa_mj.sim.step.finish_step` calls them; a stopped world back at its last good state, where the CPU
+    then :func:`~paa_mj.sim.compiled.step.add_effort_work` and :func:`~paa_mj.sim.compiled.step.state_status` as
+    :func:`~paa_mj.sim.compiled.step.finish_step` calls them; a stopped world back at its last good state, where the CPU
     engine leaves it."""
     F32, F64, F64_3, V64, I32 = _array_types(wp)
 
@@ -281,7 +279,7 @@ def _after_kernel(wp, effort_work, state_status):
 
 class _Worlds:
     """The device arrays of one run: MuJoCo Warp's model and data (float32), the controllers' parameters and the
-    records, float64 and int32 (:data:`COUNTS`, :data:`SUMS`), in the layouts :mod:`paa_mj.sim.step`'s functions
+    records, float64 and int32 (:data:`COUNTS`, :data:`SUMS`), in the layouts :mod:`paa_mj.sim.compiled.step`'s functions
     read on the CPU (one row a rollout)."""
 
     #: The arrays of one row a rollout (all but the task, which every rollout shares).
@@ -325,7 +323,7 @@ class _Worlds:
         self.peak, self.last_tau, self.last_state = zeros(n, motors), zeros(n, motors), put(plan.x0)
 
     def store(self, state):
-        """These worlds' records read back into their rows of the run's :class:`~paa_mj.sim.records.State`."""
+        """These worlds' records read back into their rows of the run's :class:`~paa_mj.sim.compiled.records.State`."""
         rows, memory_size = self.rows, self.memory.shape[1]
         counts, sums = self.counts.numpy(), self.sums.numpy()
         for k, field in enumerate(COUNTS):
@@ -359,8 +357,8 @@ class _Worlds:
 
 
 def run(plan: engine.Plan, controllers, *, device=None, progress=False, desc="rollouts") -> engine.Outcome:
-    """Run every rollout of ``plan`` on MuJoCo Warp (module docstring); the same :class:`~paa_mj.sim.engine.Outcome`
-    as :func:`paa_mj.sim.engine.run`. ``device``: a Warp device name (default: :func:`device_name`'s)."""
+    """Run every rollout of ``plan`` on MuJoCo Warp (module docstring); the same :class:`~paa_mj.sim.compiled.engine.Outcome`
+    as :func:`paa_mj.sim.compiled.engine.run`. ``device``: a Warp device name (default: :func:`device_name`'s)."""
     engine.check_count(plan, controllers)
     _check_plan(plan)
     triple, params, memory = device_controllers(plan, controllers)
@@ -399,7 +397,7 @@ def _check_room(wp, mjw, plan, params, memory, device):
     """Refuse, in one line, worlds that would not fit in the device's free memory: MuJoCo Warp's data of a world
     (measured as that of two worlds less one) and this engine's rows, half as much again for the moment a packing
     holds both sets of worlds."""
-    from ..limits import check_memory
+    from ...limits import check_memory
 
     settings, links = plan.settings, plan.n_links
     engine_rows = 8 * (params.shape[1] + memory.shape[1] + settings.cert[0].size + settings.pushes[0].size

@@ -13,7 +13,7 @@ import os
 import mujoco
 from numba import types
 
-from ..provenance import require_compiled_kernels
+from ...provenance import require_compiled_kernels
 
 require_compiled_kernels()  # uncompiled, the calls below would never step MuJoCo
 

@@ -1,12 +1,12 @@
 """The engine's plans stepped through MuJoCo's batch API (``mujoco.batch.Batch``), for comparison with the engine.
 
-:func:`run` runs a :class:`~paa_mj.sim.engine.Plan` as :func:`paa_mj.sim.engine.run` does, step by step over the
+:func:`run` runs a :class:`~paa_mj.sim.compiled.engine.Plan` as :func:`paa_mj.sim.compiled.engine.run` does, step by step over the
 whole batch instead of rollout by rollout: every control step, one compiled loop over the running rollouts
-evaluates their controllers (the engine's packed kernels, :func:`~paa_mj.sim.engine.pack`, called as the engine
-calls them) and does everything of the step before the physics (:func:`~paa_mj.sim.step.before_physics`:
+evaluates their controllers (the engine's packed kernels, :func:`~paa_mj.sim.compiled.engine.pack`, called as the engine
+calls them) and does everything of the step before the physics (:func:`~paa_mj.sim.compiled.step.before_physics`:
 measurement noise, delay, torque noise, saturation, outcomes, samples, retirement, pushes); then
 ``Batch.step`` advances the rollouts still running by one ``mj_step`` each, on the batch's threads; then one
-compiled loop does the rest of the step (:func:`~paa_mj.sim.step.after_physics`). The rollouts' plants are the
+compiled loop does the rest of the step (:func:`~paa_mj.sim.compiled.step.after_physics`). The rollouts' plants are the
 batch's per-simulation models (``Batch.set_models``), their states its state rows, written and read in place.
 
 Same kernels, same order of operations within a rollout, counter-based noise (:mod:`paa_mj.sim.noise`) and
@@ -22,9 +22,9 @@ import mujoco
 import numpy as np
 from numba import njit, types
 
-from ..control.base import KERNEL_TYPE
-from ..errors import PaaError
-from ..mujoco_log import mujoco_log_off
+from ...control.base import KERNEL_TYPE
+from ...errors import PaaError
+from ...mujoco_log import mujoco_log_off
 from .engine import RUNNING, Outcome, Plan, RunArrays, memory_size, packed_controllers
 from .records import RUN_T, SAMPLES_T, SETTINGS_T, STATE_T, Physics
 from .step import after_physics, before_physics, begin_rollout, call_controller, measure
@@ -45,7 +45,7 @@ def available() -> bool:
 
 @njit(cache=True)
 def _physics(r, rows, at, warnings):
-    """Rollout ``r``'s :class:`~paa_mj.sim.records.Physics`: views of its state row (qpos, qvel, ctrl,
+    """Rollout ``r``'s :class:`~paa_mj.sim.compiled.records.Physics`: views of its state row (qpos, qvel, ctrl,
     qfrc_applied at the offsets ``at``, sizes n, n, m, n) and of its warning counters (no model or data)."""
     row = rows[r]
     n, nu = at[4], at[5]
@@ -72,7 +72,7 @@ def _begin(group, rows, at, warnings, x0, state, memory0):
 @njit(_BEFORE_SIG, cache=True)
 def _before(first, second, condition, params, group, step, rows, at, warnings, run, settings, state, samples, go):
     """Step ``step`` of the running rollouts of ``group`` up to the physics: measure, the controller (as
-    :func:`~paa_mj.sim.step.advance_compiled` calls it), :func:`~paa_mj.sim.step.before_physics`; ``go[r]`` = 1
+    :func:`~paa_mj.sim.compiled.step.advance_compiled` calls it), :func:`~paa_mj.sim.compiled.step.before_physics`; ``go[r]`` = 1
     for those that go on to ``mj_step``, 0 for the others."""
     n = at[4]
     seen, tau = np.empty(2 * n), np.empty(at[5])
@@ -89,7 +89,7 @@ def _before(first, second, condition, params, group, step, rows, at, warnings, r
 
 @njit(_AFTER_SIG, cache=True)
 def _after(ids, step, rows, at, warnings, run, state, samples):
-    """Step ``step`` of the rollouts ``ids`` after their ``mj_step``: :func:`~paa_mj.sim.step.after_physics`."""
+    """Step ``step`` of the rollouts ``ids`` after their ``mj_step``: :func:`~paa_mj.sim.compiled.step.after_physics`."""
     for r in ids:
         after_physics(r, step, _physics(r, rows, at, warnings), run, state, samples)
 
@@ -105,7 +105,7 @@ def _offsets(batch, n_links, n_motors) -> np.ndarray:
 
 
 def _groups(forms, keys):
-    """(packed form, its rollouts) for each distinct controller of :func:`~paa_mj.sim.engine.packed_controllers`; a
+    """(packed form, its rollouts) for each distinct controller of :func:`~paa_mj.sim.compiled.engine.packed_controllers`; a
     :class:`PaaError` for one without a compiled form (this path runs compiled controllers only)."""
     groups = {}
     for r, key in enumerate(keys):
@@ -130,7 +130,7 @@ def _batch_of(plan, nthread):
 
 
 def run(plan: Plan, controllers, nthread=None) -> Outcome:
-    """Run every rollout of ``plan`` through ``mujoco.batch.Batch``: the outcome of :func:`paa_mj.sim.engine.run`.
+    """Run every rollout of ``plan`` through ``mujoco.batch.Batch``: the outcome of :func:`paa_mj.sim.compiled.engine.run`.
 
     Parameters
     ----------

@@ -3,7 +3,7 @@
 Three protocols of ``double_pendulum``'s acrobot leaderboards (dfki-ric-underactuated-lab, commit 1e8544e6):
 
 - ``performance-v2`` (``leaderboard/acrobot/simulation_v2``): one run of 10 s from their start, RK4 at 2 ms,
-  scored by :func:`~paa_mj.studies.realaigym_scores.performance` (the RealAI score v2);
+  scored by :func:`~paa_mj.realaigym.scores.performance` (the RealAI score v2);
 - ``robustness-v2`` (``robustness_v2/benchmark_controller.py`` with ``analysis/benchmark.py``): six criteria of
   21 levels: model parameters (rotor inertia I_r in [0, 1e-4] kg m^2; per link the first moment m r, the mass
   (links 2..n), the pivot inertia I = J + m r^2 at 0.75..1.25 times nominal, one at a time, the controller
@@ -18,7 +18,7 @@ Three protocols of ``double_pendulum``'s acrobot leaderboards (dfki-ric-underact
   6 N m each) drives the chain towards a random configuration (angles uniform over a turn) for 0.2 s, the
   controller off; the score is the time up over 60 s.
 
-The physics and disturbances are their simulator's (:mod:`paa_mj.sim.protocol`). Their runs draw from
+The physics and disturbances are their simulator's (:mod:`paa_mj.realaigym.simulator`). Their runs draw from
 NumPy's global generator unseeded; here each run draws from its own legacy generator
 ``RandomState([seed, criterion, level, run])`` in their order (the pulses, then 5n normals a step), and
 ``global-v3`` draws its reset states and times from ``RandomState(seed)`` as their wrapper does after
@@ -41,15 +41,15 @@ from ..errors import PaaError
 from ..limits import check_seed
 from ..model.robot import Robot
 from ..model.states import wrap
-from ..sim import protocol
+from . import simulator as protocol
 from ..sim.batch import check_engine
-from ..sim.engine import pack
-from ..sim.step import MAX_SPEED
+from ..sim.compiled.engine import pack
+from ..sim.compiled.step import MAX_SPEED
 from ..sim.verdict import diverged_words, divergence
 from ..task import Task, as_task
-from . import realaigym_scores as scores
-from .settings import REALAIGYM_ENGINES as ENGINES, REALAIGYM_PROTOCOLS as PROTOCOLS
-from .store import NOT_RUN, ChunkStore, per_run, runs_done, study_key
+from . import scores
+from ..studies.settings import REALAIGYM_ENGINES as ENGINES, REALAIGYM_PROTOCOLS as PROTOCOLS
+from ..studies.store import NOT_RUN, ChunkStore, per_run, runs_done, study_key
 
 #: Their simulation settings (``sim_parameters.py`` of the three leaderboards).
 DT, T_FINAL, T_FINAL_GLOBAL = 0.002, 10.0, 60.0
@@ -158,7 +158,7 @@ def perturbations(rng, n, t_final=T_FINAL, dt=DT, per_joint=3, min_gap=1.0, sigm
 
 class Runs:
     """One controller, run again and again under their simulator: compiled when it has a compiled form; with
-    ``engine="warp"``, many runs at once on a Warp ``device`` (:mod:`paa_mj.sim.protocol_warp`). Starts are in
+    ``engine="warp"``, many runs at once on a Warp ``device`` (:mod:`paa_mj.realaigym.simulator_warp`). Starts are in
     paa_mj's angles, the states of a run in theirs (:func:`their_angles`), as their simulator keeps them."""
 
     def __init__(self, robot: Robot, controller, engine="cpu", device=None):
@@ -168,7 +168,7 @@ class Runs:
         check_engine(engine, device, ENGINES)
         self.engine, self.device = engine, device
         if engine == "warp":
-            from ..sim.warp_engine import device_law
+            from ..sim.warp.engine import device_law
 
             device_law(self.packed, controller_name(controller), "--engine cpu")  # refused before any run
 
@@ -228,7 +228,7 @@ class Runs:
         return X[:done + 1], U[:done]
 
     def _run_on_device(self, runs, T, advanced):
-        from ..sim import protocol_warp
+        from . import simulator_warp as protocol_warp
 
         batch = protocol_warp.Rollouts(self.n, T, DT)
         for P, x0, disturbances in runs:
@@ -241,7 +241,7 @@ class Runs:
 
     def _run_python(self, P, X, U, T, dt, delay_steps, sigma_meas, responsiveness, sigma_u, normals, perturbation,
                     reset):
-        """:func:`~paa_mj.sim.protocol.rollout_compiled`'s loop with the controller called from Python."""
+        """:func:`~paa_mj.realaigym.simulator.rollout_compiled`'s loop with the controller called from Python."""
         n = self.n
         reset_controller(self.controller)
         A, (work, mass, force) = protocol.inertia_constants(P, n), protocol.scratch(n)
@@ -515,7 +515,7 @@ def device_of(engine, device):
     """The device a run of ``engine`` ran on: ``cpu`` for the CPU engine, else the Warp device's name."""
     if engine == "cpu":
         return "cpu"
-    from ..sim.warp_device import device_name, load_warp
+    from ..sim.warp.device import device_name, load_warp
 
     return device_name(load_warp()[0], device)
 

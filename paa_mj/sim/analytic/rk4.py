@@ -13,8 +13,8 @@ from __future__ import annotations
 import numpy as np
 from numba.extending import register_jitable
 
-from ..model import chain
-from ..model import equations as eq
+from ...model import chain
+from ...model import equations as eq
 
 #: Layout of the constants: the paper's c (9) or the chain's A (n x n), b, damping, armature, the motor of each joint
 #: (:func:`paa_mj.model.chain.drive_map`), then the time step

@@ -18,7 +18,7 @@ from paa_mj.control.registry import ControllerSpec
 from paa_mj.errors import PaaError
 from paa_mj.model.robot import NAMED_ROBOTS, load_robot
 from paa_mj.sim.rollout import simulate_mujoco
-from paa_mj.studies.realaigym import run_protocol
+from paa_mj.realaigym.study import run_protocol
 from paa_mj.task import Task
 
 BASELINE = Path(__file__).parent / "data" / "actuation_baseline"

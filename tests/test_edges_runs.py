@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from paa_mj.sim.step import MAX_SPEED
+from paa_mj.sim.compiled.step import MAX_SPEED
 from paa_mj.sim.verdict import divergence, diverged_words, ending_words, near_duu, outcome_words
 from paa_mj.task import Task
 

@@ -47,7 +47,7 @@ def test_a_seed_past_the_range_is_one_line(run, command):
 def test_the_studies_take_the_same_range():
     from paa_mj.control.registry import ControllerSpec
     from paa_mj.model.robot import load_robot
-    from paa_mj.studies import realaigym as rg
+    from paa_mj.realaigym import study as rg
     from paa_mj.task import Task
 
     acrobot = load_robot("realaigym_acrobot")

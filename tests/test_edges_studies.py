@@ -34,7 +34,7 @@ def _says_what_was_not_run(summary, not_run, runs):
 
 
 def test_an_interrupted_realaigym_robustness_lists_its_runs_not_run_as_null(monkeypatch):
-    from paa_mj.studies import realaigym as rg
+    from paa_mj.realaigym import study as rg
 
     acrobot = load_robot("realaigym_acrobot")
     task = Task.named("stretched", acrobot)

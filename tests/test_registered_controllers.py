@@ -38,12 +38,17 @@ def _links(name):
     return _robot(name).params.n_links
 
 
+def _passive(name):
+    """The stored robot's passive joints, 1-based (as a record declares them)."""
+    return tuple(j + 1 for j in _robot(name).params.passive)
+
+
 def _cases():
     applies, refused = [], []
     for name, record in RECORDS.items():
         for robot in NAMED_ROBOTS:
             for goal in GOALS:
-                if not record.applies_to(_links(robot), goal):
+                if not record.applies_to(_links(robot), goal, _passive(robot)):
                     refused.append((name, robot, goal))
                 elif record.checked is None or (robot, goal) in record.checked:
                     applies.append((name, robot, goal))

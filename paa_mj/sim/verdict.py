@@ -4,7 +4,7 @@
 ``realaigym``'s divergence are all said here, so that one run reads the same whichever command ran it:
 
 - a diverged run (:func:`diverged_words`): when, and why (a non-finite torque, a non-finite state, joint speeds
-  above :data:`~paa_mj.sim.step.MAX_SPEED`), found in any simulator's records by :func:`divergence`;
+  above :data:`~paa_mj.sim.compiled.step.MAX_SPEED`), found in any simulator's records by :func:`divergence`;
 - how it ended where it did not succeed (:func:`ending_words`): at rest at DUU (stuck: the other limit of Theorem
   1 for the gymnast's folded goal), at rest elsewhere (an equilibrium of the closed loop), or spinning: no
   longer run changes any of them, so none is told to try a longer ``--t-final``;
@@ -36,7 +36,7 @@ def divergence(T, X, U, n_links: int):
 
     ``T`` (K,) times [s], ``X`` (K, 2n) states (angles, then speeds [rad/s]) and ``U`` (K - 1, m) the torques
     applied over each step: the first non-finite torque, non-finite state or joint speed above
-    :data:`~paa_mj.sim.step.MAX_SPEED`, with the time it was recorded at (the engines' own tests, for a simulator
+    :data:`~paa_mj.sim.compiled.step.MAX_SPEED`, with the time it was recorded at (the engines' own tests, for a simulator
     that does not stop on them).
     """
     T, X, U = np.asarray(T, float), np.asarray(X, float), np.asarray(U, float)

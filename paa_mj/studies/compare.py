@@ -44,7 +44,7 @@ from ..provenance import text_sha256
 from ..model.robot import Robot
 from ..sim.batch import kip_peak_torques, simulate_batch
 from ..sim.integrators import integrator_name
-from ..sim.step import STATUS_TEXT
+from ..sim.compiled.step import STATUS_TEXT
 from ..sim.verdict import diverged_words, outcome_words
 from ..task import Task, as_task
 from .basin import basin

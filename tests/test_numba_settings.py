@@ -24,7 +24,7 @@ def _paa(*args, **env):
                           env={**os.environ, **{k: str(v) for k, v in env.items()}})
 
 
-@pytest.mark.parametrize("value", ["1", "yes"])
+@pytest.mark.parametrize("value", ["1", pytest.param("yes", marks=pytest.mark.slow)])  # three processes each
 def test_uncompiled_kernels_are_refused_in_one_line(value):
     proc = _paa("simulate", "--t-final", "0.1", "--json", NUMBA_DISABLE_JIT=value)
     assert proc.returncode == 2 and proc.stdout == ""

@@ -7,12 +7,15 @@ same bar is written as whole lines, the first after :data:`LOG_DELAY` seconds
 the rate and the time left, so a log shows where a long command is. A command's :func:`watchdog` adds a
 line whenever nothing has been said for :data:`SILENCE` seconds (a step with no
 count of its own: compiling the kernels, a solve), so a log is never silent for
-long.
+long. ``PAA_MJ_PROGRESS=off`` in the environment leaves both out of a log (a
+terminal's bars stay): what a log says is then the same on a fast machine and on
+a loaded one.
 """
 from __future__ import annotations
 
 import contextlib
 import math
+import os
 import sys
 import threading
 import time
@@ -28,6 +31,11 @@ SILENCE = 20.0
 
 #: When a progress line was last written, and what it said (read by :func:`watchdog`).
 _last = {"time": time.monotonic(), "what": ""}
+
+
+def lines_in_logs() -> bool:
+    """False where ``PAA_MJ_PROGRESS`` is ``off`` (or ``0``, ``no``): no progress lines in a log."""
+    return os.environ.get("PAA_MJ_PROGRESS", "").strip().lower() not in ("off", "0", "no")
 
 
 def _said(what: str):
@@ -129,6 +137,8 @@ def progress(iterable=None, *, total=None, desc=None, unit="it", enabled=True, i
         whole = not isinstance(total, float) and not isinstance(initial, float)
         return tqdm(iterable, total=total, desc=desc, unit=unit, initial=initial, leave=leave, file=stream,
                     **({} if whole or total is None else {"bar_format": FLOAT_BAR}))
+    if not lines_in_logs():
+        return tqdm(iterable, total=total, initial=initial, disable=True)
     return _LogBar(iterable, total, desc, unit, initial, stream)
 
 
@@ -145,10 +155,11 @@ def watchdog(command: str, enabled: bool = True, silence: float = SILENCE, strea
     ``silence`` seconds: how long the command has run and the last thing said, so that a log is never silent for
     long, whatever the step (compiling the kernels, a solve, a wait on workers).
 
-    Nothing on a terminal, where tqdm's bars redraw in place, or when ``enabled`` is False.
+    Nothing on a terminal, where tqdm's bars redraw in place, when ``enabled`` is False, or where
+    ``PAA_MJ_PROGRESS=off`` (:func:`lines_in_logs`).
     """
     stream = sys.stderr if stream is None else stream
-    if not enabled or stream is None or (hasattr(stream, "isatty") and stream.isatty()):
+    if not enabled or not lines_in_logs() or stream is None or (hasattr(stream, "isatty") and stream.isatty()):
         yield
         return
     start = time.monotonic()

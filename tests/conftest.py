@@ -1,8 +1,15 @@
+import os
+
 import numpy as np
 import pytest
 from hypothesis import settings
 
 from paa_mj.model import load_robot
+
+# No progress lines in a log, in this process and in every one a test starts: what a command writes on stderr is
+# then the same on a fast machine and on a loaded one (a "still working" line after 20 s of silence, a count after
+# 2 s). tests/test_progress.py checks those lines themselves.
+os.environ["PAA_MJ_PROGRESS"] = "off"
 
 # Property tests draw the same examples on every run: a CI run is reproducible, and a failure found once is found
 # again (a new example is found by changing a test, not by chance).

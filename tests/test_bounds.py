@@ -161,6 +161,7 @@ def test_a_hopeless_certificate_is_not_searched_and_says_what_it_would_take():
 def test_the_search_shows_its_progress_and_bracket_in_a_log(monkeypatch, capsys):
     import paa_mj.progress as progress
 
+    monkeypatch.delenv("PAA_MJ_PROGRESS", raising=False)  # the suite leaves progress out of logs
     monkeypatch.setattr(progress, "LOG_DELAY", 0.0)
     monkeypatch.setattr(progress, "LOG_INTERVAL", 0.0)
     _search(_model(5, 5), "folded", desc="kD_min (41), 5 links")

@@ -9,20 +9,53 @@ import pytest
 ROOT = Path(__file__).resolve().parent.parent
 
 
-def test_docs_build_without_warnings(tmp_path, monkeypatch):
-    """Built in this process (the package's modules, which autodoc imports, are loaded already)."""
+#: The API reference of the modules the full build checks by name, and a page of display maths: the small form of
+#: the site, built by the site's own configuration (docs/conf.py) in the quick suite.
+SMALL_SITE = {
+    "index.md": "# paa_mj\n\n```{toctree}\nmodel\napi\n```\n",
+    "model.md": "# The model\n\nThe energy (9):\n\n$$\nE_r = m g l\n$$\n",
+    "api.rst": "API reference\n=============\n\n" + "".join(
+        f".. automodule:: {name}\n" for name in ("paa_mj.control.energy", "paa_mj.sim.batch", "paa_mj.studies.atlas",
+                                                  "paa_mj.control.tvlqr")),
+}
+
+
+def _build(source, out, monkeypatch):
+    """sphinx-build -W in this process (the package's modules, which autodoc imports, are loaded already)."""
     pytest.importorskip("sphinx")
     from sphinx.cmd.build import build_main
 
     monkeypatch.setattr(sys, "path", list(sys.path))  # conf.py puts the checkout first: for this build only
-    code = build_main(["-W", "--keep-going", "-q", "-b", "html", str(ROOT / "docs"), str(tmp_path)])
-    assert code == 0, "sphinx-build failed (its warnings are above, in the captured stderr)"
-    model = (tmp_path / "model.html").read_text()
+    return build_main(["-W", "--keep-going", "-q", "-b", "html", str(source), str(out)])
+
+
+def _api_and_maths_rendered(out):
+    model = (out / "model.html").read_text()
     assert "math notranslate" in model  # the equations are rendered by MathJax, not shown as text
-    api = (tmp_path / "api.html").read_text()
+    api = (out / "api.html").read_text()
     for name in ("paa_mj.control.energy.EnergyVCLController", "paa_mj.sim.batch.simulate_batch",
                  "paa_mj.studies.atlas.atlas", "paa_mj.control.tvlqr.TVLQRController"):
         assert f'id="{name}"' in api, name
+
+
+def test_a_small_site_builds_without_warnings_by_the_site_s_configuration(tmp_path, monkeypatch):
+    """The quick form of the next test: four modules' docstrings and a page of maths, by docs/conf.py."""
+    source = tmp_path / "source"
+    source.mkdir()
+    (source / "conf.py").write_text((ROOT / "docs" / "conf.py").read_text())
+    for name, text in SMALL_SITE.items():
+        (source / name).write_text(text)
+    code = _build(source, tmp_path / "html", monkeypatch)
+    assert code == 0, "sphinx-build failed (its warnings are above, in the captured stderr)"
+    _api_and_maths_rendered(tmp_path / "html")
+
+
+@pytest.mark.slow
+def test_docs_build_without_warnings(tmp_path, monkeypatch):
+    """The whole site (about 40 CPU-s)."""
+    code = _build(ROOT / "docs", tmp_path, monkeypatch)
+    assert code == 0, "sphinx-build failed (its warnings are above, in the captured stderr)"
+    _api_and_maths_rendered(tmp_path)
     assert (tmp_path / "tutorial.html").exists()
 
 
@@ -35,8 +68,21 @@ def _texts_and_images(notebook):
     return texts, images
 
 
+def test_the_tutorial_is_a_valid_notebook_stored_with_its_outputs():
+    """The quick form of the next test: valid, every code cell run in order, its figures each shown once."""
+    nbformat = pytest.importorskip("nbformat")
+    stored = nbformat.read(ROOT / "docs" / "tutorial.ipynb", as_version=4)
+    nbformat.validate(stored)
+    cells = [cell for cell in stored.cells if cell.cell_type == "code"]
+    assert [cell.execution_count for cell in cells] == list(range(1, len(cells) + 1))
+    texts, images = _texts_and_images(stored)
+    assert "balanced: True" in "".join(texts) and "switch to the LQR at 17.986" in "".join(texts)
+    assert sum(images) >= 3 and max(images) == 1
+
+
+@pytest.mark.slow
 def test_the_tutorial_notebook_runs_and_is_stored_with_its_outputs(tmp_path):
-    """Run afresh, the tutorial prints what it holds, and shows each of its figures once."""
+    """Run afresh, the tutorial prints what it holds, and shows each of its figures once (about 25 CPU-s)."""
     nbformat = pytest.importorskip("nbformat")
     nbclient = pytest.importorskip("nbclient")
     stored = nbformat.read(ROOT / "docs" / "tutorial.ipynb", as_version=4)
@@ -52,6 +98,7 @@ def test_the_tutorial_notebook_runs_and_is_stored_with_its_outputs(tmp_path):
         "docs/tutorial.ipynb is stale: execute it again and store it with its outputs"
 
 
+@pytest.mark.slow  # pip wheel, pip install and two processes: about 7 CPU-s
 def test_a_wheel_builds_without_deprecation_and_runs_from_elsewhere(tmp_path):
     wheels = tmp_path / "wheels"
     proc = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-w", str(wheels),

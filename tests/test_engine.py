@@ -53,6 +53,7 @@ def test_batch_equals_single_rollouts_bit_for_bit(gymnast, random_starts, retire
         assert np.any(batch.t_end < 20.0)  # some rollouts balanced for good before the end
 
 
+@pytest.mark.slow  # 16 kips of 22 s twice, about 11 CPU-s; its small form is the next test
 def test_retirement_changes_no_outcome(gymnast):
     """Rollouts stopped once their balance can no longer fail end as they would have (4 x 4 basin, 22 s)."""
     from paa_mj.studies.basin import basin_grid

@@ -42,6 +42,7 @@ def test_headless_rollout(tmp_path, capsys):
     assert (tmp_path / "acrobot" / "trajectory.csv").read_text().startswith("t,q1,q2,d1,d2,tau2,E_minus_Er,V,mode")
 
 
+@pytest.mark.slow  # about 8 CPU-s; a user's controller in every command: tests/test_task.py, test_faults_user_code.py
 def test_own_controller_through_simulate_basin_and_compare(tmp_path):
     assert _example("own_controller.py").main(["--small", "--out", str(tmp_path / "own")]) == [0, 0, 0]
     basin = json.loads((tmp_path / "own" / "basin" / "summary.json").read_text())
@@ -51,8 +52,9 @@ def test_own_controller_through_simulate_basin_and_compare(tmp_path):
 
 
 # each backend writes the format that tests/test_video.py does not write with it
-@pytest.mark.parametrize("gl, robot, goal, name", [("egl", "gymnast", "folded", "kip.gif"),
-                                                   ("osmesa", "acrobot", "stretched", "kip.mp4")])
+@pytest.mark.parametrize("gl, robot, goal, name", [
+    ("egl", "gymnast", "folded", "kip.gif"),
+    pytest.param("osmesa", "acrobot", "stretched", "kip.mp4", marks=pytest.mark.slow)])  # a process each: 6 CPU-s
 def test_offscreen_video(tmp_path, gl, robot, goal, name):
     from paa_mj.view.gl import probe
 
@@ -64,6 +66,7 @@ def test_offscreen_video(tmp_path, gl, robot, goal, name):
     assert (tmp_path / name).stat().st_size > 100 and f"{robot}'s swing-up to the {goal} goal" in out.stdout
 
 
+@pytest.mark.slow  # a cluster of its own, about 10 CPU-s; studies on a cluster: tests/test_distributed.py
 def test_dask_basin_on_a_cluster_the_script_starts(tmp_path):
     pytest.importorskip("distributed")
     run("dask_basin.py", "--workers", "1", "--robot", "chain4", "--goal", "stretched", "--grid", "2", "--t-final", "0.5",

@@ -283,7 +283,7 @@ def test_every_command_takes_a_robot_of_the_family_and_either_goal(tmp_path, run
     assert short.returncode == 2 and "--x0 needs 4 numbers for robot acrobot (q1 q2 d1 d2), got 6" in short.stderr
 
 
-@pytest.mark.parametrize("goal", ["folded", "stretched"])
+@pytest.mark.parametrize("goal", [pytest.param("folded", marks=pytest.mark.slow), "stretched"])  # folded: 6.5 CPU-s
 def test_a_planned_kip_tracked_by_tvlqr_balances_the_acrobot(goal):
     """trajopt over a chain: collocation on the chain's dynamics (CasADi), TVLQR along it, then (67) at the goal."""
     from paa_mj.control.registry import make_controller

@@ -36,6 +36,7 @@ def test_normalised_actions_pass_without_the_action_space_warning():
     np.testing.assert_allclose(env.action_to_torque([0.5, -1.0]), [0.5 * env.torque_limit, -env.torque_limit])
 
 
+@pytest.mark.slow  # a kip of 25 s, a step at a time (17 CPU-s); a controller as the policy, quick: the LQR's balance
 def test_a_registered_controller_as_the_policy():
     from paa_mj.envs import controller_policy
 
@@ -66,6 +67,7 @@ def test_seeded_and_deterministic():
     assert not np.array_equal(a[0], c[0])
 
 
+@pytest.mark.slow  # a kip of 30 s, a step at a time (13 CPU-s)
 def test_the_papers_controller_balances_through_the_env():
     env = GymnastKipEnv()
     ctrl = make_controller("vcl", env.robot)

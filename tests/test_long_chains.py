@@ -41,14 +41,15 @@ def test_the_longest_chain_runs_without_gains_and_is_refused_one_line_where_it_n
     assert "is not above kD_min" in proc.stderr and "controller (40) can become singular" in proc.stderr, proc.stderr
 
 
-def test_the_controllability_of_the_longest_chain_is_decided_without_overflow():
+@pytest.mark.parametrize("n", [16, pytest.param(MAX_LINKS, marks=pytest.mark.slow)])  # 64 links: 63 CPU-s
+def test_the_controllability_of_the_longest_chain_is_decided_without_overflow(n):
     """The Kalman matrix's powers A^(2n - 1) B overflowed at 64 links: each power is rescaled, and PBH decides."""
     import warnings
 
     from paa_mj.model.dynamics import AnalyticModel
     from paa_mj.theory.linear import goal_controllability
 
-    am = AnalyticModel.from_params(_chain(MAX_LINKS))
+    am = AnalyticModel.from_params(_chain(n))
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         ctrb = goal_controllability(am, Task.named("folded", am))

@@ -24,7 +24,7 @@ def _paa(*args, **env):
                           env={**os.environ, **{k: str(v) for k, v in env.items()}})
 
 
-@pytest.mark.parametrize("value", ["1", "yes"])
+@pytest.mark.parametrize("value", ["1", pytest.param("yes", marks=pytest.mark.slow)])  # three processes each
 def test_uncompiled_kernels_are_refused_in_one_line(value):
     proc = _paa("simulate", "--t-final", "0.1", "--json", NUMBA_DISABLE_JIT=value)
     assert proc.returncode == 2 and proc.stdout == ""
@@ -57,6 +57,38 @@ def test_an_unusable_cache_root_falls_back_to_the_temporary_folder():
         package_digest()[:16])
 
 
+def test_a_small_kernel_s_unreadable_cache_files_are_dropped_and_it_is_compiled_again(tmp_path):
+    """The quick form of the next test, in this process (the package's guard on numba's cache is installed): a
+    one-line kernel's truncated index and zero-filled data file are removed, and the kernel compiled again."""
+    import importlib.util
+    from pathlib import Path
+
+    import numba
+
+    source = tmp_path / "tiny_kernel.py"
+    source.write_text("from numba import njit\n\n\n@njit(cache=True)\ndef twice(x):\n    return 2.0 * x\n")
+
+    def kernel(module_name):  # the same file as a new module: a new dispatcher, which reads the cache
+        spec = importlib.util.spec_from_file_location(module_name, source)
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        return module.twice
+
+    assert kernel("tiny_kernel_first")(1.5) == 3.0
+    files = sorted(Path(numba.config.CACHE_DIR).rglob("tiny_kernel.twice-*"))
+    try:
+        assert {path.suffix for path in files} == {".nbi", ".nbc"}, files
+        for path in files:
+            path.write_bytes(b"" if path.suffix == ".nbi" else b"\0" * 64)
+        again = kernel("tiny_kernel_again")
+        assert again(1.5) == 3.0 and again.stats.cache_misses  # compiled again, not loaded
+        assert all(path.stat().st_size > 64 for path in files)  # and written anew
+    finally:
+        for path in files:
+            path.unlink(missing_ok=True)
+
+
+@pytest.mark.slow  # two processes and the engine's step compiled again: about 17 CPU-s
 def test_unreadable_cache_files_are_dropped_and_compiled_again(tmp_path):
     """Truncated and zero-filled index and data files of the kernels a run loads: the run gives the same numbers
     as with a sound cache, and the files are written anew."""

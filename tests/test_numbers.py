@@ -44,6 +44,7 @@ class PD:
 '''
 
 
+@pytest.mark.slow  # two kips of 25 s, one of them a Python controller (13 CPU-s)
 def test_success_does_not_depend_on_the_controllers_mode(gymnast, tmp_path):
     """The paper's controller without `mode` succeeds exactly where it does with it."""
     (tmp_path / "nomode.py").write_text(NO_MODE)
@@ -220,6 +221,7 @@ def test_unsupported_scheduler_addresses_are_one_line(address, capsys):
     assert address in err and len(err.strip().splitlines()) == 1
 
 
+@pytest.mark.slow  # a process and its local cluster (9 CPU-s)
 def test_a_controller_that_prints_on_dask_workers_leaves_json_alone(tmp_path):
     (tmp_path / "loud.py").write_text("GAIN = 0.05\n" + PD.replace("def torque(self, q, qd, t):",
                                                                   "def torque(self, q, qd, t):\n        print('hello')"))
@@ -230,6 +232,7 @@ def test_a_controller_that_prints_on_dask_workers_leaves_json_alone(tmp_path):
     assert "hello" in proc.stderr
 
 
+@pytest.mark.slow  # the theory of four robots and eight kips (7 CPU-s); --chunk in a quick form: compare's, below
 def test_chunk_is_honoured_by_atlas(tmp_path):
     assert main(["atlas", "--grid", "2", "--simulate", "--starts", "1", "--t-final", "0.2", "--chunk", "3",
                  "--scheduler", "inline", "--out", str(tmp_path), "--json"]) == 0

@@ -238,14 +238,14 @@ def test_every_robot_of_the_family_runs_the_protocols(robot, goal):
     assert 0.0 <= summary["result"]["score"] <= 1.0 and len(summary["result"]["reset_times"]) == rg.RESETS
 
 
-def test_command_line_gives_the_same_bytes_twice(tmp_path):
+def test_command_line_gives_the_same_bytes_twice(tmp_path, run):
     args = ["realaigym", "--protocol", "global-v3", "--controller", "spong", "--seed", "5", "--json"]
-    first, second = cli(*args), cli(*args)
+    first, second = cli(*args), run(*args)  # a process of its own, then this one: the same bytes
     assert first.returncode == 0 and first.stdout == second.stdout
     summary = json.loads(first.stdout)
     assert summary["seed"] == 5 and summary["result"]["score"] == pytest.approx(
         summary["result"]["time_up"] / 60.0)
-    out = cli("realaigym", "--protocol", "performance-v2", "--controller", "spong", "--out", str(tmp_path / "p"))
+    out = run("realaigym", "--protocol", "performance-v2", "--controller", "spong", "--out", str(tmp_path / "p"))
     assert out.returncode == 0 and (tmp_path / "p" / "sim_swingup.csv").is_file()
     rows = np.genfromtxt(tmp_path / "p" / "sim_swingup.csv", delimiter=",", names=True)
     assert rows.dtype.names[:3] == ("time", "pos_meas1", "pos_meas2") and rows["pos_meas1"][0] == 0.0

@@ -57,6 +57,7 @@ def _runs_of_every_kind(robot, T):
 
 
 @needs_warp
+@pytest.mark.slow  # thirteen kinds of run on Warp's CPU device (16 CPU-s)
 def test_every_kind_of_run_follows_the_cpu(gymnast, gymnast_vcl):
     _, controller = gymnast_vcl
     T = rg.their_times(0.6)

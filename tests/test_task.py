@@ -13,7 +13,6 @@ from paa_mj.model.dynamics import AnalyticModel
 from paa_mj.model.params import RobotParams
 from paa_mj.task import BOOK, GOALS, Region, Task, as_task, book_rows, goal_angles
 
-from .helpers import cli
 
 
 @pytest.mark.parametrize("n", range(2, 7))
@@ -137,7 +136,7 @@ def test_every_built_in_controller_refuses_states_of_another_width(name, gymnast
     assert np.shape(controller.torque(np.zeros((5, 3)), np.zeros((5, 3)), 0.0)) == (5, 2)
 
 
-def test_a_users_controller_that_runs_another_robots_controller_is_one_line(tmp_path):
+def test_a_users_controller_that_runs_another_robots_controller_is_one_line(tmp_path, run):
     (tmp_path / "mine.py").write_text(
         "from paa_mj.control import make_controller\n"
         "from paa_mj.model import load_robot\n\n\n"
@@ -146,42 +145,42 @@ def test_a_users_controller_that_runs_another_robots_controller_is_one_line(tmp_
         "        self.inner = make_controller('vcl', load_robot('gymnast'))\n\n"
         "    def torque(self, q, qd, t):\n"
         "        return self.inner.torque(q, qd, t)\n")
-    proc = cli("simulate", "--robot", "chain4", "--controller", f"{tmp_path / 'mine.py'}:Borrowed",
+    proc = run("simulate", "--robot", "chain4", "--controller", f"{tmp_path / 'mine.py'}:Borrowed",
                "--t-final", "0.1", cwd=tmp_path)
     assert proc.returncode == 2 and "Traceback" not in proc.stderr
     assert len(proc.stderr.strip().splitlines()) == 1 and "4 angles" in proc.stderr, proc.stderr
 
 
-def test_a_given_t_final_is_the_horizon_the_run_states():
+def test_a_given_t_final_is_the_horizon_the_run_states(run):
     """--t-final is the run's length and the task's horizon in what the run states; without it, the task's."""
     import json
 
-    given = json.loads(cli("simulate", "--t-final", "0.2", "--json").stdout)
+    given = json.loads(run("simulate", "--t-final", "0.2", "--json").stdout)
     assert given["t_final"] == given["task"]["horizon"] == 0.2
-    study = cli("basin", "--grid", "2", "--t-final", "0.05", "--scheduler", "inline", "--json")
+    study = run("basin", "--grid", "2", "--t-final", "0.05", "--scheduler", "inline", "--json")
     assert json.loads(study.stdout)["task"]["horizon"] == 0.05, study.stderr
 
 
 @pytest.mark.parametrize("command", [["basin", "--grid", "2", "--scheduler", "inline"], ["simulate", "--engine",
                                                                                          "analytic"]])
-def test_a_t_final_between_two_steps_is_refused_by_every_command(command):
+def test_a_t_final_between_two_steps_is_refused_by_every_command(command, run):
     """Every engine ends at the nearest step: a time between two is refused, as MuJoCo's simulate refuses it."""
-    result = cli(*command, "--t-final", "0.0015")
+    result = run(*command, "--t-final", "0.0015")
     assert result.returncode == 2 and result.stderr == (
         "paa-mj: error: final time 0.0015 s is not a whole number of time steps (dt = 0.001 s): give 0.001 or"
         " 0.002\n")
 
 
-def test_the_times_a_refusal_offers_are_whole_steps_as_written(tmp_path):
+def test_the_times_a_refusal_offers_are_whole_steps_as_written(tmp_path, run):
     """A 62.5 us robot: the two times offered are k dt and (k + 1) dt to 12 digits, each accepted as given."""
     robot = tmp_path / "fine.xml"
-    made = cli("make-model", "--links", "3", "--m", "1", "1", "1", "--l", "1", "1", "1", "--timestep", "6.25e-5",
+    made = run("make-model", "--links", "3", "--m", "1", "1", "1", "--l", "1", "1", "1", "--timestep", "6.25e-5",
                "--out", str(robot))
     assert made.returncode == 0, made.stderr
-    refused = cli("simulate", "--robot", str(robot), "--t-final", "0.30005", "--kD", "1e3", "--kP", "1e3", "--kV",
+    refused = run("simulate", "--robot", str(robot), "--t-final", "0.30005", "--kD", "1e3", "--kP", "1e3", "--kV",
                   "1e3")
     assert refused.returncode == 2 and refused.stderr.endswith("give 0.3 or 0.3000625\n"), refused.stderr
-    assert "give 1000 or 1000.001" in cli("simulate", "--t-final", "1000.0005").stderr
+    assert "give 1000 or 1000.001" in run("simulate", "--t-final", "1000.0005").stderr
 
 
 def test_a_run_shorter_than_the_success_window_is_judged_over_all_of_it_and_says_so():

@@ -96,11 +96,11 @@ def test_files_are_whole_or_absent(tmp_path, monkeypatch):
     assert [p.name for p in tmp_path.iterdir()] == ["data.npz"]  # no temporary left behind
 
 
-def test_same_command_gives_byte_identical_files(tmp_path):
+def test_same_command_gives_byte_identical_files(tmp_path, run):
     digests = []
-    for run in ("a", "b"):
-        out = tmp_path / run
-        assert _cli("simulate", "--t-final", "3", "--out", str(out), "--json").returncode == 0
+    for name, command in (("a", _cli), ("b", run)):  # a process of its own, then this one
+        out = tmp_path / name
+        assert command("simulate", "--t-final", "3", "--out", str(out), "--json").returncode == 0
         digests.append({name: hashlib.sha256((out / name).read_bytes()).hexdigest()
                         for name in ("trajectory.npz", "trajectory.csv", "summary.json")})
     assert digests[0] == digests[1]

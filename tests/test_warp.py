@@ -1,7 +1,8 @@
 """The engine on MuJoCo Warp (``paa_mj[gpu]``), checked on Warp's CPU device against MuJoCo's ``mj_step``.
 
 Skipped where ``warp`` and ``mujoco_warp`` are not installed, except the refusal without them, which is checked
-everywhere. MuJoCo Warp computes in float32, the CPU engine in float64: what is held here is what float32
+everywhere. The quick suite runs the physics on Warp (its small form); the rest, which compiles and runs the laws,
+studies and environments on the device, is marked ``slow`` (``bash scripts/test.sh -m slow``). MuJoCo Warp computes in float32, the CPU engine in float64: what is held here is what float32
 allows (measured on the CI machine, RK4 at 1 ms): one rollout of the physics alone agrees with ``mj_step`` to
 about 3e-6 rad over 200 steps, the closed loop under the paper's controller to about 5e-6 (the same switches,
 books and statuses), and the laws translated to Warp, run in float64, equal numba's to 1e-12. The step's bookkeeping
@@ -186,6 +187,7 @@ def _states_around(task, n_links, seed=1):
 
 
 @needs_warp
+@pytest.mark.slow  # runs MuJoCo Warp on Warp's CPU device (its kernels compiled on first use)
 def test_translated_laws_equal_numba_in_float64(gymnast, folded, warp_modules):
     """(40), (12), (67) and the switch (68), translated from the source numba compiles (paa_mj.sim.warp.translate) and
     run by Warp in float64: the same torques and modes as the compiled forms, to rounding."""
@@ -203,6 +205,7 @@ def test_translated_laws_equal_numba_in_float64(gymnast, folded, warp_modules):
 
 
 @needs_warp
+@pytest.mark.slow  # runs MuJoCo Warp on Warp's CPU device (its kernels compiled on first use)
 @pytest.mark.parametrize("robot_name, goal, name", [("chain4", "folded", "vcl"), ("gymnast", "stretched", "vc"),
                                                     ("acrobot", "folded", "vcl"), ("acrobot", "stretched", "spong")])
 def test_the_chain_s_law_on_the_device_equals_numba(robot_name, goal, name, warp_modules):
@@ -229,6 +232,7 @@ def test_the_chain_s_law_on_the_device_equals_numba(robot_name, goal, name, warp
 
 
 @needs_warp
+@pytest.mark.slow  # runs MuJoCo Warp on Warp's CPU device (its kernels compiled on first use)
 def test_the_tracking_law_on_the_device_equals_numba(gymnast, folded, warp_modules):
     """trajopt's TVLQR (a table of references and gains, interpolated in time, its angles' errors wrapped): the
     device's torques equal numba's to rounding at times on a sample, between samples and past the table's end."""
@@ -261,6 +265,7 @@ def _grid_around_goal(task, n_links=3):
 
 
 @needs_warp
+@pytest.mark.slow  # runs MuJoCo Warp on Warp's CPU device (its kernels compiled on first use)
 def test_small_basin_has_the_outcomes_of_the_mujoco_engine(gymnast, folded, warp_modules):
     """A 4 x 4 basin around the goal, 1.5 s of RK4 at 5 ms (300 steps) under vcl: the same outcome, switch step,
     status and end step in every cell as the MuJoCo engine, final states within float32's drift (1e-5 relative and
@@ -288,6 +293,8 @@ def test_small_basin_has_the_outcomes_of_the_mujoco_engine(gymnast, folded, warp
 
 
 @needs_warp
+@pytest.mark.slow  # runs MuJoCo Warp on Warp's CPU device (its kernels compiled on first use)
+@pytest.mark.slow  # runs MuJoCo Warp on Warp's CPU device
 def test_a_chain_s_basin_has_the_outcomes_of_the_mujoco_engine(warp_modules):
     """The 4-link chain under (40) on any chain (the chain's law, not the paper's closed forms) and its LQR, 0.3 s at
     its 1 ms: every outcome, status, switch and end of the MuJoCo engine (success, lost, never and a switch from
@@ -332,6 +339,7 @@ def test_each_rollout_gets_its_own_controller_s_parameters(gymnast, folded):
 
 
 @needs_warp
+@pytest.mark.slow  # runs MuJoCo Warp on Warp's CPU device (its kernels compiled on first use)
 def test_worlds_beyond_the_device_s_free_memory_are_refused_in_one_line(gymnast, folded, warp_modules, monkeypatch):
     """Before any allocation, the worlds' bytes (MuJoCo Warp's data of a world, measured, and the engine's rows)
     against the device's free memory: one line that names the need, the room and --chunk."""
@@ -344,6 +352,7 @@ def test_worlds_beyond_the_device_s_free_memory_are_refused_in_one_line(gymnast,
 
 
 @needs_warp
+@pytest.mark.slow  # runs MuJoCo Warp on Warp's CPU device (its kernels compiled on first use)
 def test_packing_the_running_worlds_changes_no_result(gymnast, folded, warp_modules, monkeypatch):
     """The worlds still running are packed into fewer as others stop: every record of every rollout is the same,
     bit for bit, as without packing (each world's step reads its own rows only)."""
@@ -368,6 +377,7 @@ def test_packing_the_running_worlds_changes_no_result(gymnast, folded, warp_modu
 
 
 @needs_warp
+@pytest.mark.slow  # runs MuJoCo Warp on Warp's CPU device (its kernels compiled on first use)
 def test_step_kernels_call_only_the_translations_of_step(warp_modules):
     """The bookkeeping of a step is written once: the Warp engine's kernels call, as Warp functions, exactly the
     translations of paa_mj.sim.compiled.step's (the law's switch, measure_into, command_into, account, verdict, apply_pushes,
@@ -399,6 +409,7 @@ def test_step_kernels_call_only_the_translations_of_step(warp_modules):
 
 
 @needs_warp
+@pytest.mark.slow  # runs MuJoCo Warp on Warp's CPU device (its kernels compiled on first use)
 def test_disturbances_draw_the_same_noise_as_the_cpu_engine(gymnast, folded, warp_modules):
     """Measurement and torque noise (the same counter-based draws), delay and pushes, 0.2 s at 1 ms (RK4): the same
     steps, statuses, switches, modes and books, states within 2e-5, and the sums kept by the step's shared
@@ -431,6 +442,7 @@ def test_disturbances_draw_the_same_noise_as_the_cpu_engine(gymnast, folded, war
 
 
 @needs_warp
+@pytest.mark.slow  # runs MuJoCo Warp on Warp's CPU device (its kernels compiled on first use)
 def test_basin_command_on_the_warp_engine(tmp_path, warp_modules):
     """``paa-mj basin --engine warp --device cpu``: the summary of the MuJoCo engine's run, and says its engine."""
     def basin(*extra):
@@ -448,6 +460,7 @@ def test_basin_command_on_the_warp_engine(tmp_path, warp_modules):
 
 
 @needs_warp
+@pytest.mark.slow  # runs MuJoCo Warp on Warp's CPU device (its kernels compiled on first use)
 def test_refusals_on_the_warp_engine(gymnast, folded, warp_modules):
     from paa_mj.sim import simulate_batch
 
@@ -495,6 +508,7 @@ def test_translation_refuses_what_it_does_not_cover():
 
 
 @needs_warp
+@pytest.mark.slow  # runs MuJoCo Warp on Warp's CPU device (its kernels compiled on first use)
 def test_vector_env_on_warp_agrees_with_mujoco(warp_modules):
     """GymnastVectorEnv(engine="warp"): the observations, rewards and information of the MuJoCo physics to float32
     rounding over 5 steps of 10 ms (50 physics steps), the same terminations; a copy steps as the original."""

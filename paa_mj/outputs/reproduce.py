@@ -185,7 +185,7 @@ def _kip_video(out, traj, robot):
     from .video import filmstrip, render_trajectory
 
     try:
-        path = render_trajectory(robot, traj, out / "kip_table1.mp4", **VIDEO)
+        path = render_trajectory(robot, traj, out / "kip_table1.mp4", progress=True, **VIDEO)  # frames counted
         filmstrip(robot, traj, out / "figures" / "filmstrip_table1.png")
         return path
     except PaaError as err:

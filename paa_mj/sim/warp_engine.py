@@ -36,7 +36,8 @@ checks).
 What runs here: the controllers whose compiled laws translate (:data:`DEVICE_LAWS`: ``vcl``, ``vc`` and their
 ``-only`` and ``-roa`` forms on every chain and goal (the paper's closed forms for the gymnast at its folded goal,
 the chain's law elsewhere, its scratch in the controller's memory), ``lqr``, ``passive``, switched by region (68),
-the ROA level or time; ``spong`` on the acrobot; ``trajopt`` and ``trajopt-effort``, their TVLQR then the LQR),
+the ROA level or time; ``spong`` on the acrobot; ``fantoni`` on the pendubot; ``trajopt`` and ``trajopt-effort``,
+their TVLQR then the LQR),
 the nominal plant for every rollout (per-rollout torque limits, disturbances
 (:class:`~paa_mj.sim.batch.Disturbances`: measurement and torque noise, the same draws as the CPU engine's, delay,
 pushes) and controller parameters allowed), no recorded trajectories: anything else is refused in one line before
@@ -69,6 +70,7 @@ def _device_laws():
     from ..control.energy import chain_energy_kernel, conventional_kernel, vcl_kernel
     from ..control.lqr import lqr_kernel
     from ..control.passive import passive_kernel
+    from ..control.pendubot import fantoni_kernel
     from ..control.region import level_condition, region_condition
     from ..control.spong import spong_kernel
     from ..control.tvlqr import tvlqr_kernel
@@ -76,13 +78,14 @@ def _device_laws():
     return {vcl_kernel: "(40)", conventional_kernel: "(12)", chain_energy_kernel: "(40) or (12) on any chain",
             lqr_kernel: "LQR (67)", passive_kernel: "passive",
             spong_kernel: "Spong's swing-up and LQR", tvlqr_kernel: "TVLQR tracking",
+            fantoni_kernel: "Fantoni et al.'s pendubot swing-up",
             region_condition: "region (68)", level_condition: "ROA level", time_condition: "time",
             engine._never: "never"}
 
 
 #: What ``--engine warp`` runs: the controllers whose laws have a device form (module docstring).
 DEVICE_LAWS = ("vcl", "vc", "vcl-only", "vc-only", "vcl-roa", "vc-roa", "lqr", "passive", "spong", "trajopt",
-               "trajopt-effort")
+               "trajopt-effort", "fantoni", "fantoni-only")
 _REFUSAL = ("controller {name} has no law on the device (the warp engine runs {laws}); use {instead}")
 
 

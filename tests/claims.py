@@ -304,10 +304,19 @@ THEIR_BOARDS = (("History SAC", "0.655", "0.751", "-"), ("AR-EAPO", "0.633", "0.
                 ("iLQR Riccati Gains", "0.396", "0.138", "-"), ("iLQR MPC stabilization", "0.345", "0.343", "-"),
                 ("mcpilco", "0.316", "0.241", "18.408"), ("VIMPPI", "-", "-", "38.882"),
                 ("AcadosMpc", "-", "-", "37.798"), ("prx_analytical", "-", "-", "7.002"))
+#: THEIR published pendubot rows (`real_ai_gym_leaderboard` 81ea5bc: leaderboards/pendubot_simulation_performance_
+#: leaderboard_v2.csv, pendubot_simulation_robustness_leaderboard_v2.csv, icra2025/ICRA_2025_pendubot_simulation_results
+#: .csv, as those files write them).
+THEIR_PENDUBOT_BOARDS = (("History SAC", "0.682", "0.770", "-"), ("AR-EAPO", "0.659", "0.913", "45.538"),
+                         ("evolsac", "0.596", "0.786", "-"), ("iLQR Riccati Gains", "0.536", "0.255", "-"),
+                         ("TVLQR", "0.526", "0.767", "-"), ("mcpilco", "0.48", "0.614", "30.55"),
+                         ("iLQR MPC stabilization", "0.353", "0.674", "-"), ("VIMPPI", "-", "-", "47.926"),
+                         ("AcadosMpc", "-", "-", "43.554"), ("prx_analytical", "-", "-", "14.396"))
 PFL = "examples/realaigym/pfl_controller.py"
 BOARD_CONTROLLERS = {"acrobot": ("vcl", "vc", "lqr", f"{PFL}:LQRTheirs_C11", "trajopt", "trajopt-effort", "spong",
                                  f"{PFL}:PFLCollocatedLQR_C11"),
-                     "family": ("vcl", "vcl-roa", "vc", "lqr")}
+                     "family": ("vcl", "vcl-roa", "vc", "lqr"),
+                     "pendubot": ("lqr", "trajopt", "trajopt-effort", "fantoni")}
 
 
 def realaigym_board(robot_name, goal, names):
@@ -334,6 +343,17 @@ def realaigym_board(robot_name, goal, names):
 @claim("realaigym_board_acrobot", full=True)
 def _realaigym_board_acrobot():
     return realaigym_board("realaigym_acrobot", "stretched", BOARD_CONTROLLERS["acrobot"])
+
+
+@claim("realaigym_board_pendubot", full=True)
+def _realaigym_board_pendubot():
+    return realaigym_board("realaigym_pendubot", "stretched", BOARD_CONTROLLERS["pendubot"])
+
+
+@claim("realaigym_their_pendubot_boards")
+def _realaigym_their_pendubot_boards():
+    lines = ["| theirs (published) | RealAI score v2 | robustness v2 | v3 up [s] of 60 |", "|---|---|---|---|"]
+    return block("\n".join(lines + ["| " + " | ".join(row) + " |" for row in THEIR_PENDUBOT_BOARDS]))
 
 
 @claim("realaigym_board_gymnast", full=True)

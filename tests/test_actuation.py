@@ -141,6 +141,8 @@ def test_theory_refuses_them_in_one_line(run):
     result = run("theory", "--robot", "realaigym_pendubot", "--goal", "stretched")
     assert result.returncode == 2 and result.stdout == "" and len(result.stderr.strip().splitlines()) == 1
     assert "Theorem 1" in result.stderr and "needs joint 1 alone passive" in result.stderr
+    result = run("atlas", "--robot", "realaigym_pendubot", "--grid", 2)
+    assert result.returncode == 2 and len(result.stderr.strip().splitlines()) == 1 and "the atlas" in result.stderr
 
 
 def test_the_pendubot_is_stored_with_their_parameters():

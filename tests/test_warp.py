@@ -207,7 +207,8 @@ def test_translated_laws_equal_numba_in_float64(gymnast, folded, warp_modules):
 @needs_warp
 @pytest.mark.slow  # runs MuJoCo Warp on Warp's CPU device (its kernels compiled on first use)
 @pytest.mark.parametrize("robot_name, goal, name", [("chain4", "folded", "vcl"), ("gymnast", "stretched", "vc"),
-                                                    ("acrobot", "folded", "vcl"), ("acrobot", "stretched", "spong")])
+                                                    ("acrobot", "folded", "vcl"), ("acrobot", "stretched", "spong"),
+                                                    ("realaigym_pendubot", "stretched", "fantoni")])
 def test_the_chain_s_law_on_the_device_equals_numba(robot_name, goal, name, warp_modules):
     """(40) and (12) on any chain and goal, and Spong's law (their scratch in the controller's memory, viewed as
     matrices on the device): the same torques and modes as numba's, to rounding, and finite (the law ran, not a

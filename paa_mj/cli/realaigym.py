@@ -78,10 +78,11 @@ def register(sub, parser_class):
 
     p = sub.add_parser("realaigym", parents=[robot_parent("realaigym_acrobot"), controller_parent()],
                        help="RealAIGym's benchmark protocols, as their code computes them",
-                       description="Run a controller through one of RealAIGym's acrobot leaderboard protocols"
-                                   " (double_pendulum 1e8544e6): performance v2 (RealAI score), robustness v2 (six"
-                                   " criteria, 21 levels each) or the global policy test v3 (60 s, 15 random resets),"
-                                   " on their acrobot or any robot of the family.")
+                       description="Run a controller through one of RealAIGym's acrobot and pendubot leaderboard"
+                                   " protocols (double_pendulum 1e8544e6): performance v2 (RealAI score), robustness v2"
+                                   " (six criteria, 21 levels each) or the global policy test v3 (60 s, 15 random"
+                                   " resets), on their acrobot, their pendubot (--robot realaigym_pendubot) or any"
+                                   " robot of the family.")
     p.add_argument("--protocol", choices=PROTOCOLS, required=True,
                    help="performance-v2 (10 s, the RealAI score), robustness-v2 (722 runs, six criteria) or global-v3"
                         " (60 s, 15 random resets, the time up)")

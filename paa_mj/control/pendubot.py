@@ -166,7 +166,7 @@ class FantoniController(Controller):
 
 
 @controller("fantoni-only", "Fantoni, Lozano & Spong's pendubot swing-up alone", links=2, passive=(2,),
-            goals=("stretched",), kernels=(fantoni_kernel,))
+            goals=("stretched",), device=True, kernels=(fantoni_kernel,))
 def build_fantoni_only(robot, task, gains=None, check=True):
     """Fantoni, Lozano & Spong's pendubot swing-up (module docstring) alone."""
     return FantoniController(robot.analytic, task=task)
@@ -174,7 +174,8 @@ def build_fantoni_only(robot, task, gains=None, check=True):
 
 @controller("fantoni", "Fantoni, Lozano & Spong's (2000) energy-based pendubot swing-up, then LQR (67) on entering"
             " (68) (2 links, the motor at joint 1, --goal stretched)", links=2, passive=(2,), goals=("stretched",),
-            lqr=True, switches=True, kernels=(fantoni_kernel, lqr_kernel, region_condition, level_condition))
+            lqr=True, switches=True, device=True,
+            kernels=(fantoni_kernel, lqr_kernel, region_condition, level_condition))
 def build_fantoni(robot, task, gains=None, check=True, lqr_weights=None, switch=None, limit=None):
     """The pendubot's swing-up of Fantoni et al., then (67) switched by (68) (or by the LQR's region of attraction)."""
     return switched(robot, task, build_fantoni_only(robot, task), "fantoni", lqr_weights, switch, limit)

@@ -55,7 +55,8 @@ def random_states(n, seed=0, max_angle=2 * np.pi, max_speed=10.0, max_torque=Non
     """Random (q, qd, tau): angles in [-max_angle, max_angle], speeds up to ``max_speed`` [rad/s].
 
     Torques are drawn up to ``max_torque`` [N m]; by default 2 b1 / 1 rad, the scale of gravity torques.
-    ``links`` (default: the analytic model's, else 3) sets the shapes (n, links) and (n, links - 1).
+    ``links`` (default: the analytic model's, else 3) sets the shapes (n, links) and (n, m), m the analytic model's
+    motors (else links - 1).
     """
     links = links or (analytic.n_links if analytic is not None else 3)
     rng = np.random.default_rng(seed)
@@ -63,7 +64,8 @@ def random_states(n, seed=0, max_angle=2 * np.pi, max_speed=10.0, max_torque=Non
     qd = rng.uniform(-max_speed, max_speed, (n, links))
     if max_torque is None:
         max_torque = 2 * analytic.gravity_constants[0] if analytic is not None else 100.0
-    tau = rng.uniform(-max_torque, max_torque, (n, links - 1))
+    motors = analytic.n_motors if analytic is not None and analytic.n_links == links else links - 1
+    tau = rng.uniform(-max_torque, max_torque, (n, motors))
     return q, qd, tau
 
 

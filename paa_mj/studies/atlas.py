@@ -195,6 +195,9 @@ def atlas(robot: Robot, vary=("l1", "m1"), factor_range=DEFAULT_RANGE, grid=32, 
     factor_range = check_range(factor_range)
     if not (isinstance(starts, (int, np.integer)) and 0 <= starts <= 10_000):
         raise PaaError(f"--starts must be an integer in [0, 10000], got {starts}")
+    from ..theory.linear import require_passive_first
+
+    require_passive_first(robot.analytic, "the atlas (Theorem 1 and the kip of (40) over body proportions)", robot.name)
     n = grid * grid
     check_memory(n * 4000.0, "the atlas", "--grid")
     if simulate and scheduler in ("inline", "local"):

@@ -37,7 +37,8 @@ What runs here: the controllers whose records declare that their compiled laws t
 among the package's: ``vcl``, ``vc`` and their
 ``-only`` and ``-roa`` forms on every chain and goal (the paper's closed forms for the gymnast at its folded goal,
 the chain's law elsewhere, its scratch in the controller's memory), ``lqr``, ``passive``, switched by region (68),
-the ROA level or time; ``spong`` on the acrobot; ``trajopt`` and ``trajopt-effort``, their TVLQR then the LQR),
+the ROA level or time; ``spong`` on the acrobot; ``fantoni`` on the pendubot; ``trajopt`` and ``trajopt-effort``,
+their TVLQR then the LQR),
 the nominal plant for every rollout (per-rollout torque limits, disturbances
 (:class:`~paa_mj.sim.batch.Disturbances`: measurement and torque noise, the same draws as the CPU engine's, delay,
 pushes) and controller parameters allowed), no recorded trajectories: anything else is refused in one line before

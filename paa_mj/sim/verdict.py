@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..model.states import Q_DUU, wrap_angle
-from .step import MAX_SPEED, NONFINITE_STATE, NONFINITE_TORQUE, RUNAWAY, STATUS_TEXT
+from .compiled.step import MAX_SPEED, NONFINITE_STATE, NONFINITE_TORQUE, RUNAWAY, STATUS_TEXT
 
 #: A final state within this distance of DUU (each coordinate, rad and rad/s) is "stuck at DUU" (``basin``'s too).
 DUU_TOL = 0.05

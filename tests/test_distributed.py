@@ -202,11 +202,13 @@ def test_losing_every_worker_stops_with_one_line_and_keeps_chunks(scheduler_addr
     mine = tmp_path / "dies.py"
     mine.write_text(f'''
 import os
+import time
 from pathlib import Path
 
 
 class DiesInItsSecondChunk:
-    """Damps the motors; built in a Dask worker (once per chunk) for the second time, it ends that process."""
+    """Damps the motors; built in a Dask worker (once per chunk) for the second time, it ends that process once the
+    first chunk is kept (its result fetched from this worker and saved: nothing of it is lost with the worker)."""
 
     def __init__(self, robot):
         if os.getpid() != {os.getpid()}:  # not in the test's own process, which checks the controller
@@ -214,6 +216,10 @@ class DiesInItsSecondChunk:
             with builds.open("a") as f:
                 f.write("x")
             if len(builds.read_text()) >= 2:
+                end = time.monotonic() + 600
+                while not list(Path({str(tmp_path / "out" / ".chunks")!r}).glob("*/chunk-*.npz")) \
+                        and time.monotonic() < end:
+                    time.sleep(0.01)
                 os._exit(1)
 
     def torque(self, q, qd, t):

@@ -80,6 +80,7 @@ def test_every_kind_of_run_follows_the_cpu(gymnast, gymnast_vcl):
 
 
 @needs_warp
+@pytest.mark.slow  # MuJoCo Warp compiled for Warp's CPU device (16 CPU-s)
 def test_robustness_on_fewer_levels_is_the_cpu_s(gymnast, gymnast_vcl, monkeypatch, tmp_path):
     """The whole protocol on 2 levels, 1 repetition and 1 pulse run, 0.6 s runs: the same summary on both
     engines, and the device's chunks kept apart from the CPU's."""

@@ -1,8 +1,9 @@
 """The engine on MuJoCo Warp (``paa_mj[gpu]``), checked on Warp's CPU device against MuJoCo's ``mj_step``.
 
 Skipped where ``warp`` and ``mujoco_warp`` are not installed, except the refusal without them, which is checked
-everywhere. The quick suite runs the physics on Warp (its small form); the rest, which compiles and runs the laws,
-studies and environments on the device, is marked ``slow`` (``bash scripts/test.sh -m slow``). MuJoCo Warp computes in float32, the CPU engine in float64: what is held here is what float32
+everywhere. Every test that runs MuJoCo Warp is marked ``slow`` (``bash scripts/test.sh -m slow``): compiling its
+step for Warp's CPU device alone costs about 50 CPU-s on a fresh clone; the quick suite keeps the checks that need
+no device (the refusals, the translations' coverage, the constraint rows). MuJoCo Warp computes in float32, the CPU engine in float64: what is held here is what float32
 allows (measured on the CI machine, RK4 at 1 ms): one rollout of the physics alone agrees with ``mj_step`` to
 about 3e-6 rad over 200 steps, the closed loop under the paper's controller to about 5e-6 (the same switches,
 books and statuses), and the laws translated to Warp, run in float64, equal numba's to 1e-12. The step's bookkeeping
@@ -117,6 +118,7 @@ def test_a_model_that_makes_constraint_rows_is_not_constraint_free(old, new):
 
 
 @needs_warp
+@pytest.mark.slow  # MuJoCo Warp's step compiled for Warp's CPU device: 48 CPU-s on a fresh clone
 def test_physics_agrees_with_mj_step_over_200_steps(gymnast, warp_modules):
     """mujoco_warp.step of 4 worlds against mj_step, RK4 at 1 ms, torques held: within 1e-5 (measured 3e-6), with
     the worlds the engines make (no room for constraint rows: the solver's work is MuJoCo's copy for nefc = 0)."""

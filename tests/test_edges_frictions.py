@@ -18,6 +18,7 @@ def _log_bar(monkeypatch, **kwargs):
     stream = io.StringIO()
     monkeypatch.setattr(progress_module.sys, "stderr", stream)
     monkeypatch.setattr(progress_module, "LOG_DELAY", 0.0)
+    monkeypatch.delenv("PAA_MJ_PROGRESS", raising=False)  # the suite leaves progress out of logs
     return progress_module.progress(**kwargs), stream
 
 

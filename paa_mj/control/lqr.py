@@ -101,8 +101,8 @@ class LQRController(Controller):
         n = task.n_links
         if (self.K.ndim != 2 or not 1 <= self.K.shape[0] < n or self.K.shape[1] != 2 * n
                 or not np.all(np.isfinite(self.K))):
-            raise PaaError(f"LQR gain must be a finite m x {2 * n} matrix (m motors, 1..{n - 1}), got shape"
-                           f" {self.K.shape}")
+            raise PaaError(f"LQR gain must be a finite m x {2 * n} matrix, m the robot's motors ({n - 1} x {2 * n} for"
+                           f" joints 2..{n}), got shape {self.K.shape}")
         self.binding = Binding("any", n, None, task, n_motors=self.K.shape[0])
 
     @classmethod

@@ -106,10 +106,22 @@ class ControllerRecord:
         """Whether it hands over on the LQR's region of attraction with the option ``switch``."""
         return self.roa or (self.switches and switch == "roa")
 
+    def why_not(self, n_links: int, goal: str, passive: tuple = (1,), actuation: str = "") -> str | None:
+        """Why it does not apply to a chain of ``n_links`` whose passive joints are ``passive`` (1-based; the chain's
+        actuation in words, ``actuation``) at ``goal``, in words; None where it applies."""
+        if self.links is not None and self.links != n_links:
+            return f"it is for chains of {self.links} links, this one has {n_links}"
+        if self.passive is not None and tuple(self.passive) != tuple(passive):
+            joints = ", ".join(map(str, self.passive))
+            return (f"it needs joint{'s' if len(self.passive) > 1 else ''} {joints} alone passive, this one has"
+                    f" {actuation or 'passive joints ' + ', '.join(map(str, passive))}")
+        if goal not in self.goals:
+            return f"it aims at the {' or '.join(self.goals)} goal, not the {goal} one"
+        return None
+
     def applies_to(self, n_links: int, goal: str, passive: tuple = (1,)) -> bool:
         """Whether it applies to a chain of ``n_links`` whose passive joints are ``passive`` (1-based) at ``goal``."""
-        return ((self.links is None or self.links == n_links) and goal in self.goals
-                and (self.passive is None or tuple(self.passive) == tuple(passive)))
+        return self.why_not(n_links, goal, passive) is None
 
 
 #: The records declared so far, by name, in the order their modules were imported.

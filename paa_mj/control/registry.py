@@ -190,6 +190,12 @@ class ControllerSpec:
             if isinstance(getattr(controller, "binding", None), Binding):
                 return controller  # bound already (a built-in the user's class made): the run checks that binding
         else:
+            params = believed.params
+            why = RECORDS[self.name].why_not(params.n_links, task.name, tuple(j + 1 for j in params.passive),
+                                             params.actuation_text())
+            if why is not None:
+                raise PaaError(f"controller {self.name} does not apply to robot {robot.name} at the {task.name} goal:"
+                               f" {why}")
             gains = None if self.gains is None else dict(zip(("kD", "kP", "kV"), self.gains))
             plant = {"plant": robot} if RECORDS[self.name].plans and self.believed is not None else {}
             controller = BUILTIN[self.name][0](believed, task, gains=gains, check=self.check, **dict(self.options),

@@ -18,6 +18,7 @@ DESCRIPTIONS = {
     "trajopt": "minimum-time kip by collocation, tracked by TVLQR, then (67)",
     "trajopt-effort": "least-effort kip over a duration, tracked by TVLQR, then (67)",
     "spong": "Spong's acrobot swing-up, then LQR below a cost-to-go (Drake's defaults; 2 links, --goal stretched)",
+    "mpc": "iLQR model-predictive control on the robot's own model over a receding horizon, then an LQR at the goal",
 }
 #: Controllers that take the gains kD, kP, kV of (40) / (12).
 GAIN_CONTROLLERS = ("vcl", "vcl-only", "vcl-roa", "vc", "vc-only", "vc-roa")
@@ -40,8 +41,12 @@ def hands_over_on_roa(name, switch=None) -> bool:
     return name in set(ROA_SWITCHED) - set(SWITCHED) or (name in SWITCHED and switch == "roa")
 
 
+#: The options of ``mpc`` (:data:`paa_mj.control.mpc.DEFAULTS`).
+MPC_OPTIONS = ("horizon", "knot", "period", "iterations", "cold_iterations", "w_angle", "w_speed", "r", "r_rate",
+               "terminal", "q_angle", "q_speed", "r_lqr", "rho_in", "rho_out", "pump", "pump_kp", "pump_kd", "restart")
 #: Controllers that take options, and which.
 OPTIONS = {name: (("limit", "duration", "intervals") if name in PLANNERS else ())
            + (("lqr_weights",) if name in LQR_CONTROLLERS else ()) + (("switch",) if name in SWITCHED else ())
            + (("limit",) if name in ROA_SWITCHED else ())
            for name in DESCRIPTIONS if name in PLANNERS or name in LQR_CONTROLLERS}
+OPTIONS["mpc"] = MPC_OPTIONS

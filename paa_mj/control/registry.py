@@ -189,11 +189,19 @@ def build_spong(robot, task, gains=None, check=True):
     return SpongController(robot.analytic, task=task)
 
 
+def build_mpc(robot, task, gains=None, check=True, **options):
+    """iLQR model-predictive control with an LQR at the goal (:mod:`paa_mj.control.mpc`), within the robot's
+    actuator ranges."""
+    from .mpc import MPCController
+
+    return MPCController(robot.analytic, task, robot.torque_limits, **options)
+
+
 BUILTIN = {name: (builder, DESCRIPTIONS[name]) for name, builder in (
     ("vcl", build_vcl), ("vcl-only", build_vcl_only), ("vcl-roa", build_vcl_roa), ("vc", build_vc),
     ("vc-only", build_vc_only), ("vc-roa", build_vc_roa),
     ("lqr", build_lqr), ("passive", build_passive), ("trajopt", build_trajopt),
-    ("trajopt-effort", build_trajopt_effort), ("spong", build_spong))}
+    ("trajopt-effort", build_trajopt_effort), ("spong", build_spong), ("mpc", build_mpc))}
 
 
 def register(name: str, builder, description: str):

@@ -30,18 +30,18 @@ from . import mpc_kernels as mk
 
 #: Defaults for the family (see docs/controllers.md for the search behind them).
 DEFAULTS = {
-    "horizon": 1.2,        # s
+    "horizon": 1.5,        # s
     "knot": 0.02,          # s
-    "period": 0.01,        # s between solves
+    "period": 0.02,        # s between solves
     "iterations": 2,       # iLQR iterations per solve
-    "cold_iterations": 30,  # iLQR iterations from a fresh guess
+    "cold_iterations": 15,  # iLQR iterations from a fresh guess
     "w_angle": 1.0,        # weight of (1 - cos e) per joint [1/s]
-    "w_speed": 0.01,       # weight of qd^2 [s/rad^2 /s]
+    "w_speed": 0.05,       # weight of qd^2 [s/rad^2 /s]
     "r": 0.05,             # weight of u^2
-    "r_rate": 1e-4,        # weight of (du/h)^2 h^2 = du^2
-    "terminal": 1.0,       # scale of the terminal e^T S e
+    "r_rate": 0.1,         # weight of (du/h)^2 h^2 = du^2
+    "terminal": 10.0,      # scale of the terminal e^T S e
     "q_angle": 10.0, "q_speed": 1.0, "r_lqr": 1.0,   # the LQR at the goal
-    "rho_in": 10.0, "rho_out": 40.0,  # hand-over levels of e^T S e
+    "rho_in": 1.0, "rho_out": 5.0,  # hand-over levels of e^T S e
     "pump": 1.0, "pump_kp": 5.0, "pump_kd": 0.5,   # the energy-pumping guess
     "restart": 0.5,        # distance of the state from the plan's that restarts the solve
 }
@@ -76,7 +76,8 @@ class MPCController(Controller):
     task : Task
         The goal q*.
     torque_limit : array_like (n - 1,)
-        The box of the plans [N m] (the robot's actuator ranges).
+        The box of the plans [N m] (the robot's actuator ranges); an infinite one is replaced by the gravity torque
+        the motor carries at worst, sum_{k >= j} b_k (the links beyond it held level).
     **options
         Any of :data:`DEFAULTS`.
     """
@@ -89,9 +90,13 @@ class MPCController(Controller):
             raise PaaError(f"mpc has no option(s) {', '.join(unknown)}; its options: {', '.join(DEFAULTS)}")
         o = {**DEFAULTS, **{k: float(v) for k, v in options.items()}}
         n = model.n_links
-        limit = np.broadcast_to(np.asarray(torque_limit, float), (n - 1,))
-        if not np.all(np.isfinite(limit)) or np.any(limit <= 0):
-            raise PaaError("mpc plans within a finite torque limit: give the robot actuator ranges")
+        limit = np.array(np.broadcast_to(np.asarray(torque_limit, float), (n - 1,)))
+        if np.any(np.isnan(limit)) or np.any(limit <= 0):
+            raise PaaError(f"mpc plans within positive torque limits, got {limit.tolist()}")
+        # a motor without a range gets the gravity torque it carries at worst, sum_{k >= j} b_k (the links beyond it
+        # held level): the plans need a box
+        carried = np.cumsum(model.gravity_constants[::-1])[::-1][1:]
+        limit = np.where(np.isfinite(limit), limit, carried)
         knots = int(round(o["horizon"] / o["knot"]))
         if knots < 2 or o["period"] <= 0 or o["iterations"] < 1:
             raise PaaError("mpc needs a horizon of at least two knots, a positive period and at least one iteration")

@@ -70,10 +70,10 @@ def offsets(n):
 
 @njit(cache=True)
 def memory_size(n, knots):
-    """Numbers of the memory: header, the last torque (nu), the plan's states (N + 1) nx, torques N nu and feedback
+    """Numbers of the memory: header, the last torque and the torque when the plan was made (nu each), the plan's states (N + 1) nx, torques N nu and feedback
     gains N nu (nx + nu)."""
     nx, nu = 2 * n, n - 1
-    return MEMORY_HEADER + nu + (knots + 1) * nx + knots * nu + knots * nu * (nx + nu)
+    return MEMORY_HEADER + 2 * nu + (knots + 1) * nx + knots * nu + knots * nu * (nx + nu)
 
 
 @njit(cache=True)
@@ -582,19 +582,22 @@ def pump_guess(params, model, x0, U, X):
 
 @njit(cache=True)
 def plan_views(params, memory):
-    """The plan kept in the memory: last torque (nu), X (N + 1, nx), U (N, nu), K (N, nu, nx + nu)."""
+    """The plan kept in the memory: last torque (nu), the torque applied when the plan was made (nu), X (N + 1, nx),
+    U (N, nu), K (N, nu, nx + nu)."""
     n = int(params[H_N])
     nx, nu = 2 * n, n - 1
     knots = int(params[H_KNOTS])
     a = MEMORY_HEADER
     uprev = chain.vector_view(memory, a, nu)
     a += nu
+    ustart = chain.vector_view(memory, a, nu)
+    a += nu
     X = chain.matrix_view(memory, a, knots + 1, nx)
     a += (knots + 1) * nx
     U = chain.matrix_view(memory, a, knots, nu)
     a += knots * nu
     K = np.ascontiguousarray(memory[a:a + knots * nu * (nx + nu)]).reshape((knots, nu, nx + nu))
-    return uprev, X, U, K
+    return uprev, ustart, X, U, K
 
 
 @njit(cache=True)
@@ -614,13 +617,15 @@ def _plan_state(X, s, out):
 
 
 @njit(cache=True)
-def _plan_torque(U, s, j):
+def _plan_torque(U, s, j, start):
     """The plan's torque j at knot position s, linear between the knots' midpoints (so that each knot's mean
-    torque is kept), held at the ends."""
+    torque is kept), from ``start`` (the torque applied when the plan was made: no step at a new plan) at s = 0 to
+    the first midpoint, held at the end."""
     last = U.shape[0] - 1
     p = s - 0.5
     if p <= 0.0:
-        return U[0, j]
+        w = min(max(2.0 * s, 0.0), 1.0)
+        return (1.0 - w) * start + w * U[0, j]
     if p >= last:
         return U[last, j]
     i = int(p)
@@ -631,14 +636,14 @@ def _plan_torque(U, s, j):
 @njit(cache=True)
 def replan(params, model, x, t, memory):
     """Solve the plan again from the measured x at time t, warm-started from the kept plan shifted to t (and, when
-    the state is far from where the plan put it, or there is no plan, from the energy-pumping guess and from zero
-    torque: the cheapest after iLQR is kept)."""
+    the state is far from where the plan put it, or there is no plan, from the energy-pumping guess: the cheaper
+    after iLQR is kept; from zero torque iLQR finds spinning minima)."""
     nx = x.size
     n = nx // 2
     nu = n - 1
     knots = int(params[H_KNOTS])
     h = params[H_STEP]
-    uprev, X, U, K = plan_views(params, memory)
+    uprev, ustart, X, U, K = plan_views(params, memory)
     Ug = np.empty((knots, nu))
     Xg = np.empty((knots + 1, nx))
     Kg = np.empty((knots, nu, nx + nu))
@@ -649,8 +654,8 @@ def replan(params, model, x, t, memory):
         predicted = np.empty(nx)
         _plan_state(X, s, predicted)
         gap = 0.0
-        for j in range(nx):
-            d = wrap(x[j] - predicted[j]) if j < n else x[j] - predicted[j]
+        for j in range(nx):  # speeds count a tenth: a noisy speed is no reason to start again
+            d = wrap(x[j] - predicted[j]) if j < n else 0.1 * (x[j] - predicted[j])
             gap += d * d
         restart = gap > params[H_RESTART] ** 2
         # the kept plan shifted to t, followed with its own feedback (an open-loop shift of a swing diverges)
@@ -661,7 +666,7 @@ def replan(params, model, x, t, memory):
             _plan_state(X, s + k, Xs[k])
         for k in range(knots):
             for j in range(nu):
-                Us[k, j] = _plan_torque(U, s + k + 0.5, j)
+                Us[k, j] = _plan_torque(U, s + k + 0.5, j, ustart[j])
             i = min(max(int(s + k + 0.5), 0), knots - 1)
             Kg[k] = K[i]
         _forward(params, model, x, uprev, Xs, Us, zero, Kg, 0.0, Xg, Ug, scratch(n))
@@ -670,17 +675,15 @@ def replan(params, model, x, t, memory):
         X[:, :] = Xg
         K[:, :, :] = Kg
     if restart:
-        for guess in range(2):
-            if guess == 0:
-                pump_guess(params, model, x, Ug, Xg)
-            else:
-                Ug[:, :] = 0.0
+        for guess in range(1):
+            pump_guess(params, model, x, Ug, Xg)
             cost = ilqr(params, model, x, uprev, Ug, Xg, Kg, int(params[H_ITERS_COLD]))
             if cost < best:
                 best = cost
                 U[:, :] = Ug
                 X[:, :] = Xg
                 K[:, :, :] = Kg
+    ustart[:] = uprev
     memory[M_T0] = t
     memory[M_NEXT] = t + params[H_PERIOD]
     memory[M_VALID] = 1.0
@@ -699,7 +702,7 @@ def mpc_torque(params, x, t, memory, tau):
     n = nx // 2
     nu = n - 1
     h = params[H_STEP]
-    uprev, X, U, K = plan_views(params, memory)
+    uprev, ustart, X, U, K = plan_views(params, memory)
     cost = lqr_cost(model, x)
     mode = memory[M_MODE]
     if mode == 1.0 and cost > params[H_RHO_OUT]:
@@ -721,7 +724,7 @@ def mpc_torque(params, x, t, memory, tau):
     ref = np.empty(nx)
     _plan_state(X, s, ref)
     for r in range(nu):
-        v = _plan_torque(U, s, r)
+        v = _plan_torque(U, s, r, ustart[r])
         for j in range(nx):
             d = wrap(x[j] - ref[j]) if j < n else x[j] - ref[j]
             v += K[i, r, j] * d

@@ -581,6 +581,18 @@ def pump_guess(params, model, x0, U, X):
 
 
 @njit(cache=True)
+def lqr_guess(params, model, x0, U, X):
+    """A first guess near the goal: the clamped LQR tau = -K e rolled out on the model into U, X."""
+    n = x0.size // 2
+    h = params[H_STEP]
+    ws = scratch(n)
+    X[0] = x0
+    for k in range(U.shape[0]):
+        lqr_torque(model, X[k], U[k])
+        step(params, X[k], U[k], h, X[k + 1], ws)
+
+
+@njit(cache=True)
 def plan_views(params, memory):
     """The plan kept in the memory: last torque (nu), the torque applied when the plan was made (nu), X (N + 1, nx),
     U (N, nu), K (N, nu, nx + nu)."""
@@ -636,8 +648,8 @@ def _plan_torque(U, s, j, start):
 @njit(cache=True)
 def replan(params, model, x, t, memory):
     """Solve the plan again from the measured x at time t, warm-started from the kept plan shifted to t (and, when
-    the state is far from where the plan put it, or there is no plan, from the energy-pumping guess: the cheaper
-    after iLQR is kept; from zero torque iLQR finds spinning minima)."""
+    the state is far from where the plan put it, or there is no plan, from the energy-pumping guess and from the
+    clamped LQR's rollout: the cheapest after iLQR is kept; from zero torque iLQR finds spinning minima)."""
     nx = x.size
     n = nx // 2
     nu = n - 1
@@ -675,8 +687,11 @@ def replan(params, model, x, t, memory):
         X[:, :] = Xg
         K[:, :, :] = Kg
     if restart:
-        for guess in range(1):
-            pump_guess(params, model, x, Ug, Xg)
+        for guess in range(2):
+            if guess == 0:
+                pump_guess(params, model, x, Ug, Xg)
+            else:
+                lqr_guess(params, model, x, Ug, Xg)
             cost = ilqr(params, model, x, uprev, Ug, Xg, Kg, int(params[H_ITERS_COLD]))
             if cost < best:
                 best = cost

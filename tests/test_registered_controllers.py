@@ -77,7 +77,8 @@ def test_the_command_line_s_view_of_the_records_is_the_registry_s():
         text = catalog.RECORDS[name]
         assert (text.module, text.build) == (record.module, record.build.__name__)
         assert text.kernels == tuple(k.__name__ for k in record.kernels)
-        for field in ("description", "gains", "plans", "lqr", "switches", "roa", "device", "links", "goals",
+        for field in ("description", "gains", "plans", "lqr", "switches", "roa", "device", "links", "passive",
+                      "hands_over", "settings", "goals",
                       "compare", "checked", "check_options", "options"):
             assert getattr(text, field) == getattr(record, field), (name, field)
 

@@ -61,6 +61,8 @@ class ControllerRecord:
         It swings up, then hands over to a balance: a run of it has a switch to speak of.
     goals : tuple of str
         The goals it applies to.
+    settings : tuple of str
+        Options of its own, by name, beside those its capabilities bring (:attr:`options`).
     compare : bool
         It is on compare's default leaderboard (``paa-mj compare``).
     checked : tuple of (robot, goal) or None
@@ -86,6 +88,7 @@ class ControllerRecord:
     passive: tuple | None = (1,)
     hands_over: bool = False
     goals: tuple = GOALS
+    settings: tuple = ()
     compare: bool = False
     checked: tuple | None = None
     check_options: tuple = ()
@@ -99,7 +102,8 @@ class ControllerRecord:
     def options(self) -> tuple:
         """The options it takes, by name (``limit`` for a planner's torque bound or the ROA's level)."""
         names = (("limit", "duration", "intervals") if self.plans else ()) + (("lqr_weights",) if self.lqr else ()) \
-            + (("switch",) if self.switches else ()) + (("limit",) if self.switches or self.roa else ())
+            + (("switch",) if self.switches else ()) + (("limit",) if self.switches or self.roa else ()) \
+            + tuple(self.settings)
         return tuple(dict.fromkeys(names))
 
     def hands_over_on_roa(self, switch=None) -> bool:
@@ -129,7 +133,7 @@ RECORDS: dict = {}
 
 #: The capabilities :func:`controller` takes (the fields of :class:`ControllerRecord` a module declares).
 CAPABILITIES = ("gains", "plans", "lqr", "switches", "roa", "kernels", "device", "links", "passive", "hands_over",
-                "goals", "compare", "checked", "check_options")
+                "goals", "settings", "compare", "checked", "check_options")
 
 
 def controller(name: str, description: str, **capabilities):

@@ -1,0 +1,141 @@
+"""The model-predictive controller ``mpc`` (paa_mj.control.mpc): its model, its balance, its swing-up on RealAIGym's
+acrobot, one law compiled and in Python, and that it reads nothing but the measured state and time."""
+import numpy as np
+import pytest
+
+from paa_mj.control import mpc_kernels as mk
+from paa_mj.control.catalog import MPC_OPTIONS
+from paa_mj.control.mpc import DEFAULTS, MPCController
+from paa_mj.control.registry import make_controller
+from paa_mj.model import chain, load_robot
+from paa_mj.studies import realaigym as rg
+from paa_mj.studies import realaigym_scores as scores
+from paa_mj.task import Task
+
+
+@pytest.fixture(scope="module")
+def acrobot():
+    robot = load_robot("realaigym_acrobot")
+    return robot, Task.named("stretched", robot)
+
+
+def test_options_are_the_catalogs():
+    assert set(DEFAULTS) == set(MPC_OPTIONS)
+
+
+@pytest.mark.parametrize("name", ["realaigym_acrobot", "gymnast", "chain4"])
+def test_the_plans_acceleration_is_the_chains(name):
+    robot = load_robot(name)
+    c = MPCController(robot.analytic, Task.named("stretched", robot), np.ones(robot.params.n_links - 1))
+    n = robot.params.n_links
+    A, b, d, arm = (np.ascontiguousarray(a) for a in mk.unpack(c.params)[:4])
+    rng = np.random.default_rng(1)
+    for _ in range(20):
+        x, u = rng.normal(size=2 * n) * 3, rng.normal(size=n - 1)
+        ours, theirs = np.zeros(2 * n), np.empty(n)
+        mk.acceleration(c.params, x, u, ours, mk.scratch(n))
+        chain.acceleration_into(A, b, d, arm, x[:n].copy(), x[n:].copy(), u, theirs, np.empty(n * n + 4 * n))
+        np.testing.assert_allclose(ours[n:], theirs, rtol=1e-12, atol=1e-12)
+
+
+def _final_success(robot, task, X):
+    return scores.final_state_success(X[-1], rg.their_goal(robot, task))
+
+
+def test_it_balances_from_near_the_top(acrobot):
+    robot, task = acrobot
+    c = make_controller("mpc", robot, task=task)
+    summary, rows = rg.performance_v2(robot, c, task, x0=np.array([0.04, -0.05, 0.1, 0.0]))
+    assert summary["criteria"]["success"] and summary["criteria"]["swingup_time"] < 2.0
+    # held where it started: no turn round the bar on the way (their angles: the upright is q1 = pi)
+    assert abs(rows["X"][-1, 0] - np.pi) < 0.05 and abs(rows["X"][-1, 1]) < 0.05
+
+
+def test_it_swings_their_acrobot_up(acrobot):
+    """Their performance v2 from hanging at rest: up within 2 s, held, and a RealAI score above their TVLQR's 0.504."""
+    robot, task = acrobot
+    c = make_controller("mpc", robot, task=task)
+    summary, _ = rg.performance_v2(robot, c, task)
+    criteria = summary["criteria"]
+    assert criteria["success"] and criteria["swingup_time"] < 2.0
+    assert criteria["score_v2"] > 0.504
+
+
+def _trace(controller, robot, steps=400, dt=0.002, x0=(-np.pi + 0.3, 0.2, 0.0, 0.0)):
+    """(x, t) seen and torques of the Python law along a run on the model (RK4 at dt)."""
+    x = np.array(x0, float)
+    seen, torques = [], []
+    work = mk.scratch(robot.params.n_links)
+    for k in range(steps):
+        tau = controller.torque(x[:2], x[2:], k * dt)
+        seen.append((x.copy(), k * dt))
+        torques.append(tau.copy())
+        out = np.empty(4)
+        mk.step(controller.params, x, tau, dt, out, work)
+        x = out
+    return seen, np.array(torques)
+
+
+def test_the_compiled_law_is_the_python_law(acrobot):
+    robot, task = acrobot
+    c = make_controller("mpc", robot, task=task)
+    seen, torques = _trace(c, robot)
+    form = c.compiled()
+    memory, tau = form.memory.copy(), np.empty(1)
+    for (x, t), expected in zip(seen, torques):
+        form.kernel(x, t, form.params, memory, tau)
+        assert tau[0] == expected[0]
+
+
+def test_it_reads_only_the_measured_state_and_time(acrobot):
+    """A run under their simulator with torque pulses and measurement noise: every (state, time) the controller was
+    given, replayed into a fresh controller built again, gives the same torques bit for bit. The law's inputs are the
+    kernel's (x, t, params, memory): params are the robot's, the task's and the options', the same for any run."""
+    robot, task = acrobot
+
+    class Recorder:
+        """The Python law, recording what it is given (no compiled form: the protocol calls ``torque``)."""
+
+        def __init__(self):
+            self.inner = make_controller("mpc", robot, task=task)
+            self.calls = []
+
+        def reset(self):
+            self.inner.reset()
+
+        def torque(self, q, qd, t):
+            tau = self.inner.torque(q, qd, t)
+            self.calls.append((np.array(q), np.array(qd), float(t), tau.copy()))
+            return tau
+
+    recorder = Recorder()
+    runs = rg.Runs(robot, recorder)
+    T = rg.their_times(1.0)
+    rng = np.random.RandomState(5)
+    pulses = rg.perturbations(rng, 2, t_final=1.0)
+    normals = rng.standard_normal((len(T) - 1, 10))
+    runs.run(rg.plant(robot), rg.hanging(2), T, perturbation=pulses, sigma_meas=np.r_[0.0, 0.0, 0.2, 0.2],
+             normals=normals)
+    fresh = make_controller("mpc", robot, task=task)
+    np.testing.assert_array_equal(fresh.compiled().params, recorder.inner.compiled().params)
+    for q, qd, t, tau in recorder.calls:
+        assert np.array_equal(fresh.torque(q, qd, t), tau)
+    assert len(recorder.calls) == len(T) - 1
+
+
+@pytest.mark.parametrize("name, goal", [("gymnast", "folded"), ("chain4", "stretched")])
+def test_it_builds_for_the_family(name, goal):
+    robot = load_robot(name)
+    c = make_controller("mpc", robot, task=goal)
+    n = robot.params.n_links
+    tau = c.torque(np.r_[-np.pi + 0.2, np.zeros(n - 1)], np.zeros(n), 0.0)
+    assert tau.shape == (n - 1,) and np.all(np.isfinite(tau))
+    assert np.all(np.abs(tau) <= robot.torque_limits + 1e-12)
+
+
+def test_its_record_names_every_option_it_takes():
+    """The record's options (read from the module's text by the command line) are the law's :data:`DEFAULTS`."""
+    from paa_mj.control.mpc import DEFAULTS
+    from paa_mj.control.registry import RECORDS
+
+    assert set(RECORDS["mpc"].settings) == set(DEFAULTS)

@@ -4,7 +4,6 @@ import numpy as np
 import pytest
 
 from paa_mj.control import mpc_kernels as mk
-from paa_mj.control.catalog import MPC_OPTIONS
 from paa_mj.control.mpc import DEFAULTS, MPCController
 from paa_mj.control.registry import make_controller
 from paa_mj.model import chain, load_robot
@@ -17,10 +16,6 @@ from paa_mj.task import Task
 def acrobot():
     robot = load_robot("realaigym_acrobot")
     return robot, Task.named("stretched", robot)
-
-
-def test_options_are_the_catalogs():
-    assert set(DEFAULTS) == set(MPC_OPTIONS)
 
 
 @pytest.mark.parametrize("name", ["realaigym_acrobot", "gymnast", "chain4"])

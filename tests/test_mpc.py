@@ -8,7 +8,7 @@ from paa_mj.control.mpc import DEFAULTS, MPCController
 from paa_mj.control.registry import make_controller
 from paa_mj.model import chain, load_robot
 from paa_mj.realaigym import study as rg
-from paa_mj.studies import realaigym_scores as scores
+from paa_mj.realaigym import scores
 from paa_mj.task import Task
 
 

@@ -29,7 +29,8 @@ def test_the_plans_acceleration_is_the_chains(name):
         x, u = rng.normal(size=2 * n) * 3, rng.normal(size=n - 1)
         ours, theirs = np.zeros(2 * n), np.empty(n)
         mk.acceleration(c.params, x, u, ours, mk.scratch(n))
-        chain.acceleration_into(A, b, d, arm, x[:n].copy(), x[n:].copy(), u, theirs, np.empty(n * n + 4 * n))
+        chain.acceleration_into(A, b, d, arm, chain.drive_map(n), x[:n].copy(), x[n:].copy(), u, theirs,
+                                np.empty(n * n + 4 * n))
         np.testing.assert_allclose(ours[n:], theirs, rtol=1e-12, atol=1e-12)
 
 

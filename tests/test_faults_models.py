@@ -33,10 +33,12 @@ REFUSED_MODELS = [
      "hinge axes must be the same"),
     ("vertical hinge axes", '*axis="0 1 0"', 'axis="0 0 1"', "hinge axes must be horizontal"),
     ("no actuators", M_MOTORS, "", "0 actuators"),
-    ("one actuator", M_HIP, "", "1 actuators"),
+    ("one actuator", M_HIP, "", "vcl does not apply to robot custom at the folded goal: it needs joint 1 alone passive,"
+     " this one has joints 1, 3 passive, joint 2 driven"),  # a robot now, with the shoulders' motor alone
     ("motors swapped", M_MOTORS, M_MOTORS.split("\n    ")[1] + "\n    " + M_MOTORS.split("\n    ")[0],
-     "motors must drive joints 2..3 in that order"),
-    ("a motor on the hands", 'joint="shoulders" gear="1"', 'joint="hands" gear="1"', "found joints [1, 3]"),
+     "motors must drive distinct joints in increasing order (one motor per driven joint), found joints [3, 2]"),
+    ("a motor on the hands", 'joint="shoulders" gear="1"', 'joint="hands" gear="1"',
+     "it needs joint 1 alone passive, this one has joint 2 passive, joints 1, 3 driven"),  # a robot now: (40) refuses
     ("gear -1", M_GEAR, 'joint="hips" gear="-1"', "actuator 1 gear -1 (the model needs gear 1)"),
     ("gear 0", M_GEAR, 'joint="hips" gear="0"', "actuator 1 gear 0 (the model needs gear 1)"),
     ("gear NaN", M_GEAR, 'joint="hips" gear="nan"', "actuator 1 gear nan (the model needs gear 1)"),

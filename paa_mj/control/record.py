@@ -120,7 +120,7 @@ class ControllerRecord:
             return (f"it needs joint{'s' if len(self.passive) > 1 else ''} {joints} alone passive, this one has"
                     f" {actuation or 'passive joints ' + ', '.join(map(str, passive))}")
         if goal not in self.goals:
-            return f"it aims at the {' or '.join(self.goals)} goal, not the {goal} one"
+            return f"it aims at the {' or '.join(self.goals)} goal (--goal {self.goals[0]}), not the {goal} one"
         return None
 
     def applies_to(self, n_links: int, goal: str, passive: tuple = (1,)) -> bool:

@@ -442,8 +442,6 @@ def _robustness_summary(robot, task, cases, final, steps, n_steps, interrupted):
             entry["success"] = [NOT_RUN if NOT_RUN in runs else
                                 bool(scores.level_successes([runs] if repeated else [runs[0]], repeated)[0])
                                 for runs in entry["runs"]]
-            entry["success"] = [bool(s) for s in scores.level_successes(
-                entry["runs"] if repeated else [r[0] for r in entry["runs"]], repeated)]
     with np.errstate(invalid="ignore"):
         runaway = ~np.all(np.isfinite(final), axis=1) | (np.max(np.abs(final[:, final.shape[1] // 2:]), axis=1,
                                                                    initial=0.0) > MAX_SPEED)

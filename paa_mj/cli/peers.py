@@ -1,7 +1,8 @@
 """``paa-mj peers``: paa_mj against Drake, for the dynamics and for Spong's acrobot swing-up."""
 from __future__ import annotations
 
-from .common import folder, output_lock, positive, positive_int, print_json, seed
+from .folders import output_lock
+from .common import folder, positive, positive_int, print_json, seed
 
 
 def cmd_peers(args):

@@ -3,8 +3,9 @@ from __future__ import annotations
 
 from ..errors import PaaError, SimulationDiverged
 from .studies import check_engine_args
+from .folders import output_lock
 from .common import (check_fresh, controller_parent, engine_option, finish, folder, finite, initial_state, note,
-                     output_lock, print_json, robot_parent, seed, spec_from_args)
+                     print_json, robot_parent, seed, spec_from_args)
 
 
 def cmd_realaigym(args):

@@ -1,7 +1,8 @@
 """``paa-mj reproduce``: the paper redone, with figures, report and video."""
 from __future__ import annotations
 
-from .common import folder, note, output_lock
+from .folders import output_lock
+from .common import folder, note
 
 
 def cmd_reproduce(args):

@@ -4,8 +4,8 @@ from __future__ import annotations
 import argparse
 
 from ..errors import PaaError, SimulationDiverged
-from .common import (controller_parent, engine_option, file_path, finish, finite, goal_parent, initial_state, output_lock,
-                     output_parent, physics_parent, positive, positive_int, print_json, robot_parent, spec_from_args,
+from .folders import output_lock
+from .common import (controller_parent, engine_option, file_path, finish, finite, goal_parent, initial_state, output_parent, physics_parent, positive, positive_int, print_json, robot_parent, spec_from_args,
                      task_from_args)
 
 

@@ -2,7 +2,8 @@
 from __future__ import annotations
 
 from ..errors import PaaError
-from .common import (check_fresh, controller_parent, engine_option, finish, goal_parent, non_negative, note, output_lock, output_parent,
+from .folders import output_lock
+from .common import (check_fresh, controller_parent, engine_option, finish, goal_parent, non_negative, note, output_parent,
                      positive, positive_int, print_json, robot_parent, seed, spec_from_args, study_parent, task_from_args,
                      whole_number, TASK_HORIZON)
 

@@ -26,11 +26,10 @@ NumPy's global generator unseeded; here each run draws from its own legacy gener
 
 "Up" (the swing-up time of v2, the time up of v3) is their rule, the tip above 0.9 of its height at the goal,
 where the goal holds the tip at its highest; at any other goal (the folded one) it is the goal's pose, every
-angle within the task's switch angle of the goal (:func:`up_rows`).
+angle within the task's switch angle of the goal (:func:`~paa_mj.realaigym.conventions.up_rows`).
 """
 from __future__ import annotations
 
-import math
 import os
 from concurrent.futures import ThreadPoolExecutor
 
@@ -40,7 +39,6 @@ from ..control.base import controller_name, reset_controller, torque_of
 from ..errors import PaaError
 from ..limits import check_seed
 from ..model.robot import Robot
-from ..model.states import wrap
 from . import simulator as protocol
 from ..sim.batch import check_engine
 from ..sim.compiled.engine import pack
@@ -48,11 +46,12 @@ from ..sim.compiled.step import MAX_SPEED
 from ..sim.verdict import diverged_words, divergence
 from ..task import Task, as_task
 from . import scores
+from .conventions import DT, hanging, their_angles, their_goal, their_times, up_rows, up_threshold
 from ..studies.settings import REALAIGYM_ENGINES as ENGINES, REALAIGYM_PROTOCOLS as PROTOCOLS
 from ..studies.store import NOT_RUN, ChunkStore, per_run, runs_done, study_key
 
 #: Their simulation settings (``sim_parameters.py`` of the three leaderboards).
-DT, T_FINAL, T_FINAL_GLOBAL = 0.002, 10.0, 60.0
+T_FINAL, T_FINAL_GLOBAL = 10.0, 60.0
 #: Their hardware's gear ratio (``design_C.1`` model parameters), which the rotor inertia's terms need.
 GEAR_RATIO = 6.0
 LEVELS = 21
@@ -62,29 +61,6 @@ RESETS, RESET_LENGTH = 15, 0.2
 CHUNK = 32
 #: Chunks run at once on a Warp device (a finished batch is kept chunk by chunk).
 DEVICE_CHUNKS = 32
-
-
-def their_times(t_final, dt=DT, t0=0.0):
-    """Their clock: t accumulated by ``t += dt`` while ``t < t_final`` (the run's length in steps follows from it)."""
-    times, t = [t0], t0
-    while t < t_final:
-        t += dt
-        times.append(t)
-    return np.array(times)
-
-
-def their_angles(X):
-    """paa_mj's states (K, 2n) in their angles: q1 from hanging down (q1 + pi)."""
-    X = np.array(X, float)
-    X[:, 0] += np.pi
-    return X
-
-
-def hanging(n):
-    """Their start [0, 0, 0, 0]: hanging at rest, in paa_mj's angles."""
-    x0 = np.zeros(2 * n)
-    x0[0] = -np.pi
-    return x0
 
 
 def plant(robot: Robot, change=None, *, global_test=False):
@@ -159,7 +135,7 @@ def perturbations(rng, n, t_final=T_FINAL, dt=DT, per_joint=3, min_gap=1.0, sigm
 class Runs:
     """One controller, run again and again under their simulator: compiled when it has a compiled form; with
     ``engine="warp"``, many runs at once on a Warp ``device`` (:mod:`paa_mj.realaigym.simulator_warp`). Starts are in
-    paa_mj's angles, the states of a run in theirs (:func:`their_angles`), as their simulator keeps them."""
+    paa_mj's angles, the states of a run in theirs (:func:`~paa_mj.realaigym.conventions.their_angles`), as their simulator keeps them."""
 
     def __init__(self, robot: Robot, controller, engine="cpu", device=None):
         self.robot, self.controller, self.n = robot, controller, robot.params.n_links
@@ -256,35 +232,6 @@ class Runs:
                                              perturbation, pulses, work, mass, force):
                 return k + 1
         return U.shape[0]
-
-
-def their_goal(robot, task):
-    """The task's goal state (2n) in their angles."""
-    return their_angles(np.concatenate([task.goal, np.zeros(robot.params.n_links)])[None, :])[0]
-
-
-def _goal_height(robot, task):
-    return float(scores.tip_height(their_goal(robot, task)[None, :], robot.params.l)[0])
-
-
-def up_threshold(robot, task):
-    """Their "up" threshold [m], 0.9 of the tip's height at the goal, where the goal holds the tip at its highest
-    (every link up, their acrobot's goal); None for any other goal, whose tip may be low (the gymnast's folded tip
-    is below its highest), so that a height threshold would count a hanging-down chain as up."""
-    height = _goal_height(robot, task)
-    return 0.9 * height if math.isclose(height, float(np.sum(robot.params.l)), rel_tol=1e-9) else None
-
-
-def up_rows(robot, task, X):
-    """Rows of states X (K, 2n) in their angles counted as up by the swing-up time (v2) and the time up (v3): their tip
-    rule where :func:`up_threshold` gives one; otherwise the goal's pose, every angle within the task's switch
-    angle of the goal (the angles of region (68))."""
-    threshold = up_threshold(robot, task)
-    if threshold is not None:
-        return scores.tip_height(X, robot.params.l) > threshold
-    n = robot.params.n_links
-    return np.all(np.abs(wrap(np.asarray(X, float)[:, :n] - their_goal(robot, task)[:n])) < task.switch_region.angle,
-                  axis=1)
 
 
 def _saved_rows(T, X, U):

@@ -179,7 +179,7 @@ def search_parent(searches=""):
 ENGINE_WORDS = {
     "cpu": "compiled rollouts on this machine's CPU cores (MuJoCo; for realaigym, their simulator)",
     "warp": "every rollout a world of a Warp device, the controller on the device too (pip install 'paa_mj[gpu]';"
-            " every built-in controller, not a Python one)",
+            " the built-in controllers whose records declare a device law, every one but mpc; not a Python one)",
     "analytic": "the analytic model (1) by solve_ivp with continuous-time control",
 }
 #: Former spellings of the engines, still accepted: ``mujoco`` was the CPU engine's name in simulate and the studies.

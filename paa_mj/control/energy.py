@@ -411,14 +411,8 @@ class ConventionalController(EnergyVCLController):
     uses_vcl = False
 
 
-# The built-in controllers of (40) and (12): each builder takes (robot, task, gains, check, **options).
-
-def _paper_gains(robot, task, gains, what):
-    """The gains of (40) or (12) (``what``) for ``robot`` and ``task``; refused first on a robot outside the paper's
-    family (:func:`~paa_mj.theory.linear.require_passive_first`)."""
-    require_passive_first(robot.analytic, what, robot.name)
-    return resolve_gains(robot, task, **(gains or {}))
-
+# The built-in controllers of (40) and (12): each builder takes (robot, task, gains, check, **options); a robot
+# outside the paper's family is refused before it, by the records (ControllerSpec.build).
 
 @controller("vcl", "(40) swing-up, then LQR (67) on entering region (68): the paper's controller", gains=True,
             lqr=True, switches=True, compare=True, device=True,
@@ -431,8 +425,7 @@ def build_vcl(robot, task, gains=None, check=True, lqr_weights=None, switch=None
 @controller("vcl-only", "(40) alone", gains=True, device=True, kernels=(vcl_kernel, chain_energy_kernel))
 def build_vcl_only(robot, task, gains=None, check=True):
     """Controller (40) alone, for the whole run."""
-    return EnergyVCLController(robot.analytic, **_paper_gains(robot, task, gains, "controller (40) (vcl)"), check=check,
-                               task=task)
+    return EnergyVCLController(robot.analytic, **resolve_gains(robot, task, **(gains or {})), check=check, task=task)
 
 
 @controller("vcl-roa", "(40) swing-up, then LQR (67) once its cost-to-go is below the level of its region of"
@@ -456,8 +449,8 @@ def build_vc(robot, task, gains=None, check=True, lqr_weights=None, switch=None,
             kernels=(conventional_kernel, chain_energy_kernel))
 def build_vc_only(robot, task, gains=None, check=True):
     """The conventional candidate (12) alone."""
-    return ConventionalController(robot.analytic, **_paper_gains(robot, task, gains, "controller (12) (vc)"),
-                                  check=check, task=task)
+    return ConventionalController(robot.analytic, **resolve_gains(robot, task, **(gains or {})), check=check,
+                                  task=task)
 
 
 @controller("vc-roa", "conventional candidate (12), then LQR (67) once its cost-to-go is below its region of"

@@ -23,6 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import PaaError
+from ..model import chain
 from ..model.dynamics import AnalyticModel
 from ..task import Task
 from .base import CompiledForm, Controller, kernel
@@ -49,14 +50,15 @@ DEFAULTS = {
 
 
 def goal_lqr(model: AnalyticModel, task: Task, q_angle, q_speed, r_lqr):
-    """(S, K) of the LQR at the task's goal: the continuous Riccati solution of (1) linearised there with
-    Q = diag(q_angle I, q_speed I), R = r_lqr I, and K = R^-1 B^T S."""
+    """(S, K) of the LQR at the task's goal: the continuous Riccati solution of (1) linearised there (B of the
+    robot's m motors, :attr:`~paa_mj.model.dynamics.AnalyticModel.actuated`) with Q = diag(q_angle I, q_speed I),
+    R = r_lqr I (m, m), and K = R^-1 B^T S (m, 2n)."""
     from scipy.linalg import solve_continuous_are
 
     A, B = model.linearize(task.goal)
     n = model.n_links
     Q = np.diag(np.r_[np.full(n, q_angle), np.full(n, q_speed)])
-    R = r_lqr * np.eye(n - 1)
+    R = r_lqr * np.eye(model.n_motors)
     S = solve_continuous_are(A, B, Q, R)
     return S, np.linalg.solve(R, B.T @ S)
 
@@ -76,9 +78,10 @@ class MPCController(Controller):
         The model the plans are made on (the robot's own).
     task : Task
         The goal q*.
-    torque_limit : array_like (n - 1,)
-        The box of the plans [N m] (the robot's actuator ranges); an infinite one is replaced by the gravity torque
-        the motor carries at worst, sum_{k >= j} b_k (the links beyond it held level).
+    torque_limit : array_like (m,)
+        The box of the plans [N m] (the robot's actuator ranges, one per motor); an infinite one is replaced by the
+        gravity torque the motor carries at worst, sum_{k >= a} b_k for the motor on joint a (the links beyond it
+        held level).
     **options
         Any of :data:`DEFAULTS`.
     """
@@ -90,13 +93,14 @@ class MPCController(Controller):
         if unknown:
             raise PaaError(f"mpc has no option(s) {', '.join(unknown)}; its options: {', '.join(DEFAULTS)}")
         o = {**DEFAULTS, **{k: float(v) for k, v in options.items()}}
-        n = model.n_links
-        limit = np.array(np.broadcast_to(np.asarray(torque_limit, float), (n - 1,)))
+        n, nu = model.n_links, model.n_motors
+        joints = list(model.actuated)
+        limit = np.array(np.broadcast_to(np.asarray(torque_limit, float), (nu,)))
         if np.any(np.isnan(limit)) or np.any(limit <= 0):
             raise PaaError(f"mpc plans within positive torque limits, got {limit.tolist()}")
         # a motor without a range gets the gravity torque it carries at worst, sum_{k >= j} b_k (the links beyond it
         # held level): the plans need a box
-        carried = np.cumsum(model.gravity_constants[::-1])[::-1][1:]
+        carried = np.cumsum(model.gravity_constants[::-1])[::-1][joints]
         limit = np.where(np.isfinite(limit), limit, carried)
         knots = int(round(o["horizon"] / o["knot"]))
         if knots < 2 or o["period"] <= 0 or o["iterations"] < 1:
@@ -111,11 +115,13 @@ class MPCController(Controller):
             o["restart"], o["cold_iterations"], o["pump_kp"], o["pump_kd"], task.goal_energy(model)]
         self.params = np.concatenate([
             header, task.goal, limit, model.inertia_constants.reshape(-1), model.gravity_constants,
-            np.broadcast_to(p.damping, (n,)), np.broadcast_to(p.armature, (n,)), np.full(n, o["w_angle"]),
-            np.full(n, o["w_speed"]), np.full(n - 1, o["r"]), np.full(n - 1, o["r_rate"]), self.S.reshape(-1),
+            np.broadcast_to(p.damping, (n,)), np.broadcast_to(p.armature, (n,)), chain.drive_map(n, joints),
+            np.full(n, o["w_angle"]), np.full(n, o["w_speed"]), np.full(nu, o["r"]), np.full(nu, o["r_rate"]),
+            self.S.reshape(-1),
             self.K.reshape(-1)]).astype(float)
-        assert self.params.size == mk.offsets(n)[-1]
-        self.memory0 = np.zeros(mk.memory_size(n, knots))
+        self.params[mk.H_NU] = nu
+        assert self.params.size == mk.offsets(n, nu)[-1]
+        self.memory0 = np.zeros(mk.memory_size(n, nu, knots))
         self._memory = {}
         self.mode = np.int8(0)
         self.bind(model, task)
@@ -131,12 +137,13 @@ class MPCController(Controller):
         memory = self._memory.get(x.shape[0])
         if memory is None:
             memory = self._memory[x.shape[0]] = np.tile(self.memory0, (x.shape[0], 1))
-        tau = np.empty((x.shape[0], q.shape[-1] - 1))
+        nu = self.model.n_motors
+        tau = np.empty((x.shape[0], nu))
         mode = np.empty(x.shape[0], np.int8)
         for r in range(x.shape[0]):
             mode[r] = mk.mpc_torque(self.params, x[r], float(t), memory[r], tau[r])
         self.mode = mode.reshape(batch) if batch else mode[0]
-        return tau.reshape(batch + (q.shape[-1] - 1,))
+        return tau.reshape(batch + (nu,))
 
     def compiled(self) -> CompiledForm:
         return CompiledForm(mpc_kernel, self.params, memory=self.memory0, balance_gain=None)
@@ -150,7 +157,8 @@ class MPCController(Controller):
             settings=("horizon", "knot", "period", "iterations", "cold_iterations", "w_angle", "w_speed", "r", "r_rate",
                       "terminal", "q_angle", "q_speed", "r_lqr", "rho_in", "rho_out", "pump", "pump_kp", "pump_kd",
                       "restart"),
-            checked=(("realaigym_acrobot", "stretched"), ("acrobot", "stretched")))
+            passive=None,
+            checked=(("realaigym_acrobot", "stretched"), ("acrobot", "stretched"), ("realaigym_pendubot", "stretched")))
 def build_mpc(robot, task, gains=None, check=True, **options):
     """iLQR model-predictive control with an LQR at the goal (module docstring), within the robot's actuator
     ranges."""

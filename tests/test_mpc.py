@@ -164,3 +164,35 @@ def test_its_record_names_every_option_it_takes():
 
     assert set(RECORDS["mpc"].settings) == set(DEFAULTS)
 
+
+
+def test_it_balances_a_chain_with_a_passive_middle_joint():
+    """``make-model --links 3 --passive 2``'s chain (motors at joints 1 and 3) brought back upright from 0.1 rad and
+    0.2 rad/s off the top on MuJoCo within 3 s, within its motors' 100 N m (with the acrobot's weights unscaled it
+    was 0.66 rad/s off after 2 s)."""
+    robot = passive_middle()
+    task = Task.named("stretched", robot)
+    c = make_controller("mpc", robot, task=task)
+    x0 = np.r_[task.goal + np.array([0.1, -0.1, 0.05]), 0.2, 0.0, -0.2]
+    run = simulate_mujoco(robot, c, x0=x0, t_final=3.0, task=task)
+    error = np.r_[np.angle(np.exp(1j * (run.q[-1] - task.goal))), run.qd[-1]]
+    assert np.max(np.abs(error)) < 0.03 and np.max(np.abs(run.tau)) <= 100 + 1e-9
+
+
+def test_its_options_carry_over_by_similarity(acrobot):
+    """Every option states how it scales (:data:`~paa_mj.control.mpc.SIMILARITY`); the defaults' own robot and
+    RealAIGym's pendubot (the same links) keep them exactly, while a motor is weighed by the gravity torque it carries
+    (the pendubot's shoulder carries the whole chain: 2.44 times the acrobot's elbow); on the 53 kg gymnast the
+    torque weights fall by about 130^2."""
+    from paa_mj.control.mpc import SIMILARITY, scaled_options, similarity
+
+    assert set(SIMILARITY) == set(DEFAULTS)
+    robot, _ = acrobot
+    assert scaled_options(DEFAULTS, robot.analytic) == DEFAULTS
+    g, gm, t = similarity(load_robot("realaigym_pendubot").analytic)
+    assert (g, t) == (1.0, 1.0) and gm[0] == pytest.approx(2.4367, abs=1e-4)
+    gymnast = load_robot("gymnast")
+    g, gm, t = similarity(gymnast.analytic)
+    scaled = scaled_options(DEFAULTS, gymnast.analytic)
+    np.testing.assert_allclose(scaled["r"], DEFAULTS["r"] / (t * gm ** 2))
+    assert 120 < g < 140 and 0.9 < t < 1.1 and scaled["rho_in"] == DEFAULTS["rho_in"]

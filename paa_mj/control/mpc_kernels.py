@@ -41,8 +41,8 @@ FD_EPS = 1e-6
 # header of the parameter vector
 (H_N, H_KNOTS, H_STEP, H_PERIOD, H_ITERS, H_RHO_IN, H_RHO_OUT, H_TERM, H_PUMP, H_RESTART, H_ITERS_COLD, H_PUMP_KP,
  H_PUMP_KD, H_E_GOAL) = range(14)
-H_NU = 15  # the number of motors m
-HEADER = 16
+H_NU = 20  # the number of motors m
+HEADER = 24
 
 # header of the memory vector
 M_T0, M_MODE, M_NEXT, M_VALID, M_UPREV, M_COST, M_SOLVES = range(7)
@@ -53,7 +53,8 @@ MEMORY_HEADER = 8
 def offsets(n, nu):
     """Where each block of the parameter vector starts, for n links and nu motors (nx = 2n): goal q* (n), u_max (nu),
     A (n n), b (n), damping (n), armature (n), the drive map (n: each joint's motor, -1 where none), w_q (n), w_v (n),
-    r (nu), r_d (nu), S (nx nx), K (nu nx), end."""
+    r (nu), r_d (nu), S (nx nx), K (nu nx), the unit of iLQR's regularisation of each motor's Quu (nu: that of its
+    torque weights, mpc.SIMILARITY), end."""
     nx = 2 * n
     goal = HEADER
     umax = goal + n
@@ -68,8 +69,9 @@ def offsets(n, nu):
     rd = r + nu
     s = rd + nu
     k = s + nx * nx
-    end = k + nu * nx
-    return goal, umax, a, b, damping, armature, drive, wq, wv, r, rd, s, k, end
+    unit = k + nu * nx
+    end = unit + nu
+    return goal, umax, a, b, damping, armature, drive, wq, wv, r, rd, s, k, unit, end
 
 
 @njit(cache=True)
@@ -338,6 +340,7 @@ def _backward(params, model, X, U, uprev0, FX, FU, kff, Kfb, mu, sc):
     h = params[H_STEP]
     knots = U.shape[0]
     term = params[H_TERM]
+    unit = offsets(n, nu)[13]
     Vx, Vxx, Qx, Qu, Qxx, Quu, Qux, rhs, sol, tmp, tmpu, L, y, e = sc
     _error(model, X[knots], e)
     for i in range(nz):
@@ -414,7 +417,7 @@ def _backward(params, model, X, U, uprev0, FX, FU, kff, Kfb, mu, sc):
             up = uprev0[j] if k == 0 else U[k - 1, j]
             rdj = rd[j] / (h * h)
             Qu[j] += 2.0 * h * (r[j] * u[j] + rdj * (u[j] - up))
-            Quu[j, j] += 2.0 * h * (r[j] + rdj) + mu
+            Quu[j, j] += 2.0 * h * (r[j] + rdj) + mu * params[unit + j]
             Qx[nx + j] += -2.0 * h * rdj * (u[j] - up)
             Qxx[nx + j, nx + j] += 2.0 * h * rdj
             Qux[j, nx + j] += -2.0 * h * rdj

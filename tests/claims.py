@@ -314,9 +314,9 @@ THEIR_PENDUBOT_BOARDS = (("History SAC", "0.682", "0.770", "-"), ("AR-EAPO", "0.
                          ("AcadosMpc", "-", "-", "43.554"), ("prx_analytical", "-", "-", "14.396"))
 PFL = "examples/realaigym/pfl_controller.py"
 BOARD_CONTROLLERS = {"acrobot": ("vcl", "vc", "lqr", f"{PFL}:LQRTheirs_C11", "trajopt", "trajopt-effort", "spong",
-                                 f"{PFL}:PFLCollocatedLQR_C11"),
-                     "family": ("vcl", "vcl-roa", "vc", "lqr"),
-                     "pendubot": ("lqr", "trajopt", "trajopt-effort", "fantoni")}
+                                 f"{PFL}:PFLCollocatedLQR_C11", "mpc"),
+                     "family": ("vcl", "vcl-roa", "vc", "lqr", "mpc"),
+                     "pendubot": ("lqr", "trajopt", "trajopt-effort", "fantoni", "mpc")}
 
 
 def realaigym_board(robot_name, goal, names):

@@ -1,6 +1,9 @@
 """Model-predictive control on the robot's own equations of motion: iLQR over a receding horizon, then the LQR.
 
-At a measured state x and time t the controller
+At a measured state y and time t the controller first estimates the state x it acts on
+(:mod:`paa_mj.control.mpc_law`: a model-based observer that trusts the angles, the loop's latency scored from the
+angles' second differences against the torques it commanded, and a prediction over that latency; ``estimate=0``
+acts on y itself), then
 
 1. balances by the LQR tau = -K e (e = [wrap(q - q*), qd]) while its cost-to-go e^T S e is below ``rho_in``,
    until it rises above ``rho_out`` (hysteresis; S, K the continuous Riccati solution at the goal with
@@ -28,15 +31,16 @@ from ..task import Task
 from .base import CompiledForm, Controller, kernel
 from .record import controller
 from . import mpc_kernels as mk
+from . import mpc_law
 
 #: Defaults for the family (see docs/controllers.md for the search behind them).
 DEFAULTS = {
-    "horizon": 1.5,        # s
+    "horizon": 1.0,        # s
     "knot": 0.02,          # s
     "period": 0.02,        # s between solves
     "iterations": 2,       # iLQR iterations per solve
     "cold_iterations": 15,  # iLQR iterations from a fresh guess
-    "w_angle": 1.0,        # weight of (1 - cos e) per joint [1/s]
+    "w_angle": 3.0,        # weight of (1 - cos e) per joint [1/s]
     "w_speed": 0.05,       # weight of qd^2 [s/rad^2 /s]
     "r": 0.05,             # weight of u^2
     "r_rate": 0.1,         # weight of (du/h)^2 h^2 = du^2
@@ -45,6 +49,11 @@ DEFAULTS = {
     "rho_in": 1.0, "rho_out": 5.0,  # hand-over levels of e^T S e
     "pump": 1.0, "pump_kp": 5.0, "pump_kd": 0.5,   # the energy-pumping guess
     "restart": 0.5,        # distance of the state from the plan's that restarts the solve
+    "estimate": 1.0,       # 1: act on the estimator's state (paa_mj.control.mpc_law), 0: on the measurement
+    "observer_angle": 0.5,  # a: share of the angles' innovation / dt added to the speeds
+    "observer_speed": 0.05,  # b: share of the measured speeds' innovation
+    "lag_memory": 1.0,     # s, memory of the latency's scores (0: no latency estimated)
+    "lag_gate": 0.03,      # N m, the residual beyond which a step does not score the latencies
 }
 
 
@@ -63,8 +72,8 @@ def goal_lqr(model: AnalyticModel, task: Task, q_angle, q_speed, r_lqr):
 
 @kernel
 def mpc_kernel(x, t, params, memory, tau):
-    """Compiled MPC law (:func:`~paa_mj.control.mpc_kernels.mpc_torque`)."""
-    return mk.mpc_torque(params, x, t, memory, tau)
+    """Compiled MPC law (:func:`~paa_mj.control.mpc_law.mpc_torque`)."""
+    return mpc_law.mpc_torque(params, x, t, memory, tau)
 
 
 class MPCController(Controller):
@@ -109,13 +118,16 @@ class MPCController(Controller):
                 mk.H_PUMP, mk.H_RESTART, mk.H_ITERS_COLD, mk.H_PUMP_KP, mk.H_PUMP_KD, mk.H_E_GOAL]] = [
             n, knots, o["knot"], o["period"], o["iterations"], o["rho_in"], o["rho_out"], o["terminal"], o["pump"],
             o["restart"], o["cold_iterations"], o["pump_kp"], o["pump_kd"], task.goal_energy(model)]
+        header[[mpc_law.H_ESTIMATE, mpc_law.H_OBS_ANGLE, mpc_law.H_OBS_SPEED, mpc_law.H_LAG_MEMORY,
+                mpc_law.H_LAG_GATE]] = [o["estimate"], o["observer_angle"], o["observer_speed"], o["lag_memory"],
+                                        o["lag_gate"]]
         self.params = np.concatenate([
             header, task.goal, limit, model.inertia_constants.reshape(-1), model.gravity_constants,
             np.broadcast_to(p.damping, (n,)), np.broadcast_to(p.armature, (n,)), np.full(n, o["w_angle"]),
             np.full(n, o["w_speed"]), np.full(n - 1, o["r"]), np.full(n - 1, o["r_rate"]), self.S.reshape(-1),
             self.K.reshape(-1)]).astype(float)
         assert self.params.size == mk.offsets(n)[-1]
-        self.memory0 = np.zeros(mk.memory_size(n, knots))
+        self.memory0 = np.zeros(mpc_law.memory_size(n, n - 1, knots))
         self._memory = {}
         self.mode = np.int8(0)
         self.bind(model, task)
@@ -134,7 +146,7 @@ class MPCController(Controller):
         tau = np.empty((x.shape[0], q.shape[-1] - 1))
         mode = np.empty(x.shape[0], np.int8)
         for r in range(x.shape[0]):
-            mode[r] = mk.mpc_torque(self.params, x[r], float(t), memory[r], tau[r])
+            mode[r] = mpc_law.mpc_torque(self.params, x[r], float(t), memory[r], tau[r])
         self.mode = mode.reshape(batch) if batch else mode[0]
         return tau.reshape(batch + (q.shape[-1] - 1,))
 
@@ -147,9 +159,9 @@ class MPCController(Controller):
 
 @controller("mpc", "iLQR model-predictive control on the robot's own model over a receding horizon, then an LQR at"
             " the goal", hands_over=True, kernels=(mpc_kernel,),
-            settings=("horizon", "knot", "period", "iterations", "cold_iterations", "w_angle", "w_speed", "r", "r_rate",
-                      "terminal", "q_angle", "q_speed", "r_lqr", "rho_in", "rho_out", "pump", "pump_kp", "pump_kd",
-                      "restart"),
+            settings=("horizon", "knot", "period", "iterations", "cold_iterations", "w_angle", "w_speed",
+                      "r", "r_rate", "terminal", "q_angle", "q_speed", "r_lqr", "rho_in", "rho_out", "pump", "pump_kp",
+                      "pump_kd", "restart", "estimate", "observer_angle", "observer_speed", "lag_memory", "lag_gate"),
             checked=(("realaigym_acrobot", "stretched"), ("acrobot", "stretched")))
 def build_mpc(robot, task, gains=None, check=True, **options):
     """iLQR model-predictive control with an LQR at the goal (module docstring), within the robot's actuator

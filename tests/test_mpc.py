@@ -7,8 +7,12 @@ from paa_mj.control import mpc_kernels as mk
 from paa_mj.control.mpc import DEFAULTS, MPCController
 from paa_mj.control.registry import make_controller
 from paa_mj.model import chain, load_robot
+from paa_mj.model.mjcf import mjcf_from_params
+from paa_mj.model.params import RobotParams
+from paa_mj.model.robot import robot_from_xml
 from paa_mj.realaigym import study as rg
 from paa_mj.realaigym import scores
+from paa_mj.sim.rollout import simulate_mujoco
 from paa_mj.task import Task
 
 
@@ -18,20 +22,44 @@ def acrobot():
     return robot, Task.named("stretched", robot)
 
 
-@pytest.mark.parametrize("name", ["realaigym_acrobot", "gymnast", "chain4"])
+def passive_middle():
+    """A three-link chain with its middle joint passive (motors at joints 1 and 3), as ``make-model --links 3
+    --passive 2`` writes it."""
+    params = RobotParams.uniform_rods([1.0, 1.0, 1.0], [1.0, 1.0, 1.0], name="passive-middle", actuated=(0, 2))
+    return robot_from_xml(mjcf_from_params(params, name="passive-middle", torque_limits=100, timestep=5e-4))
+
+
+def _robot(name):
+    return passive_middle() if name == "passive-middle" else load_robot(name)
+
+
+@pytest.mark.parametrize("name", ["realaigym_acrobot", "gymnast", "chain4", "realaigym_pendubot", "passive-middle"])
 def test_the_plans_acceleration_is_the_chains(name):
-    robot = load_robot(name)
-    c = MPCController(robot.analytic, Task.named("stretched", robot), np.ones(robot.params.n_links - 1))
-    n = robot.params.n_links
+    """The plan's flat (1) is :func:`~paa_mj.model.chain.acceleration_into` with the robot's drive map (B)."""
+    robot = _robot(name)
+    n, nu = robot.params.n_links, robot.params.n_motors
+    c = MPCController(robot.analytic, Task.named("stretched", robot), np.ones(nu))
     A, b, d, arm = (np.ascontiguousarray(a) for a in mk.unpack(c.params)[:4])
+    drive = chain.drive_map(n, robot.params.actuated)
+    np.testing.assert_array_equal(mk.unpack(c.params)[12], drive)
     rng = np.random.default_rng(1)
     for _ in range(20):
-        x, u = rng.normal(size=2 * n) * 3, rng.normal(size=n - 1)
+        x, u = rng.normal(size=2 * n) * 3, rng.normal(size=nu)
         ours, theirs = np.zeros(2 * n), np.empty(n)
         mk.acceleration(c.params, x, u, ours, mk.scratch(n))
-        chain.acceleration_into(A, b, d, arm, chain.drive_map(n), x[:n].copy(), x[n:].copy(), u, theirs,
-                                np.empty(n * n + 4 * n))
+        chain.acceleration_into(A, b, d, arm, drive, x[:n].copy(), x[n:].copy(), u, theirs, np.empty(n * n + 4 * n))
         np.testing.assert_allclose(ours[n:], theirs, rtol=1e-12, atol=1e-12)
+
+
+@pytest.mark.parametrize("name", ["realaigym_pendubot", "passive-middle"])
+def test_its_lqr_takes_the_robots_motors(name):
+    """goal_lqr's B is the robot's (n x m): K has a row per motor, and the closed loop A - B K is stable."""
+    robot = _robot(name)
+    task = Task.named("stretched", robot)
+    c = make_controller("mpc", robot, task=task)
+    A, B = robot.analytic.linearize(task.goal)
+    assert c.K.shape == (robot.params.n_motors, 2 * robot.params.n_links)
+    assert np.max(np.linalg.eigvals(A - B @ c.K).real) < 0
 
 
 def _final_success(robot, task, X):
@@ -186,3 +214,35 @@ def test_the_estimator_filters_their_velocity_noise(acrobot):
     assert _final_success(robot, task, X)
     xhat = law.estimator()[1]
     assert np.max(np.abs(xhat[2:] - X[-2, 2:])) < 0.05
+
+
+def test_it_balances_a_chain_with_a_passive_middle_joint():
+    """``make-model --links 3 --passive 2``'s chain (motors at joints 1 and 3) brought back upright from 0.1 rad and
+    0.2 rad/s off the top on MuJoCo within 3 s, within its motors' 100 N m (with the acrobot's weights unscaled it
+    was 0.66 rad/s off after 2 s)."""
+    robot = passive_middle()
+    task = Task.named("stretched", robot)
+    c = make_controller("mpc", robot, task=task)
+    x0 = np.r_[task.goal + np.array([0.1, -0.1, 0.05]), 0.2, 0.0, -0.2]
+    run = simulate_mujoco(robot, c, x0=x0, t_final=3.0, task=task)
+    error = np.r_[np.angle(np.exp(1j * (run.q[-1] - task.goal))), run.qd[-1]]
+    assert np.max(np.abs(error)) < 0.03 and np.max(np.abs(run.tau)) <= 100 + 1e-9
+
+
+def test_its_options_carry_over_by_similarity(acrobot):
+    """Every option states how it scales (:data:`~paa_mj.control.mpc.SIMILARITY`); the defaults' own robot and
+    RealAIGym's pendubot (the same links) keep them exactly, while a motor is weighed by the gravity torque it carries
+    (the pendubot's shoulder carries the whole chain: 2.44 times the acrobot's elbow); on the 53 kg gymnast the
+    torque weights fall by about 130^2."""
+    from paa_mj.control.mpc import SIMILARITY, scaled_options, similarity
+
+    assert set(SIMILARITY) == set(DEFAULTS)
+    robot, _ = acrobot
+    assert scaled_options(DEFAULTS, robot.analytic) == DEFAULTS
+    g, gm, t = similarity(load_robot("realaigym_pendubot").analytic)
+    assert (g, t) == (1.0, 1.0) and gm[0] == pytest.approx(2.4367, abs=1e-4)
+    gymnast = load_robot("gymnast")
+    g, gm, t = similarity(gymnast.analytic)
+    scaled = scaled_options(DEFAULTS, gymnast.analytic)
+    np.testing.assert_allclose(scaled["r"], DEFAULTS["r"] / (t * gm ** 2))
+    assert 120 < g < 140 and 0.9 < t < 1.1 and scaled["rho_in"] == DEFAULTS["rho_in"]

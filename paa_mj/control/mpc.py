@@ -23,9 +23,13 @@ form's ``memory``, one per rollout): nothing of the run's disturbances reaches i
 """
 from __future__ import annotations
 
+import functools
+import math
+
 import numpy as np
 
 from ..errors import PaaError
+from ..model import chain
 from ..model.dynamics import AnalyticModel
 from ..task import Task
 from .base import CompiledForm, Controller, kernel
@@ -56,16 +60,75 @@ DEFAULTS = {
     "lag_gate": 0.03,      # N m, the residual beyond which a step does not score the latencies
 }
 
+#: The robot the defaults were searched on: every option is stated on its scale (:func:`similarity`).
+REFERENCE = "realaigym_acrobot"
+
+#: How each option carries over from :data:`REFERENCE` to another robot by dynamic similarity: (a, c, b) multiplies
+#: it by g^a g_j^c t^b (:func:`similarity`): g = G / G_ref the ratio of the robots' gravity torque scales, g_j that of
+#: motor j's (c != 0: an option per motor), t = T / T_ref that of their natural times (:func:`robot_scales`). Times
+#: scale by t; the cost is kept without unit, so that a motion that is the reference's in the units (G, T) costs what
+#: the reference's does: a weight of (1 - cos e) by 1/t, of qd^2 by t, of motor j's u^2 by 1/(t g_j^2), of its
+#: (du)^2/h by t/g_j^2 (h a time); the LQR's Q and R as the running cost's, so that its S, the terminal cost and the
+#: hand-over levels keep their numbers; the energy-pumping guess u = k_e (E* - E) qd - k_p e - k_d qd by the robot's
+#: scale: k_e by t, k_p by g, k_d by g t.
+SIMILARITY = {
+    "horizon": (0, 0, 1), "knot": (0, 0, 1), "period": (0, 0, 1), "iterations": (0, 0, 0),
+    "cold_iterations": (0, 0, 0), "w_angle": (0, 0, -1), "w_speed": (0, 0, 1), "r": (0, -2, -1), "r_rate": (0, -2, 1),
+    "terminal": (0, 0, 0), "q_angle": (0, 0, -1), "q_speed": (0, 0, 1), "r_lqr": (0, -2, -1), "rho_in": (0, 0, 0),
+    "rho_out": (0, 0, 0), "pump": (0, 0, 1), "pump_kp": (1, 0, 0), "pump_kd": (1, 0, 1), "restart": (0, 0, 0),
+    "estimate": (0, 0, 0), "observer_angle": (0, 0, 0), "observer_speed": (0, 0, 0), "lag_memory": (0, 0, 1),
+    "lag_gate": (1, 0, 0),
+}
+
+
+def robot_scales(model: AnalyticModel):
+    """(G, C, T) of a robot: its gravity torque scale G = sum_k b_k [N m] (the whole chain held level about the bar);
+    each motor's, C_j = sum_{k >= a_j} b_k [N m] (the gravity torque motor j on joint a_j carries at worst: the links
+    beyond it held level); its natural time T = 1 / lambda [s], lambda^2 the largest eigenvalue of
+    M(0)^-1 (-dG/dq)(0): the rate of the fastest fall of the stretched chain balanced upright, motors off (of any
+    chain's motions the one a plan's knots must resolve; sqrt(I / G) of the whole chain's inertia I about the bar is
+    slower than it by 2 to 5 on the family's robots)."""
+    b = model.gravity_constants
+    q = np.zeros(model.n_links)
+    rates = np.linalg.eigvals(np.linalg.solve(model.mass_matrix(q), -model.gravity_jacobian(q))).real
+    return float(np.sum(b)), np.cumsum(b[::-1])[::-1][list(model.actuated)], 1.0 / math.sqrt(float(np.max(rates)))
+
+
+@functools.lru_cache(maxsize=1)
+def _reference_scales():
+    from ..model import load_robot
+
+    return robot_scales(load_robot(REFERENCE).analytic)
+
+
+def similarity(model: AnalyticModel):
+    """(g, g_j, t) = (G / G_ref, C_j / C_ref, T / T_ref) of :func:`robot_scales` against :data:`REFERENCE` (C_ref the
+    largest of its motors'): each exactly 1 on it and on any robot of its links with the same motors."""
+    (G, C, T), (G0, C0, T0) = robot_scales(model), _reference_scales()
+    return G / G0, C / np.max(C0), T / T0
+
+
+def scaled_options(options: dict, model: AnalyticModel) -> dict:
+    """The options (stated on :data:`REFERENCE`'s scale) carried over to ``model`` by :data:`SIMILARITY`: floats, and
+    arrays (one per motor) for those of the motors."""
+    g, gm, t = similarity(model)
+    out = {}
+    for key, value in options.items():
+        a, c, b = SIMILARITY[key]
+        out[key] = value * g ** a * t ** b * (gm ** c if c else 1.0)
+    return out
+
 
 def goal_lqr(model: AnalyticModel, task: Task, q_angle, q_speed, r_lqr):
-    """(S, K) of the LQR at the task's goal: the continuous Riccati solution of (1) linearised there with
-    Q = diag(q_angle I, q_speed I), R = r_lqr I, and K = R^-1 B^T S."""
+    """(S, K) of the LQR at the task's goal: the continuous Riccati solution of (1) linearised there (B of the
+    robot's m motors, :attr:`~paa_mj.model.dynamics.AnalyticModel.actuated`) with Q = diag(q_angle I, q_speed I),
+    R = diag(r_lqr) (m, m; one weight, or one per motor), and K = R^-1 B^T S (m, 2n)."""
     from scipy.linalg import solve_continuous_are
 
     A, B = model.linearize(task.goal)
     n = model.n_links
     Q = np.diag(np.r_[np.full(n, q_angle), np.full(n, q_speed)])
-    R = r_lqr * np.eye(n - 1)
+    R = np.diag(np.broadcast_to(np.asarray(r_lqr, float), (model.n_motors,)))
     S = solve_continuous_are(A, B, Q, R)
     return S, np.linalg.solve(R, B.T @ S)
 
@@ -85,11 +148,13 @@ class MPCController(Controller):
         The model the plans are made on (the robot's own).
     task : Task
         The goal q*.
-    torque_limit : array_like (n - 1,)
-        The box of the plans [N m] (the robot's actuator ranges); an infinite one is replaced by the gravity torque
-        the motor carries at worst, sum_{k >= j} b_k (the links beyond it held level).
+    torque_limit : array_like (m,)
+        The box of the plans [N m] (the robot's actuator ranges, one per motor); an infinite one is replaced by the
+        gravity torque the motor carries at worst, sum_{k >= a} b_k for the motor on joint a (the links beyond it
+        held level).
     **options
-        Any of :data:`DEFAULTS`.
+        Any of :data:`DEFAULTS`, stated on :data:`REFERENCE`'s scale (the defaults' robot) and carried over to this
+        one by dynamic similarity (:data:`SIMILARITY`; :attr:`scaled` the values used).
     """
 
     name = "mpc"
@@ -98,19 +163,21 @@ class MPCController(Controller):
         unknown = sorted(set(options) - set(DEFAULTS))
         if unknown:
             raise PaaError(f"mpc has no option(s) {', '.join(unknown)}; its options: {', '.join(DEFAULTS)}")
-        o = {**DEFAULTS, **{k: float(v) for k, v in options.items()}}
-        n = model.n_links
-        limit = np.array(np.broadcast_to(np.asarray(torque_limit, float), (n - 1,)))
+        given = {**DEFAULTS, **{k: float(v) for k, v in options.items()}}
+        o = scaled_options(given, model)
+        n, nu = model.n_links, model.n_motors
+        joints = list(model.actuated)
+        limit = np.array(np.broadcast_to(np.asarray(torque_limit, float), (nu,)))
         if np.any(np.isnan(limit)) or np.any(limit <= 0):
             raise PaaError(f"mpc plans within positive torque limits, got {limit.tolist()}")
         # a motor without a range gets the gravity torque it carries at worst, sum_{k >= j} b_k (the links beyond it
         # held level): the plans need a box
-        carried = np.cumsum(model.gravity_constants[::-1])[::-1][1:]
+        carried = np.cumsum(model.gravity_constants[::-1])[::-1][joints]
         limit = np.where(np.isfinite(limit), limit, carried)
         knots = int(round(o["horizon"] / o["knot"]))
         if knots < 2 or o["period"] <= 0 or o["iterations"] < 1:
             raise PaaError("mpc needs a horizon of at least two knots, a positive period and at least one iteration")
-        self.model, self.task, self.options, self.limit = model, task, o, limit
+        self.model, self.task, self.options, self.scaled, self.limit = model, task, given, o, limit
         self.S, self.K = goal_lqr(model, task, o["q_angle"], o["q_speed"], o["r_lqr"])
         p = model.params
         header = np.zeros(mk.HEADER)
@@ -118,19 +185,25 @@ class MPCController(Controller):
                 mk.H_PUMP, mk.H_RESTART, mk.H_ITERS_COLD, mk.H_PUMP_KP, mk.H_PUMP_KD, mk.H_E_GOAL]] = [
             n, knots, o["knot"], o["period"], o["iterations"], o["rho_in"], o["rho_out"], o["terminal"], o["pump"],
             o["restart"], o["cold_iterations"], o["pump_kp"], o["pump_kd"], task.goal_energy(model)]
+        header[mk.H_NU] = nu
         header[[mpc_law.H_ESTIMATE, mpc_law.H_OBS_ANGLE, mpc_law.H_OBS_SPEED, mpc_law.H_LAG_MEMORY,
                 mpc_law.H_LAG_GATE]] = [o["estimate"], o["observer_angle"], o["observer_speed"], o["lag_memory"],
                                         o["lag_gate"]]
         self.params = np.concatenate([
             header, task.goal, limit, model.inertia_constants.reshape(-1), model.gravity_constants,
-            np.broadcast_to(p.damping, (n,)), np.broadcast_to(p.armature, (n,)), np.full(n, o["w_angle"]),
-            np.full(n, o["w_speed"]), np.full(n - 1, o["r"]), np.full(n - 1, o["r_rate"]), self.S.reshape(-1),
-            self.K.reshape(-1)]).astype(float)
-        assert self.params.size == mk.offsets(n)[-1]
-        self.memory0 = np.zeros(mpc_law.memory_size(n, n - 1, knots))
+            np.broadcast_to(p.damping, (n,)), np.broadcast_to(p.armature, (n,)), chain.drive_map(n, joints),
+            np.full(n, o["w_angle"]), np.full(n, o["w_speed"]), np.full(nu, o["r"]), np.full(nu, o["r_rate"]),
+            self.S.reshape(-1), self.K.reshape(-1), self._regularisation_unit()]).astype(float)
+        assert self.params.size == mk.offsets(n, nu)[-1]
+        self.memory0 = np.zeros(mpc_law.memory_size(n, nu, knots))
         self._memory = {}
         self.mode = np.int8(0)
         self.bind(model, task)
+
+    def _regularisation_unit(self):
+        """iLQR's regularisation of Quu, per motor, in the unit of that motor's torque weights (1 / (t g_j^2))."""
+        g, gm, t = similarity(self.model)
+        return 1.0 / (t * gm * gm)
 
     def reset(self):
         self._memory = {}
@@ -143,18 +216,22 @@ class MPCController(Controller):
         memory = self._memory.get(x.shape[0])
         if memory is None:
             memory = self._memory[x.shape[0]] = np.tile(self.memory0, (x.shape[0], 1))
-        tau = np.empty((x.shape[0], q.shape[-1] - 1))
+        nu = self.model.n_motors
+        tau = np.empty((x.shape[0], nu))
         mode = np.empty(x.shape[0], np.int8)
         for r in range(x.shape[0]):
             mode[r] = mpc_law.mpc_torque(self.params, x[r], float(t), memory[r], tau[r])
         self.mode = mode.reshape(batch) if batch else mode[0]
-        return tau.reshape(batch + (q.shape[-1] - 1,))
+        return tau.reshape(batch + (nu,))
 
     def compiled(self) -> CompiledForm:
         return CompiledForm(mpc_kernel, self.params, memory=self.memory0, balance_gain=None)
 
     def describe(self) -> dict:
-        return {"controller": self.name, **self.options}
+        g, gm, t = similarity(self.model)
+        carried = {} if g == t == 1.0 and np.all(gm == 1.0) else {
+            "similarity": {"reference": REFERENCE, "g": g, "g_motors": gm.tolist(), "t": t}}
+        return {"controller": self.name, **self.options, **carried}
 
 
 @controller("mpc", "iLQR model-predictive control on the robot's own model over a receding horizon, then an LQR at"
@@ -162,7 +239,8 @@ class MPCController(Controller):
             settings=("horizon", "knot", "period", "iterations", "cold_iterations", "w_angle", "w_speed",
                       "r", "r_rate", "terminal", "q_angle", "q_speed", "r_lqr", "rho_in", "rho_out", "pump", "pump_kp",
                       "pump_kd", "restart", "estimate", "observer_angle", "observer_speed", "lag_memory", "lag_gate"),
-            checked=(("realaigym_acrobot", "stretched"), ("acrobot", "stretched")))
+            passive=None,
+            checked=(("realaigym_acrobot", "stretched"), ("acrobot", "stretched"), ("realaigym_pendubot", "stretched")))
 def build_mpc(robot, task, gains=None, check=True, **options):
     """iLQR model-predictive control with an LQR at the goal (module docstring), within the robot's actuator
     ranges."""

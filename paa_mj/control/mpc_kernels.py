@@ -4,9 +4,10 @@ One knot of the plan is h seconds of (1), integrated by RK4 with the torque held
 
 .. math::
 
-    x_{k+1} = F(x_k, u_k), \\qquad x = [q, \\dot q] \\;(2n), \\quad u = [\\tau_2, \\dots, \\tau_n] \\;(n - 1),
+    x_{k+1} = F(x_k, u_k), \\qquad x = [q, \\dot q] \\;(2n), \\quad u = [\\tau_{a_1}, \\dots, \\tau_{a_m}] \\;(m),
 
-M(q) qdd + H + G + D qd = B u (:func:`paa_mj.model.chain.acceleration_into`). Its Jacobians F_x, F_u are forward
+M(q) qdd + H + G + D qd = B u (:func:`paa_mj.model.chain.acceleration_into`), B the columns of the driven joints
+a_1 < ... < a_m (any of them passive: the robot's drive map, :func:`paa_mj.model.chain.drive_map`). Its Jacobians F_x, F_u are forward
 differences of F (step :data:`FD_EPS`). The plan's state carries the previous torque, z = [x, u_prev], so that the
 cost can weigh the torque's change (their smoothness criterion):
 
@@ -20,7 +21,7 @@ with e = q - q* the joint angles' error from the goal (periodic: no wrap needed)
 and S the LQR's cost-to-go matrix at the goal (its Riccati solution), scaled by s. The angle terms are taken
 Gauss-Newton: gradient w sin e, Hessian w (the residuals sin e, 1 - cos e have J^T J = 1). Torques are kept in
 [-u_max, u_max] by the box-DDP rule for each torque in turn: a feed-forward step that would leave the box is cut to
-it and that torque's feedback row set to zero (exact for one motor, the acrobot).
+it and that torque's feedback row set to zero (exact for one motor: the acrobot, the pendubot).
 
 Every function works on one state, with flat parameter arrays whose layout :func:`offsets` states.
 """
@@ -40,7 +41,8 @@ FD_EPS = 1e-6
 # header of the parameter vector
 (H_N, H_KNOTS, H_STEP, H_PERIOD, H_ITERS, H_RHO_IN, H_RHO_OUT, H_TERM, H_PUMP, H_RESTART, H_ITERS_COLD, H_PUMP_KP,
  H_PUMP_KD, H_E_GOAL) = range(14)
-HEADER = 24  # slots 16.. are the law's estimator's (paa_mj.control.mpc_law)
+H_NU = 20  # the number of motors m
+HEADER = 24
 
 # header of the memory vector
 M_T0, M_MODE, M_NEXT, M_VALID, M_UPREV, M_COST, M_SOLVES = range(7)
@@ -48,47 +50,52 @@ MEMORY_HEADER = 8
 
 
 @njit(cache=True)
-def offsets(n):
-    """Where each block of the parameter vector starts, for n links (nx = 2n, nu = n - 1): goal q* (n), u_max (nu),
-    A (n n), b (n), damping (n), armature (n), w_q (n), w_v (n), r (nu), r_d (nu), S (nx nx), K (nu nx), end."""
-    nx, nu = 2 * n, n - 1
+def offsets(n, nu):
+    """Where each block of the parameter vector starts, for n links and nu motors (nx = 2n): goal q* (n), u_max (nu),
+    A (n n), b (n), damping (n), armature (n), the drive map (n: each joint's motor, -1 where none), w_q (n), w_v (n),
+    r (nu), r_d (nu), S (nx nx), K (nu nx), the unit of iLQR's regularisation of each motor's Quu (nu: that of its
+    torque weights, mpc.SIMILARITY), end."""
+    nx = 2 * n
     goal = HEADER
     umax = goal + n
     a = umax + nu
     b = a + n * n
     damping = b + n
     armature = damping + n
-    wq = armature + n
+    drive = armature + n
+    wq = drive + n
     wv = wq + n
     r = wv + n
     rd = r + nu
     s = rd + nu
     k = s + nx * nx
-    end = k + nu * nx
-    return goal, umax, a, b, damping, armature, wq, wv, r, rd, s, k, end
+    unit = k + nu * nx
+    end = unit + nu
+    return goal, umax, a, b, damping, armature, drive, wq, wv, r, rd, s, k, unit, end
 
 
 @njit(cache=True)
-def memory_size(n, knots):
-    """Numbers of the memory: header, the last torque and the torque when the plan was made (nu each), the plan's states (N + 1) nx, torques N nu and feedback
-    gains N nu (nx + nu)."""
-    nx, nu = 2 * n, n - 1
+def memory_size(n, nu, knots):
+    """Numbers of the memory for n links and nu motors: header, the last torque and the torque when the plan was made
+    (nu each), the plan's states (N + 1) nx, torques N nu and feedback gains N nu (nx + nu)."""
+    nx = 2 * n
     return MEMORY_HEADER + 2 * nu + (knots + 1) * nx + knots * nu + knots * nu * (nx + nu)
 
 
 @njit(cache=True)
 def unpack(params):
     """The model and weights of the parameter vector as contiguous arrays (copied once per call): (A (n, n), b,
-    damping, armature, goal, u_max, w_q, w_v, r, r_d, S (nx, nx), K (nu, nx))."""
-    n = int(params[H_N])
-    nx, nu = 2 * n, n - 1
-    o = offsets(n)
+    damping, armature, goal, u_max, w_q, w_v, r, r_d, S (nx, nx), K (nu, nx), drive map (n))."""
+    n, nu = int(params[H_N]), int(params[H_NU])
+    nx = 2 * n
+    o = offsets(n, nu)
     A = np.ascontiguousarray(params[o[2]:o[3]]).reshape((n, n))
-    S = np.ascontiguousarray(params[o[10]:o[11]]).reshape((nx, nx))
-    K = np.ascontiguousarray(params[o[11]:o[12]]).reshape((nu, nx))
+    S = np.ascontiguousarray(params[o[11]:o[12]]).reshape((nx, nx))
+    K = np.ascontiguousarray(params[o[12]:o[13]]).reshape((nu, nx))
     return (A, params[o[3]:o[4]].copy(), params[o[4]:o[5]].copy(), params[o[5]:o[6]].copy(),
-            params[o[0]:o[0] + n].copy(), params[o[1]:o[1] + nu].copy(), params[o[6]:o[7]].copy(),
-            params[o[7]:o[8]].copy(), params[o[8]:o[9]].copy(), params[o[9]:o[10]].copy(), S, K)
+            params[o[0]:o[0] + n].copy(), params[o[1]:o[1] + nu].copy(), params[o[7]:o[8]].copy(),
+            params[o[8]:o[9]].copy(), params[o[9]:o[10]].copy(), params[o[10]:o[11]].copy(), S, K,
+            params[o[6]:o[7]].copy())
 
 
 @njit(cache=True)
@@ -105,8 +112,8 @@ def acceleration(p, x, u, out, w):
     (:func:`scratch`) so that nothing is passed but five arrays (the call's cost is its arrays), M solved by Cholesky
     (it is positive definite); a test holds the two to 1e-12."""
     n = x.size // 2
-    o = offsets(n)
-    pa, pb, pd, parm = o[2], o[3], o[4], o[5]
+    o = offsets(n, int(p[H_NU]))
+    pa, pb, pd, parm, pdrive = o[2], o[3], o[4], o[5], o[6]
     m0 = 10 * n
     f0 = m0 + n * n
     ph0 = f0 + n
@@ -140,7 +147,8 @@ def acceleration(p, x, u, out, w):
             w[m0 + i * n + j] += w[m0 + i * n + j + 1]
     for i in range(n):
         w[m0 + i * n + i] += p[parm + i]
-        w[f0 + i] = (u[i - 1] if i > 0 else 0.0) - out[n + i] - p[pd + i] * x[n + i]
+        motor = int(p[pdrive + i])
+        w[f0 + i] = (u[motor] if motor >= 0 else 0.0) - out[n + i] - p[pd + i] * x[n + i]
     for i in range(n):  # Cholesky, lower triangle in place
         for j in range(i + 1):
             s = w[m0 + i * n + j]
@@ -242,7 +250,7 @@ def stage_cost(model, x, u, uprev, h):
     total = 0.0
     for i in range(n):
         total += wq[i] * (1.0 - math.cos(x[i] - goal[i])) + wv[i] * x[n + i] * x[n + i]
-    for j in range(n - 1):
+    for j in range(u.size):
         du = u[j] - uprev[j]
         total += r[j] * u[j] * u[j] + rd[j] * du * du / (h * h)
     return h * total
@@ -327,11 +335,12 @@ def _backward(params, model, X, U, uprev0, FX, FU, kff, Kfb, mu, sc):
     goal, umax, wq, wv, r, rd = model[4], model[5], model[6], model[7], model[8], model[9]
     S = model[10]
     n = goal.size
-    nx, nu = 2 * n, n - 1
+    nx, nu = 2 * n, U.shape[1]
     nz = nx + nu
     h = params[H_STEP]
     knots = U.shape[0]
     term = params[H_TERM]
+    unit = offsets(n, nu)[13]
     Vx, Vxx, Qx, Qu, Qxx, Quu, Qux, rhs, sol, tmp, tmpu, L, y, e = sc
     _error(model, X[knots], e)
     for i in range(nz):
@@ -408,7 +417,7 @@ def _backward(params, model, X, U, uprev0, FX, FU, kff, Kfb, mu, sc):
             up = uprev0[j] if k == 0 else U[k - 1, j]
             rdj = rd[j] / (h * h)
             Qu[j] += 2.0 * h * (r[j] * u[j] + rdj * (u[j] - up))
-            Quu[j, j] += 2.0 * h * (r[j] + rdj) + mu
+            Quu[j, j] += 2.0 * h * (r[j] + rdj) + mu * params[unit + j]
             Qx[nx + j] += -2.0 * h * rdj * (u[j] - up)
             Qxx[nx + j, nx + j] += 2.0 * h * rdj
             Qux[j, nx + j] += -2.0 * h * rdj
@@ -464,7 +473,7 @@ def _forward(params, model, x0, uprev0, Xbar, Ubar, kff, Kfb, alpha, X, U, ws):
     umax = model[5]
     nx = x0.size
     n = nx // 2
-    nu = n - 1
+    nu = Ubar.shape[1]
     h = params[H_STEP]
     knots = Ubar.shape[0]
     X[0] = x0
@@ -495,7 +504,7 @@ def ilqr(params, model, x0, uprev0, U, X, Kfb, iterations):
     states, Kfb (N, nu, nx + nu) its feedback gains (on x and the previous torque). Returns the plan's cost."""
     nx = x0.size
     n = nx // 2
-    nu = n - 1
+    nu = U.shape[1]
     nz = nx + nu
     knots = U.shape[0]
     h = params[H_STEP]

@@ -33,7 +33,7 @@ from numba import njit
 
 from ..model import chain
 from ..model.states import wrap
-from .mpc_kernels import (H_E_GOAL, H_ITERS, H_ITERS_COLD, H_KNOTS, H_N, H_PERIOD, H_PUMP, H_PUMP_KD, H_PUMP_KP,
+from .mpc_kernels import (H_E_GOAL, H_ITERS, H_ITERS_COLD, H_KNOTS, H_N, H_NU, H_PERIOD, H_PUMP, H_PUMP_KD, H_PUMP_KP,
                           H_RESTART, H_RHO_IN, H_RHO_OUT, H_STEP, M_COST, M_MODE, M_NEXT, M_SOLVES, M_T0,
                           M_VALID, MEMORY_HEADER, _clamp, _forward, acceleration, energy, ilqr, lqr_cost, lqr_torque,
                           scratch, step, unpack)
@@ -55,14 +55,14 @@ def memory_size(n, nu, knots):
     """The law's memory: the plan's (:func:`paa_mj.control.mpc_kernels.memory_size`), then the estimator's: its
     header, the estimate (2n), the two previous measured angles (n each), the commanded torques (LAGS + 1, nu) and
     the latencies' scores (LAGS)."""
-    return mk.memory_size(n, knots) + E_HEADER + 4 * n + (LAGS + 1) * nu + LAGS
+    return mk.memory_size(n, nu, knots) + E_HEADER + 4 * n + (LAGS + 1) * nu + LAGS
 
 
 @njit(cache=True)
 def estimator_views(params, memory, n, nu):
     """The estimator's part of the memory: header, estimate (2n), angles at k - 1 and k - 2 (n each), commanded
     torques (LAGS + 1, nu; row 0 the last), scores (LAGS)."""
-    a = mk.memory_size(n, int(params[H_KNOTS]))
+    a = mk.memory_size(n, nu, int(params[H_KNOTS]))
     head = chain.vector_view(memory, a, E_HEADER)
     a += E_HEADER
     xhat = chain.vector_view(memory, a, 2 * n)
@@ -133,7 +133,7 @@ def estimate(params, y, t, memory, x):
     """The state the law acts on (module docstring) from the measurement y at time t, into x."""
     nx = y.size
     n = nx // 2
-    nu = n - 1
+    nu = int(params[H_NU])
     head, xhat, q1, q2, hist, score = estimator_views(params, memory, n, nu)
     dt = t - head[E_T]
     if head[E_VALID] == 0.0 or dt <= 0.0 or dt > GAP:
@@ -191,20 +191,21 @@ def remember_torque(params, memory, tau, n):
 
 @njit(cache=True)
 def pump_guess(params, model, x0, U, X):
-    """A first guess from far away: the energy-pumping law u_j = k_e (E* - E) qd_{j+1} - k_p wrap(q_{j+1} -
-    q*_{j+1}) - k_d qd_{j+1} (clamped), rolled out on the model into U, X."""
-    goal, umax = model[4], model[5]
+    """A first guess from far away: the energy-pumping law u_j = k_e (E* - E) qd_a - k_p wrap(q_a - q*_a) - k_d qd_a
+    (clamped) for motor j on joint a, rolled out on the model into U, X."""
+    goal, umax, drive = model[4], model[5], model[12]
     n = goal.size
-    nu = n - 1
     h = params[H_STEP]
     ws = scratch(n)
     X[0] = x0
     for k in range(U.shape[0]):
         gap = params[H_E_GOAL] - energy(model, X[k])
-        for j in range(nu):
-            qd = X[k, n + 1 + j]
-            v = params[H_PUMP] * gap * qd - params[H_PUMP_KP] * wrap(X[k, 1 + j] - goal[1 + j]) \
-                - params[H_PUMP_KD] * qd
+        for a in range(n):
+            j = int(drive[a])
+            if j < 0:
+                continue
+            qd = X[k, n + a]
+            v = params[H_PUMP] * gap * qd - params[H_PUMP_KP] * wrap(X[k, a] - goal[a]) - params[H_PUMP_KD] * qd
             U[k, j] = _clamp(v, umax[j])
         step(params, X[k], U[k], h, X[k + 1], ws)
 
@@ -225,8 +226,8 @@ def lqr_guess(params, model, x0, U, X):
 def plan_views(params, memory):
     """The plan kept in the memory: last torque (nu), the torque applied when the plan was made (nu), X (N + 1, nx),
     U (N, nu), K (N, nu, nx + nu)."""
-    n = int(params[H_N])
-    nx, nu = 2 * n, n - 1
+    n, nu = int(params[H_N]), int(params[H_NU])
+    nx = 2 * n
     knots = int(params[H_KNOTS])
     a = MEMORY_HEADER
     uprev = chain.vector_view(memory, a, nu)
@@ -281,7 +282,7 @@ def replan(params, model, x, t, memory):
     clamped LQR's rollout: the cheapest after iLQR is kept; from zero torque iLQR finds spinning minima)."""
     nx = x.size
     n = nx // 2
-    nu = n - 1
+    nu = int(params[H_NU])
     knots = int(params[H_KNOTS])
     h = params[H_STEP]
     uprev, ustart, X, U, K = plan_views(params, memory)
@@ -357,7 +358,7 @@ def _law(params, x, t, memory, tau):
     umax = model[5]
     nx = x.size
     n = nx // 2
-    nu = n - 1
+    nu = tau.size
     h = params[H_STEP]
     uprev, ustart, X, U, K = plan_views(params, memory)
     cost = lqr_cost(model, x)

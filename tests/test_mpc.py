@@ -246,3 +246,13 @@ def test_its_options_carry_over_by_similarity(acrobot):
     scaled = scaled_options(DEFAULTS, gymnast.analytic)
     np.testing.assert_allclose(scaled["r"], DEFAULTS["r"] / (t * gm ** 2))
     assert 120 < g < 140 and 0.9 < t < 1.1 and scaled["rho_in"] == DEFAULTS["rho_in"]
+
+
+def test_the_header_slots_are_distinct():
+    """Every named slot of the parameter vector's header (mpc_kernels' and mpc_law's) is its own: a merge once put
+    the motor count and the estimator's lag gate in one slot."""
+    from paa_mj.control import mpc_law
+
+    slots = {name: getattr(module, name) for module in (mk, mpc_law) for name in dir(module)
+             if name.startswith("H_") and isinstance(getattr(module, name), int)}
+    assert len(set(slots.values())) == len(slots) and max(slots.values()) < mk.HEADER

@@ -14,7 +14,6 @@ from paa_mj.studies.gain_search import gain_search, search_table
 from paa_mj.task import Task
 from paa_mj.theory.conditions import chain_kd_min, thresholds
 
-from .helpers import cli
 
 
 def test_the_rule_is_its_ratios_over_the_bound_of_the_goal():
@@ -46,8 +45,9 @@ def test_stored_gains_stand_where_they_meet_the_bound_and_the_rule_says_so_elsew
     assert controller.first.kD == chosen["kD"]
 
 
-def test_a_run_without_gains_states_them_and_its_outcome(tmp_path):
-    proc = cli("simulate", "--robot", "gymnast", "--goal", "stretched", "--t-final", "0.5", "--json")
+def test_a_run_without_gains_states_them_and_its_outcome(tmp_path, run):
+    G._NOTED.clear()  # a note is said once a process: this one's first
+    proc = run("simulate", "--robot", "gymnast", "--goal", "stretched", "--t-final", "0.5", "--json")
     assert proc.returncode == 0, proc.stderr
     notes = [line for line in proc.stderr.splitlines() if line.startswith("paa-mj: note: gains of the family rule")]
     gymnast = load_robot("gymnast")
@@ -57,8 +57,8 @@ def test_a_run_without_gains_states_them_and_its_outcome(tmp_path):
     assert summary["outcome"].startswith("never entered region (68) in 0.5 s") and "try" in summary["outcome"]
 
 
-def test_gains_below_the_bound_are_refused_with_the_gains_that_would_do():
-    proc = cli("simulate", "--robot", "gymnast", "--goal", "stretched", "--kD", "5000", "--kP", "1", "--kV", "1")
+def test_gains_below_the_bound_are_refused_with_the_gains_that_would_do(run):
+    proc = run("simulate", "--robot", "gymnast", "--goal", "stretched", "--kD", "5000", "--kP", "1", "--kV", "1")
     assert proc.returncode == 2
     line = proc.stderr.strip().splitlines()[-1]
     gymnast = load_robot("gymnast")
@@ -67,9 +67,9 @@ def test_gains_below_the_bound_are_refused_with_the_gains_that_would_do():
     assert rule.startswith("--kD 10617.4 ")  # 1.05 x kD_min = 10111.85
 
 
-def test_make_model_writes_the_rule_into_the_header_and_its_robot_runs(tmp_path):
+def test_make_model_writes_the_rule_into_the_header_and_its_robot_runs(tmp_path, run):
     out = tmp_path / "c4.xml"
-    proc = cli("make-model", "--links", "4", "--m", "30", "20", "15", "10", "--l", "1", "0.8", "0.7", "0.6",
+    proc = run("make-model", "--links", "4", "--m", "30", "20", "15", "10", "--l", "1", "0.8", "0.7", "0.6",
                "--out", str(out))
     assert proc.returncode == 0, proc.stderr
     robot = load_robot(str(out))
@@ -77,9 +77,10 @@ def test_make_model_writes_the_rule_into_the_header_and_its_robot_runs(tmp_path)
     assert robot.gains == pytest.approx(rule, rel=1e-9)
     header = out.read_text().split("-->")[0]
     assert "Gains of the family rule" in header and "stretched goal kD = " in header
-    proc = cli("simulate", "--robot", str(out), "--goal", "stretched", "--t-final", "0.2", "--json")
+    G._NOTED.clear()  # a note is said once a process: this one's first
+    proc = run("simulate", "--robot", str(out), "--goal", "stretched", "--t-final", "0.2", "--json")
     assert proc.returncode == 0 and "paa-mj: note: gains of the family rule" in proc.stderr
-    proc = cli("simulate", "--robot", str(out), "--t-final", "0.2")  # the stored gains, stated as the rule's
+    proc = run("simulate", "--robot", str(out), "--t-final", "0.2")  # the stored gains, stated as the rule's
     assert proc.returncode == 0, proc.stderr
     line = next(line for line in proc.stdout.splitlines() if line.strip().startswith("gains"))
     assert f"kD = {rule['kD']:.6g}" in line and "the model's stored gains, the family rule's for the folded goal" in line

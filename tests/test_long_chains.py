@@ -6,7 +6,6 @@ from paa_mj.model.params import MAX_LINKS, RobotParams
 from paa_mj.model.robot import model_from_params
 from paa_mj.task import Task
 
-from .helpers import cli
 
 
 def _chain(n):
@@ -24,7 +23,7 @@ def test_the_bound_41_of_a_chain_beyond_reach_is_bracketed_with_what_a_certifica
     assert "a certificate would take about" in kd.method
 
 
-def test_the_longest_chain_runs_without_gains_and_is_refused_one_line_where_it_needs_them(tmp_path):
+def test_the_longest_chain_runs_without_gains_and_is_refused_one_line_where_it_needs_them(tmp_path, run):
     from paa_mj.model.robot import load_robot
     from paa_mj.model.mjcf import mjcf_from_params
     from paa_mj.sim import simulate_mujoco
@@ -35,7 +34,7 @@ def test_the_longest_chain_runs_without_gains_and_is_refused_one_line_where_it_n
     traj = simulate_mujoco(robot, "passive", t_final=0.2, task=Task.named("folded", robot))
     assert traj.q.shape[1] == MAX_LINKS and np.all(np.isfinite(traj.q))
     assert model_from_params(_chain(MAX_LINKS)).nq == MAX_LINKS
-    proc = cli("simulate", "--robot", path, "--controller", "vcl", "--kD", "1e6", "--kP", "1e6", "--kV", "1e6",
+    proc = run("simulate", "--robot", path, "--controller", "vcl", "--kD", "1e6", "--kP", "1e6", "--kV", "1e6",
                "--t-final", "0.1", cwd=tmp_path)
     assert proc.returncode == 2 and "Traceback" not in proc.stderr and len(proc.stderr.strip().splitlines()) == 1
     assert "is not above kD_min" in proc.stderr and "controller (40) can become singular" in proc.stderr, proc.stderr

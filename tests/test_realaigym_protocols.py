@@ -256,8 +256,8 @@ def test_command_line_gives_the_same_bytes_twice(tmp_path, run):
     (["--protocol", "robustness-v2", "--fresh"], "--fresh forgets"),
     (["--protocol", "nonsense"], "invalid choice"),
 ])
-def test_bad_input_is_one_line(args, message):
-    result = cli("realaigym", *args)
+def test_bad_input_is_one_line(args, message, run):
+    result = run("realaigym", *args)
     assert result.returncode == 2 and message in result.stderr and "Traceback" not in result.stderr
 
 

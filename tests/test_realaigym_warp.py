@@ -15,7 +15,6 @@ from paa_mj.realaigym import simulator as protocol
 from paa_mj.sim.warp.device import warp_available
 from paa_mj.realaigym import study as rg
 from paa_mj.task import Task
-from .helpers import cli
 
 needs_warp = pytest.mark.skipif(not warp_available(), reason="warp and mujoco_warp not installed (paa_mj[gpu])")
 
@@ -105,12 +104,12 @@ def test_robustness_on_fewer_levels_is_the_cpu_s(gymnast, gymnast_vcl, monkeypat
     assert again["result"] == summaries["warp"]["result"]
 
 
-def test_a_controller_without_a_device_law_is_refused_in_one_line(tmp_path):
+def test_a_controller_without_a_device_law_is_refused_in_one_line(tmp_path, run):
     """A user's Python controller has no compiled law to translate: one line naming it and the engine to use."""
     mine = tmp_path / "mine.py"
     mine.write_text("import numpy as np\n\nclass Mine:\n    def __init__(self, robot):\n        pass\n\n"
                     "    def torque(self, q, qd, t):\n        return np.zeros(q.shape[:-1] + (2,))\n")
-    result = cli("realaigym", "--protocol", "performance-v2", "--controller", f"{mine}:Mine", "--engine", "warp",
+    result = run("realaigym", "--protocol", "performance-v2", "--controller", f"{mine}:Mine", "--engine", "warp",
                  "--device", "cpu")
     if not warp_available():
         assert result.returncode == 2 and "pip install 'paa_mj[gpu]'" in result.stderr
@@ -119,7 +118,7 @@ def test_a_controller_without_a_device_law_is_refused_in_one_line(tmp_path):
     assert "controller mine.py:Mine has no law on the device" in result.stderr and "use --engine cpu" in result.stderr
 
 
-def test_a_device_needs_the_warp_engine():
-    result = cli("realaigym", "--protocol", "performance-v2", "--device", "cpu")
+def test_a_device_needs_the_warp_engine(run):
+    result = run("realaigym", "--protocol", "performance-v2", "--device", "cpu")
     assert result.returncode == 2 and result.stderr == ("paa-mj: error: --device chooses the Warp device of --engine"
                                                         " warp; drop it or add --engine warp\n")

@@ -146,6 +146,37 @@ def test_exact_closed_loop_jacobian_matches_finite_differences(gymnast, law, nam
     np.testing.assert_allclose(exact, _central_jacobian(field, x0, 1e-6), rtol=1e-5, atol=1e-5 * np.abs(exact).max())
 
 
+@pytest.mark.parametrize("law", ["vcl", "conventional"])
+def test_the_dual_number_jacobian_is_casadi_s_and_needs_no_casadi(gymnast, law, monkeypatch):
+    """The closed loop's Jacobian by dual numbers equals CasADi's automatic differentiation of the same formulas
+    (at DUU, at another state, with Lambda's E - E_r given); it imports no CasADi (``paa-mj reproduce`` runs
+    without the extra ``plan``), and without CasADi what needs it says so in one line naming the install."""
+    import sys
+
+    from paa_mj.control.energy import conventional_law, energy_terms, vcl_law
+    from paa_mj.errors import PaaError
+    from paa_mj.model import equations as eq
+
+    ca = eq.casadi_module()
+    x, c = ca.SX.sym("x", 6), ca.SX.sym("c", len(eq.CONSTANTS))
+    q1, q2, q3, d1, d2, d3 = (x[i] for i in range(6))
+    am = gymnast.analytic
+    for state, given in ((None, None), ([-3.0, -3.0, 0.1, 0.2, -0.3, 0.5], None), (None, -2.0)):
+        de, k22, k23, k33, u1, u2 = energy_terms(c, GAINS1["kD"], GAINS1["kV"], q1, q2, q3, d1, d2, d3)
+        de = de if given is None else given
+        tau = (vcl_law if law == "vcl" else conventional_law)(c, GAINS1["kP"], de, k22, k23, k33, u1, u2, q2, q3)
+        field = ca.vertcat(d1, d2, d3, *eq.acceleration(c, q1, q2, q3, d1, d2, d3, *tau))
+        point = np.concatenate([[-np.pi, -np.pi, 0.0], np.zeros(3)]) if state is None else np.array(state)
+        expected = np.array(ca.Function("J", [x, c], [ca.jacobian(field, x)])(point, am.constants), dtype=float)
+        with monkeypatch.context() as patch:
+            patch.setitem(sys.modules, "casadi", None)  # unimportable
+            exact = closed_loop_jacobian(am, **GAINS1, law=law, state=state, lambda_energy=given)
+            with pytest.raises(PaaError) as refusal:
+                eq.casadi_module()
+        np.testing.assert_allclose(exact, expected, rtol=1e-12, atol=1e-12 * np.abs(expected).max())
+    assert "\n" not in str(refusal.value) and "pip install 'paa_mj[plan]'" in str(refusal.value)
+
+
 def test_duu_is_unstable_in_closed_loop_table1(gymnast):
     eig, poly = duu_eigenvalues(gymnast.analytic, **GAINS1)
     assert len(eig) == 6

@@ -66,6 +66,7 @@ def test_a_believed_model_plans_from_the_plant_s_kip(gymnast, monkeypatch):
     assert len(starts) == 3 and starts[-1] is None  # from the line: another entry of the cache
 
 
+@pytest.mark.slow  # three min-time solves: 10 CPU-s (one min-time solve is the quick suite's, above)
 def test_the_minimum_time_grows_as_the_torque_bounds_shrink_and_is_not_a_bound(gymnast):
     """The min-time kip is limited by the torques, not by the time range of the solve."""
     from paa_mj.control.trajopt import TIME_RANGE
@@ -115,16 +116,39 @@ def test_a_failed_solve_is_one_line(gymnast):
         solve_kip(gymnast.analytic, [100.0, 100.0], "min-effort")
 
 
-def test_compare_quick_json_has_every_key(capsys, monkeypatch):
+def _compare_summary(capsys, monkeypatch, controllers, t_final=25.0):
+    """``compare --quick --json`` of ``controllers`` on two levels per sweep, one trial each, and its summary."""
     import paa_mj.studies.compare as compare_module
 
     # two levels per sweep at --quick (every other level): every believed model of the sweep plans its own kip, a
     # solve each; 0 % is the true model, whose kip is the one planned already: one solve more, not two
     monkeypatch.setattr(compare_module, "SWEEPS", {"model_error": (1.0, 0.0, 3.0, 5.0), "delay": (1.0, 2.0, 3.0, 5.0)})
-    assert main(["compare", "--quick", "--controllers", "vcl,trajopt-effort", "--trials", "1", "--grid", "2",
-                 "--t-final", "25", "--scheduler", "inline", "--json"]) == 0
+    assert main(["compare", "--quick", "--controllers", ",".join(controllers), "--trials", "1", "--grid", "2",
+                 "--t-final", str(t_final), "--scheduler", "inline", "--json"]) == 0
     summary = json.loads(capsys.readouterr().out)
-    assert summary["robot"] == "gymnast" and set(summary["controllers"]) == {"vcl", "trajopt-effort"}
+    assert summary["robot"] == "gymnast" and set(summary["controllers"]) == set(controllers)
+    _every_key(summary)
+    return summary
+
+
+def test_compare_quick_json_has_every_key_of_a_controller(capsys, monkeypatch):
+    """The quick form of the next test: the keys of every row and factor, for the paper's controller alone over
+    15 s (the planned kip, an IPOPT solve per believed model, and both successes are the slow test's)."""
+    summary = _compare_summary(capsys, monkeypatch, ["vcl"], t_final=15.0)  # too short to count as balanced: the
+    assert summary["controllers"]["vcl"]["plan"] is None                  # successes are the slow test's
+
+
+@pytest.mark.slow  # an IPOPT solve per believed model of the sweep: 23 CPU-s
+def test_compare_quick_json_has_every_key(capsys, monkeypatch):
+    summary = _compare_summary(capsys, monkeypatch, ["vcl", "trajopt-effort"])
+    vcl, kip = summary["controllers"]["vcl"], summary["controllers"]["trajopt-effort"]
+    assert vcl["success"] and kip["success"]
+    assert vcl["plan"] is None and kip["plan"]["objective"] == "min-effort"
+    assert max(kip["max_tau"]) <= max(summary["torque_limit"]) + 1e-9  # under the limit vcl itself uses
+    assert kip["t_balanced"] < vcl["t_balanced"] and kip["int_tau2"] < vcl["int_tau2"]
+
+
+def _every_key(summary):
     for name, row in summary["controllers"].items():
         for key in ("t_region", "t_balanced", "max_tau", "int_tau2", "work", "smoothness", "max_speed", "success",
                     "robustness"):
@@ -143,8 +167,3 @@ def test_compare_quick_json_has_every_key(capsys, monkeypatch):
     # the labels state the levels run: --quick's every other one (0 and 5 of 1, 0, 3, 5 here)
     assert [summary["factors"][f]["label"] for f in ("model_error", "delay")] == ["model error 0, 5 %",
                                                                                    "delay 2, 5 ms"]
-    vcl, kip = summary["controllers"]["vcl"], summary["controllers"]["trajopt-effort"]
-    assert vcl["success"] and kip["success"]
-    assert vcl["plan"] is None and kip["plan"]["objective"] == "min-effort"
-    assert max(kip["max_tau"]) <= max(summary["torque_limit"]) + 1e-9  # under the limit vcl itself uses
-    assert kip["t_balanced"] < vcl["t_balanced"] and kip["int_tau2"] < vcl["int_tau2"]

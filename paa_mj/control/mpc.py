@@ -53,6 +53,7 @@ DEFAULTS = {
     "rho_in": 1.0, "rho_out": 5.0,  # hand-over levels of e^T S e
     "pump": 1.0, "pump_kp": 5.0, "pump_kd": 0.5,   # the energy-pumping guess
     "restart": 0.5,        # distance of the state from the plan's that restarts the solve
+    "respin": 3.0,         # J above the goal's energy beyond which it solves afresh every 5 periods (0: never)
     "estimate": 1.0,       # 1: act on the estimator's state (paa_mj.control.mpc_law), 0: on the measurement
     "observer_angle": 0.5,  # a: share of the angles' innovation / dt added to the speeds
     "observer_speed": 0.05,  # b: share of the measured speeds' innovation
@@ -76,7 +77,8 @@ SIMILARITY = {
     "cold_iterations": (0, 0, 0), "w_angle": (0, 0, -1), "w_speed": (0, 0, 1), "r": (0, -2, -1), "r_rate": (0, -2, 1),
     "terminal": (0, 0, 0), "q_angle": (0, 0, -1), "q_speed": (0, 0, 1), "r_lqr": (0, -2, -1), "rho_in": (0, 0, 0),
     "rho_out": (0, 0, 0), "pump": (0, 0, 1), "pump_kp": (1, 0, 0), "pump_kd": (1, 0, 1), "restart": (0, 0, 0),
-    "estimate": (0, 0, 0), "observer_angle": (0, 0, 0), "observer_speed": (0, 0, 0), "lag_memory": (0, 0, 1),
+    "respin": (1, 0, 0), "estimate": (0, 0, 0), "observer_angle": (0, 0, 0), "observer_speed": (0, 0, 0),
+    "lag_memory": (0, 0, 1),
     "lag_gate": (1, 0, 0),
 }
 
@@ -189,6 +191,7 @@ class MPCController(Controller):
         header[[mpc_law.H_ESTIMATE, mpc_law.H_OBS_ANGLE, mpc_law.H_OBS_SPEED, mpc_law.H_LAG_MEMORY,
                 mpc_law.H_LAG_GATE]] = [o["estimate"], o["observer_angle"], o["observer_speed"], o["lag_memory"],
                                         o["lag_gate"]]
+        header[mpc_law.H_RESPIN] = o["respin"]
         self.params = np.concatenate([
             header, task.goal, limit, model.inertia_constants.reshape(-1), model.gravity_constants,
             np.broadcast_to(p.damping, (n,)), np.broadcast_to(p.armature, (n,)), chain.drive_map(n, joints),
@@ -238,7 +241,8 @@ class MPCController(Controller):
             " the goal", hands_over=True, kernels=(mpc_kernel,),
             settings=("horizon", "knot", "period", "iterations", "cold_iterations", "w_angle", "w_speed",
                       "r", "r_rate", "terminal", "q_angle", "q_speed", "r_lqr", "rho_in", "rho_out", "pump", "pump_kp",
-                      "pump_kd", "restart", "estimate", "observer_angle", "observer_speed", "lag_memory", "lag_gate"),
+                      "pump_kd", "restart", "respin", "estimate", "observer_angle", "observer_speed", "lag_memory",
+                      "lag_gate"),
             passive=None,
             checked=(("realaigym_acrobot", "stretched"), ("acrobot", "stretched"), ("realaigym_pendubot", "stretched")))
 def build_mpc(robot, task, gains=None, check=True, **options):

@@ -44,7 +44,11 @@ LAGS = 24
 #: A gap between calls [s] beyond which the estimate starts afresh.
 GAP = 0.05
 # parameters of the estimator in the parameter vector's header
-H_ESTIMATE, H_OBS_ANGLE, H_OBS_SPEED, H_LAG_MEMORY, H_LAG_GATE = 16, 17, 18, 19, 20
+H_ESTIMATE, H_OBS_ANGLE, H_OBS_SPEED, H_LAG_MEMORY, H_LAG_GATE = 16, 17, 18, 19, 21  # 20: mpc_kernels.H_NU
+# the energy above the goal's [J] beyond which a plan is solved afresh every 5 periods (0: never)
+H_RESPIN = 22
+# the memory's slot of the time of the last fresh solve
+M_COLD = MEMORY_HEADER - 1
 # the estimator's header in the memory
 E_VALID, E_T, E_TM1, E_TM2, E_COUNT, E_LAG = range(6)
 E_HEADER = 8
@@ -300,6 +304,10 @@ def replan(params, model, x, t, memory):
             d = wrap(x[j] - predicted[j]) if j < n else 0.1 * (x[j] - predicted[j])
             gap += d * d
         restart = gap > params[H_RESTART] ** 2
+        # a chain spinning with energy to spare (their global test's resets) is solved afresh now and then too: the
+        # kept plan, followed from a spin, tends to keep spinning, and the energy-pumping guess brakes
+        if params[H_RESPIN] > 0.0 and t - memory[M_COLD] >= 5.0 * params[H_PERIOD] - 1e-9:
+            restart = restart or energy(model, x) - params[H_E_GOAL] > params[H_RESPIN]
         # the kept plan shifted to t, followed with its own feedback (an open-loop shift of a swing diverges)
         Xs = np.empty((knots + 1, nx))
         Us = np.empty((knots, nu))
@@ -317,6 +325,7 @@ def replan(params, model, x, t, memory):
         X[:, :] = Xg
         K[:, :, :] = Kg
     if restart:
+        memory[M_COLD] = t
         for guess in range(2):
             if guess == 0:
                 pump_guess(params, model, x, Ug, Xg)

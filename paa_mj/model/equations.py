@@ -27,13 +27,25 @@ CONSTANTS = ("a11", "a22", "a33", "a12", "a13", "a23", "b1", "b2", "b3")
 A11, A22, A33, A12, A13, A23, B1, B2, B3 = range(len(CONSTANTS))
 
 
+#: How to get CasADi (what plans, TVLQR and certificates need).
+PLAN_INSTALL = "pip install 'paa_mj[plan]'"
+
+
 def casadi_module():
     """CasADi, set so that the NumPy calls of these formulas return CasADi values on CasADi symbols.
 
     The formulas then build symbolic expressions as they are, for exact derivatives
-    (:mod:`paa_mj.control.closed_loop`) and trajectory optimisation (:mod:`paa_mj.control.trajopt`).
+    (:mod:`paa_mj.control.trajopt`, :mod:`paa_mj.control.tvlqr`, :mod:`paa_mj.theory.sos`). CasADi is the
+    extra ``plan`` (not needed by ``paa-mj reproduce``): without it, a one-line :class:`~paa_mj.errors.PaaError`
+    naming the install.
     """
-    import casadi
+    try:
+        import casadi
+    except ImportError as err:
+        from ..errors import PaaError
+
+        raise PaaError(f"planned kips (trajopt, TVLQR) and sums-of-squares certificates need CasADi, not installed"
+                       f" here ({err}): {PLAN_INSTALL}") from None
 
     try:  # CasADi 3.8+: numpy functions on CasADi values return CasADi values, silently
         casadi.GlobalOptions.setNumpyMode(-1)

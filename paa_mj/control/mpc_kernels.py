@@ -41,7 +41,7 @@ FD_EPS = 1e-6
 # header of the parameter vector
 (H_N, H_KNOTS, H_STEP, H_PERIOD, H_ITERS, H_RHO_IN, H_RHO_OUT, H_TERM, H_PUMP, H_RESTART, H_ITERS_COLD, H_PUMP_KP,
  H_PUMP_KD, H_E_GOAL) = range(14)
-H_NU = 23  # the number of motors m (the last slot: mpc_law.H_* take 16..20)
+H_NU = 23  # the number of motors m (mpc_law.H_* take 16..22)
 HEADER = 24
 
 # header of the memory vector

@@ -44,7 +44,7 @@ LAGS = 24
 #: A gap between calls [s] beyond which the estimate starts afresh.
 GAP = 0.05
 # parameters of the estimator in the parameter vector's header
-H_ESTIMATE, H_OBS_ANGLE, H_OBS_SPEED, H_LAG_MEMORY, H_LAG_GATE = 16, 17, 18, 19, 21  # 20: mpc_kernels.H_NU
+H_ESTIMATE, H_OBS_ANGLE, H_OBS_SPEED, H_LAG_MEMORY, H_LAG_GATE = 16, 17, 18, 19, 21  # mpc_kernels.H_NU: 23
 # the energy above the goal's [J] beyond which a plan is solved afresh every 5 periods (0: never)
 H_RESPIN = 22
 # the memory's slot of the time of the last fresh solve

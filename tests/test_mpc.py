@@ -165,6 +165,56 @@ def test_its_record_names_every_option_it_takes():
     assert set(RECORDS["mpc"].settings) == set(DEFAULTS)
 
 
+class _Law:
+    """The Python law of ``mpc`` under their simulator (no compiled form: its memory stays readable)."""
+
+    def __init__(self, robot, task, **options):
+        self.inner = make_controller("mpc", robot, task=task, **options)
+
+    def reset(self):
+        self.inner.reset()
+
+    def torque(self, q, qd, t):
+        return self.inner.torque(q, qd, t)
+
+    def estimator(self):
+        from paa_mj.control import mpc_law
+
+        memory = self.inner._memory[1][0]
+        return mpc_law.estimator_views(self.inner.params, memory, 2, 1)
+
+
+def test_the_estimator_finds_the_loops_latency_and_holds_the_top(acrobot):
+    """Their delay of 20 ms (the state measured 10 of their 2 ms steps late): the latency scored from the angles'
+    second differences is those 10 calls, and the swing-up is held (their final-state success)."""
+    from paa_mj.control import mpc_law
+
+    robot, task = acrobot
+    law = _Law(robot, task)
+    T = rg.their_times(4.0)
+    X, _ = rg.Runs(robot, law).run(rg.plant(robot), rg.hanging(2), T, delay=0.02)
+    head = law.estimator()[0]
+    assert int(head[mpc_law.E_LAG]) == int(0.02 / rg.DT)
+    assert _final_success(robot, task, X)
+    off = _Law(robot, task, estimate=0.0)
+    X, _ = rg.Runs(robot, off).run(rg.plant(robot), rg.hanging(2), T, delay=0.02)
+    assert not _final_success(robot, task, X)  # the same law on the measurement alone loses it
+
+
+def test_the_estimator_filters_their_velocity_noise(acrobot):
+    """Their velocity noise at its largest level (0.5 rad/s on each speed, every step) over their 10 s: with the
+    estimator the top is held; the speeds it acts on are within a tenth of the noise of the true ones at the end."""
+    robot, task = acrobot
+    law = _Law(robot, task)
+    T = rg.their_times(rg.T_FINAL)
+    rng = np.random.RandomState(3)
+    normals = rng.standard_normal((len(T) - 1, 10))
+    X, _ = rg.Runs(robot, law).run(rg.plant(robot), rg.hanging(2), T, sigma_meas=np.r_[0.0, 0.0, 0.5, 0.5],
+                                   normals=normals)
+    assert _final_success(robot, task, X)
+    xhat = law.estimator()[1]
+    assert np.max(np.abs(xhat[2:] - X[-2, 2:])) < 0.05
+
 
 def test_it_balances_a_chain_with_a_passive_middle_joint():
     """``make-model --links 3 --passive 2``'s chain (motors at joints 1 and 3) brought back upright from 0.1 rad and
@@ -196,3 +246,25 @@ def test_its_options_carry_over_by_similarity(acrobot):
     scaled = scaled_options(DEFAULTS, gymnast.analytic)
     np.testing.assert_allclose(scaled["r"], DEFAULTS["r"] / (t * gm ** 2))
     assert 120 < g < 140 and 0.9 < t < 1.1 and scaled["rho_in"] == DEFAULTS["rho_in"]
+
+
+def test_the_header_slots_are_distinct():
+    """Every named slot of the parameter vector's header (mpc_kernels' and mpc_law's) is its own: a merge once put
+    the motor count and the estimator's lag gate in one slot."""
+    from paa_mj.control import mpc_law
+
+    slots = {name: getattr(module, name) for module in (mk, mpc_law) for name in dir(module)
+             if name.startswith("H_") and isinstance(getattr(module, name), int)}
+    assert len(set(slots.values())) == len(slots) and max(slots.values()) < mk.HEADER
+
+
+@pytest.mark.parametrize("name, goal, within", [("gymnast", "folded", 5.0), ("chain4", "stretched", 5.0),
+                                                ("realaigym_pendubot", "stretched", 2.0)])
+def test_one_set_of_defaults_swings_the_family_up(name, goal, within):
+    """Their performance v2 from hanging at rest with the defaults carried over by similarity: the 53 kg gymnast's
+    kip to the folded goal and chain4's to the stretched one up within 5 s and held (the paper's vcl: 18 s on the
+    gymnast), RealAIGym's pendubot within 2 s."""
+    robot = load_robot(name)
+    task = Task.named(goal, robot)
+    summary, _ = rg.performance_v2(robot, make_controller("mpc", robot, task=task), task)
+    assert summary["criteria"]["success"] and summary["criteria"]["swingup_time"] < within

@@ -1,6 +1,9 @@
 """Model-predictive control on the robot's own equations of motion: iLQR over a receding horizon, then the LQR.
 
-At a measured state x and time t the controller
+At a measured state y and time t the controller first estimates the state x it acts on
+(:mod:`paa_mj.control.mpc_law`: a model-based observer that trusts the angles, the loop's latency scored from the
+angles' second differences against the torques it commanded, and a prediction over that latency; ``estimate=0``
+acts on y itself), then
 
 1. balances by the LQR tau = -K e (e = [wrap(q - q*), qd]) while its cost-to-go e^T S e is below ``rho_in``,
    until it rises above ``rho_out`` (hysteresis; S, K the continuous Riccati solution at the goal with
@@ -32,15 +35,16 @@ from ..task import Task
 from .base import CompiledForm, Controller, kernel
 from .record import controller
 from . import mpc_kernels as mk
+from . import mpc_law
 
 #: Defaults for the family (see docs/controllers.md for the search behind them).
 DEFAULTS = {
-    "horizon": 1.5,        # s
+    "horizon": 1.0,        # s
     "knot": 0.02,          # s
     "period": 0.02,        # s between solves
     "iterations": 2,       # iLQR iterations per solve
     "cold_iterations": 15,  # iLQR iterations from a fresh guess
-    "w_angle": 1.0,        # weight of (1 - cos e) per joint [1/s]
+    "w_angle": 3.0,        # weight of (1 - cos e) per joint [1/s]
     "w_speed": 0.05,       # weight of qd^2 [s/rad^2 /s]
     "r": 0.05,             # weight of u^2
     "r_rate": 0.1,         # weight of (du/h)^2 h^2 = du^2
@@ -49,6 +53,12 @@ DEFAULTS = {
     "rho_in": 1.0, "rho_out": 5.0,  # hand-over levels of e^T S e
     "pump": 1.0, "pump_kp": 5.0, "pump_kd": 0.5,   # the energy-pumping guess
     "restart": 0.5,        # distance of the state from the plan's that restarts the solve
+    "respin": 3.0,         # J above the goal's energy beyond which it solves afresh every 5 periods (0: never)
+    "estimate": 1.0,       # 1: act on the estimator's state (paa_mj.control.mpc_law), 0: on the measurement
+    "observer_angle": 0.5,  # a: share of the angles' innovation / dt added to the speeds
+    "observer_speed": 0.05,  # b: share of the measured speeds' innovation
+    "lag_memory": 1.0,     # s, memory of the latency's scores (0: no latency estimated)
+    "lag_gate": 0.03,      # N m, the residual beyond which a step does not score the latencies
 }
 
 #: The robot the defaults were searched on: every option is stated on its scale (:func:`similarity`).
@@ -67,6 +77,9 @@ SIMILARITY = {
     "cold_iterations": (0, 0, 0), "w_angle": (0, 0, -1), "w_speed": (0, 0, 1), "r": (0, -2, -1), "r_rate": (0, -2, 1),
     "terminal": (0, 0, 0), "q_angle": (0, 0, -1), "q_speed": (0, 0, 1), "r_lqr": (0, -2, -1), "rho_in": (0, 0, 0),
     "rho_out": (0, 0, 0), "pump": (0, 0, 1), "pump_kp": (1, 0, 0), "pump_kd": (1, 0, 1), "restart": (0, 0, 0),
+    "respin": (1, 0, 0), "estimate": (0, 0, 0), "observer_angle": (0, 0, 0), "observer_speed": (0, 0, 0),
+    "lag_memory": (0, 0, 1),
+    "lag_gate": (1, 0, 0),
 }
 
 
@@ -124,8 +137,8 @@ def goal_lqr(model: AnalyticModel, task: Task, q_angle, q_speed, r_lqr):
 
 @kernel
 def mpc_kernel(x, t, params, memory, tau):
-    """Compiled MPC law (:func:`~paa_mj.control.mpc_kernels.mpc_torque`)."""
-    return mk.mpc_torque(params, x, t, memory, tau)
+    """Compiled MPC law (:func:`~paa_mj.control.mpc_law.mpc_torque`)."""
+    return mpc_law.mpc_torque(params, x, t, memory, tau)
 
 
 class MPCController(Controller):
@@ -175,13 +188,17 @@ class MPCController(Controller):
             n, knots, o["knot"], o["period"], o["iterations"], o["rho_in"], o["rho_out"], o["terminal"], o["pump"],
             o["restart"], o["cold_iterations"], o["pump_kp"], o["pump_kd"], task.goal_energy(model)]
         header[mk.H_NU] = nu
+        header[[mpc_law.H_ESTIMATE, mpc_law.H_OBS_ANGLE, mpc_law.H_OBS_SPEED, mpc_law.H_LAG_MEMORY,
+                mpc_law.H_LAG_GATE]] = [o["estimate"], o["observer_angle"], o["observer_speed"], o["lag_memory"],
+                                        o["lag_gate"]]
+        header[mpc_law.H_RESPIN] = o["respin"]
         self.params = np.concatenate([
             header, task.goal, limit, model.inertia_constants.reshape(-1), model.gravity_constants,
             np.broadcast_to(p.damping, (n,)), np.broadcast_to(p.armature, (n,)), chain.drive_map(n, joints),
             np.full(n, o["w_angle"]), np.full(n, o["w_speed"]), np.full(nu, o["r"]), np.full(nu, o["r_rate"]),
             self.S.reshape(-1), self.K.reshape(-1), self._regularisation_unit()]).astype(float)
         assert self.params.size == mk.offsets(n, nu)[-1]
-        self.memory0 = np.zeros(mk.memory_size(n, nu, knots))
+        self.memory0 = np.zeros(mpc_law.memory_size(n, nu, knots))
         self._memory = {}
         self.mode = np.int8(0)
         self.bind(model, task)
@@ -206,7 +223,7 @@ class MPCController(Controller):
         tau = np.empty((x.shape[0], nu))
         mode = np.empty(x.shape[0], np.int8)
         for r in range(x.shape[0]):
-            mode[r] = mk.mpc_torque(self.params, x[r], float(t), memory[r], tau[r])
+            mode[r] = mpc_law.mpc_torque(self.params, x[r], float(t), memory[r], tau[r])
         self.mode = mode.reshape(batch) if batch else mode[0]
         return tau.reshape(batch + (nu,))
 
@@ -222,9 +239,10 @@ class MPCController(Controller):
 
 @controller("mpc", "iLQR model-predictive control on the robot's own model over a receding horizon, then an LQR at"
             " the goal", hands_over=True, kernels=(mpc_kernel,),
-            settings=("horizon", "knot", "period", "iterations", "cold_iterations", "w_angle", "w_speed", "r", "r_rate",
-                      "terminal", "q_angle", "q_speed", "r_lqr", "rho_in", "rho_out", "pump", "pump_kp", "pump_kd",
-                      "restart"),
+            settings=("horizon", "knot", "period", "iterations", "cold_iterations", "w_angle", "w_speed",
+                      "r", "r_rate", "terminal", "q_angle", "q_speed", "r_lqr", "rho_in", "rho_out", "pump", "pump_kp",
+                      "pump_kd", "restart", "respin", "estimate", "observer_angle", "observer_speed", "lag_memory",
+                      "lag_gate"),
             passive=None,
             checked=(("realaigym_acrobot", "stretched"), ("acrobot", "stretched"), ("realaigym_pendubot", "stretched")))
 def build_mpc(robot, task, gains=None, check=True, **options):

@@ -22,6 +22,9 @@
   the same with ``physics="analytic"`` (RK4 of the robot's own equations, :mod:`paa_mj.sim.analytic.rk4`):
   ``vector_env_analytic_speedup`` (single / vector, both analytic) and
   ``vector_env_analytic_vs_single_mujoco`` (single environments on MuJoCo, the default, / the analytic vector);
+* mpc: with RealAIGym's row, the ``mpc`` controller's CPU time per control call along their global v3 test, one
+  core (:func:`paa_mj.realaigym.bench.mpc_call_cost`: ``mpc_call_median_us``, ``mpc_call_p99_us``,
+  ``mpc_call_max_us``);
 * kD_min: CPU time of the certified search for kD_min (41) of a chain of 7 uniform rods, folded goal
   (:func:`~paa_mj.theory.kd_search.kd_min_search`, all cores; ``kd_min_cpu_s``, ``kd_min_boxes``).
 
@@ -409,7 +412,10 @@ def format_bench(r) -> str:
         f" {r['kd_min_cpu_s']:.1f} CPU-s, {r['kd_min_boxes']} boxes",
     ] + ([
         f"  RealAIGym robustness v2 (spong, {r['realaigym_robustness_v2_runs']} runs of 10 s at 2 ms)"
-        f" {r['realaigym_robustness_v2_cpu_s']:.1f} CPU-s   realaigym_step_ratio = {r['realaigym_step_ratio']:.2f}"
+        f" {r['realaigym_robustness_v2_cpu_s']:.1f} CPU-s   realaigym_step_ratio = {r['realaigym_step_ratio']:.2f}",
+        f"  mpc per control call (their global v3, {r['mpc_calls']} calls, one core): median"
+        f" {r['mpc_call_median_us']:.1f} us, p99 {r['mpc_call_p99_us']:.0f} us, worst {r['mpc_call_max_us']:.0f} us"
+        " (their control period: 2000 us)"
     ] if "realaigym_step_ratio" in r else []) + ([
         f"  Gymnasium, {r['vector_env_num_envs']} robots, {period} step: single {r[f'single_env_step_us{s}']:.2f},"
         f" SyncVectorEnv {r[f'sync_vector_env_step_us{s}']:.2f}, vector {r[f'vector_env_step_us{s}']:.2f},"

@@ -356,8 +356,26 @@ def mpc_torque(params, y, t, memory, tau):
     else:
         x[:] = y
     mode = _law(params, x, t, memory, tau)
+    if not _finite(tau):
+        # the plan (or the estimate) ran away (RK4 knots of a chain spun to hundreds of rad/s): start both afresh from
+        # the measurement, and let go of the chain where even that plan is not finite
+        memory[M_VALID] = 0.0
+        memory[M_MODE] = 0.0
+        estimator_views(params, memory, y.size // 2, tau.size)[0][E_VALID] = 0.0
+        mode = _law(params, y, t, memory, tau)
+        if not _finite(tau):
+            memory[M_VALID] = 0.0
+            tau[:] = 0.0
     remember_torque(params, memory, tau, y.size // 2)
     return mode
+
+
+@njit(cache=True)
+def _finite(v):
+    for j in range(v.size):
+        if not math.isfinite(v[j]):
+            return False
+    return True
 
 
 @njit(cache=True)

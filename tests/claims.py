@@ -316,6 +316,8 @@ PFL = "examples/realaigym/pfl_controller.py"
 BOARD_CONTROLLERS = {"acrobot": ("vcl", "vc", "lqr", f"{PFL}:LQRTheirs_C11", "trajopt", "trajopt-effort", "spong",
                                  f"{PFL}:PFLCollocatedLQR_C11", "mpc"),
                      "family": ("vcl", "vcl-roa", "vc", "lqr", "mpc"),
+                     # mpc's chain4 row: its robustness v2 was not computed in time for 0.13.0
+                     "chain4": ("vcl", "vcl-roa", "vc", "lqr"),
                      "pendubot": ("lqr", "trajopt", "trajopt-effort", "fantoni", "mpc")}
 
 
@@ -363,7 +365,7 @@ def _realaigym_board_gymnast():
 
 @claim("realaigym_board_chain4", full=True)
 def _realaigym_board_chain4():
-    return realaigym_board("chain4", "stretched", BOARD_CONTROLLERS["family"])
+    return realaigym_board("chain4", "stretched", BOARD_CONTROLLERS["chain4"])
 
 
 @claim("realaigym_their_boards")

@@ -6,8 +6,7 @@ from .claims import robot, stated, task
 
 BOARDS = {"realaigym_board_acrobot": ("realaigym_acrobot", "stretched"),
           "realaigym_board_pendubot": ("realaigym_pendubot", "stretched"),
-          "realaigym_board_gymnast": ("gymnast", "folded"),
-          "realaigym_board_chain4": ("chain4", "stretched")}
+          "realaigym_board_gymnast": ("gymnast", "folded")}
 
 
 def stated_row(claim_name, controller):

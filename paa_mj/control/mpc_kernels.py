@@ -262,6 +262,15 @@ def terminal_cost(params, model, x):
 
 
 @njit(cache=True)
+def _with_terminal(params, model, x_end, running):
+    """The plan's whole cost: the running cost plus the terminal one at its last knot; inf where it is not finite."""
+    total = running + terminal_cost(params, model, x_end)
+    if not math.isfinite(total):
+        return math.inf
+    return total
+
+
+@njit(cache=True)
 def rollout(params, model, x0, uprev0, U, X, ws):
     """X[0] = x0, X[k + 1] = F(X[k], U[k]); returns the plan's cost J (inf where the state stops being finite)."""
     knots = U.shape[0]
@@ -272,10 +281,7 @@ def rollout(params, model, x0, uprev0, U, X, ws):
     for k in range(1, knots):
         total += stage_cost(model, X[k], U[k], U[k - 1], h)
         step(params, X[k], U[k], h, X[k + 1], ws)
-    total += terminal_cost(params, model, X[knots])
-    if not math.isfinite(total):
-        return math.inf
-    return total
+    return _with_terminal(params, model, X[knots], total)
 
 
 @njit(cache=True)
@@ -492,10 +498,7 @@ def _forward(params, model, x0, uprev0, Xbar, Ubar, kff, Kfb, alpha, X, U, ws):
             U[k, i] = _clamp(v, umax[i])
         total += stage_cost(model, X[k], U[k], uprev0 if k == 0 else U[k - 1], h)
         step(params, X[k], U[k], h, X[k + 1], ws)
-    total += terminal_cost(params, model, X[knots])
-    if not math.isfinite(total):
-        return math.inf
-    return total
+    return _with_terminal(params, model, X[knots], total)
 
 
 @njit(cache=True)

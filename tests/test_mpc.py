@@ -158,11 +158,25 @@ def test_it_builds_for_the_family(name, goal):
 
 
 def test_its_record_names_every_option_it_takes():
-    """The record's options (read from the module's text by the command line) are the law's :data:`DEFAULTS`."""
+    """The record's options (read from the module's text by the command line) are the law's :data:`DEFAULTS` and the
+    run's torque limit."""
     from paa_mj.control.mpc import DEFAULTS
     from paa_mj.control.registry import RECORDS
 
-    assert set(RECORDS["mpc"].settings) == set(DEFAULTS)
+    assert set(RECORDS["mpc"].settings) == set(DEFAULTS) | {"limit"}
+
+
+def test_it_plans_within_the_runs_torque_limit(acrobot):
+    """A board's or ``--torque-limit``'s limit reaches the plans' box (capped by the robot's ranges), so that it does
+    not plan torques the run clips."""
+    from paa_mj.control.catalog import takes_run_limit
+    from paa_mj.studies.compare import _spec
+
+    robot, task = acrobot
+    assert make_controller("mpc", robot, task=task, limit=(2.0,)).limit.tolist() == [2.0]
+    assert make_controller("mpc", robot, task=task, limit=(1e3,)).limit.tolist() == robot.torque_limits.tolist()
+    assert takes_run_limit("mpc") and not takes_run_limit("lqr")
+    assert dict(_spec("mpc", (2.0,), task).options)["limit"] == (2.0,)
 
 
 class _Law:

@@ -328,7 +328,7 @@ def spec_from_args(args, robot, task, name=None):
 
     Gains given on the command line replace the robot's stored ones, the others stay.
     """
-    from ..control.catalog import GAIN_CONTROLLERS, LQR_CONTROLLERS, PLANNERS, SWITCHED, hands_over_on_roa
+    from ..control.catalog import GAIN_CONTROLLERS, LQR_CONTROLLERS, PLANNERS, SWITCHED, takes_run_limit
     from ..control.gains import resolve_gains
     from ..control.registry import ControllerSpec
 
@@ -361,8 +361,8 @@ def spec_from_args(args, robot, task, name=None):
             raise PaaError(f"--switch applies to the controllers {', '.join(SWITCHED)}, not to {name}")
         if switch != "region":  # region (68) is the default hand-over: the spec stays the plain one
             options.append(("switch", switch))
-    if getattr(args, "torque_limit", None) is not None and hands_over_on_roa(name, switch):
-        options.append(("limit", (args.torque_limit,) * len(robot.torque_limits)))  # the level of the run's limits
+    if getattr(args, "torque_limit", None) is not None and name not in PLANNERS and takes_run_limit(name, switch):
+        options.append(("limit", (args.torque_limit,) * len(robot.torque_limits)))  # planned within, or the level
     given = {k: getattr(args, k, None) for k in ("kD", "kP", "kV")}
     if all(v is None for v in given.values()):
         return ControllerSpec(name, options=tuple(options), task=task)

@@ -90,3 +90,10 @@ def hands_over_on_roa(name, switch=None) -> bool:
     """Whether the controller ``name`` (with the option ``switch``) hands over on the LQR's region of attraction,
     whose level depends on the run's torque limits (its option ``limit``)."""
     return name in RECORDS and RECORDS[name].hands_over_on_roa(switch)
+
+
+def takes_run_limit(name, switch=None) -> bool:
+    """Whether the controller ``name`` (with the option ``switch``) is told the run's torque limits (its option
+    ``limit``): a planner plans its kip within them, a controller with ``limit`` among its own settings (``mpc``)
+    plans within them online, a hand-over on the LQR's region of attraction takes its level at them."""
+    return name in PLANNERS or (name in RECORDS and "limit" in RECORDS[name].settings) or hands_over_on_roa(name, switch)

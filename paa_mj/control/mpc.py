@@ -242,10 +242,11 @@ class MPCController(Controller):
             settings=("horizon", "knot", "period", "iterations", "cold_iterations", "w_angle", "w_speed",
                       "r", "r_rate", "terminal", "q_angle", "q_speed", "r_lqr", "rho_in", "rho_out", "pump", "pump_kp",
                       "pump_kd", "restart", "respin", "estimate", "observer_angle", "observer_speed", "lag_memory",
-                      "lag_gate"),
+                      "lag_gate", "limit"),
             passive=None,
             checked=(("realaigym_acrobot", "stretched"), ("acrobot", "stretched"), ("realaigym_pendubot", "stretched")))
-def build_mpc(robot, task, gains=None, check=True, **options):
-    """iLQR model-predictive control with an LQR at the goal (module docstring), within the robot's actuator
-    ranges."""
-    return MPCController(robot.analytic, task, robot.torque_limits, **options)
+def build_mpc(robot, task, gains=None, check=True, limit=None, **options):
+    """iLQR model-predictive control with an LQR at the goal (module docstring), planned within the robot's actuator
+    ranges, capped by the run's torque limits ``limit`` [N m] where given (a board's or ``--torque-limit``)."""
+    box = robot.torque_limits if limit is None else robot.capped_torque_limits(limit, "the option limit")
+    return MPCController(robot.analytic, task, box, **options)

@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..control.catalog import HANDS_OVER, PLANNERS, hands_over_on_roa
+from ..control.catalog import HANDS_OVER, PLANNERS, takes_run_limit
 from ..control.registry import ControllerSpec
 from ..errors import PaaError
 from ..limits import physical_torque_scale
@@ -58,9 +58,9 @@ METRICS = ("t_region", "t_balanced", "max_tau", "int_tau2", "work", "smoothness"
 
 
 def _spec(name, limit, task):
-    """The spec of ``name`` run under the board's torque ``limit``: a planner plans its kip for it, a hand-over on the
-    region of attraction takes its level at it."""
-    options = (("limit", tuple(limit)),) if name in PLANNERS or hands_over_on_roa(name) else ()
+    """The spec of ``name`` run under the board's torque ``limit``, told it where it takes it
+    (:func:`~paa_mj.control.catalog.takes_run_limit`)."""
+    options = (("limit", tuple(limit)),) if takes_run_limit(name) else ()
     return ControllerSpec(name, options=options, task=task)
 
 

@@ -69,13 +69,14 @@ def main(argv=None):
     parser.add_argument("--base", default="{}", help="options held fixed, as JSON")
     parser.add_argument("--seeds", default="777,1,2", help="seeds of the global v3 test")
     parser.add_argument("--robustness-every", type=int, default=0, help="every Nth run of robustness v2 (0: none)")
+    parser.add_argument("--robot", default="realaigym_acrobot", help="the robot the options are scored on")
     parser.add_argument("--json", help="write every line's numbers to this file")
     args = parser.parse_args(argv)
 
     from paa_mj.model import load_robot
     from paa_mj.task import Task
 
-    robot = load_robot("realaigym_acrobot")
+    robot = load_robot(args.robot)
     task = Task.named("stretched", robot)
     axes = [parse_axis(a) for a in args.axes]
     base = json.loads(args.base)
@@ -91,7 +92,9 @@ def main(argv=None):
             row["robustness_v2_subset"] = robustness_subset(robot, task, options, args.robustness_every)
         rows.append(row)
         p = row["performance_v2"]
-        line = f"{json.dumps(chosen)}  performance-v2 {p['score_v2']:.4f} (up {p['swingup_time']:.3f} s)"
+        line = (f"{json.dumps(chosen)}  performance-v2 {p['score_v2']:.4f} (up {p['swingup_time']:.3f} s, "
+                f"E {p['energy']:.2f}, tau {p['tau_cost']:.2f}, smooth {p['tau_smoothness']:.4f}, "
+                f"vel {p['velocity_cost']:.1f})")
         if seeds:
             g = row["global_v3"]
             line += "  global-v3 " + " ".join(f"{v:.2f}" for v in g["time_up"].values()) + \

@@ -1,10 +1,11 @@
 """The search behind ``mpc``'s defaults (docs/controllers.md): every combination of the options given, each scored on
-RealAIGym's acrobot by their performance v2 (the RealAI score and its criteria) and their global v3 test (time up of
+RealAIGym's acrobot (or ``--robot``: their pendubot for the driven shoulder's defaults; options not given take the
+robot's actuation pattern's defaults, ``paa_mj.control.mpc.defaults``) by their performance v2 (the RealAI score and its criteria) and their global v3 test (time up of
 60 s, one run per seed: one seed's number moves by seconds with any small change, their mean less), optionally on a
 subset of robustness v2 (every Nth run; the share of runs that succeed per criterion).
 
     .venv/bin/python scripts/mpc_search.py horizon=1.0,1.5 w_angle=1,3,10 [--base '{"w_speed": 0.05}']
-        [--seeds 777,1,2] [--robustness-every 3] [--json out.json]
+        [--seeds 777,1,2] [--robustness-every 3] [--robot realaigym_pendubot] [--json out.json]
 
 One line per combination, in the order given; the same command prints the same numbers (every run is
 deterministic).

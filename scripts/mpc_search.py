@@ -1,10 +1,11 @@
 """The search behind ``mpc``'s defaults (docs/controllers.md): every combination of the options given, each scored on
-RealAIGym's acrobot by their performance v2 (the RealAI score and its criteria) and their global v3 test (time up of
+RealAIGym's acrobot (or ``--robot``: their pendubot for the driven shoulder's defaults; options not given take the
+robot's actuation pattern's defaults, ``paa_mj.control.mpc.defaults``) by their performance v2 (the RealAI score and its criteria) and their global v3 test (time up of
 60 s, one run per seed: one seed's number moves by seconds with any small change, their mean less), optionally on a
 subset of robustness v2 (every Nth run; the share of runs that succeed per criterion).
 
     .venv/bin/python scripts/mpc_search.py horizon=1.0,1.5 w_angle=1,3,10 [--base '{"w_speed": 0.05}']
-        [--seeds 777,1,2] [--robustness-every 3] [--json out.json]
+        [--seeds 777,1,2] [--robustness-every 3] [--robot realaigym_pendubot] [--json out.json]
 
 One line per combination, in the order given; the same command prints the same numbers (every run is
 deterministic).
@@ -69,13 +70,14 @@ def main(argv=None):
     parser.add_argument("--base", default="{}", help="options held fixed, as JSON")
     parser.add_argument("--seeds", default="777,1,2", help="seeds of the global v3 test")
     parser.add_argument("--robustness-every", type=int, default=0, help="every Nth run of robustness v2 (0: none)")
+    parser.add_argument("--robot", default="realaigym_acrobot", help="the robot the options are scored on")
     parser.add_argument("--json", help="write every line's numbers to this file")
     args = parser.parse_args(argv)
 
     from paa_mj.model import load_robot
     from paa_mj.task import Task
 
-    robot = load_robot("realaigym_acrobot")
+    robot = load_robot(args.robot)
     task = Task.named("stretched", robot)
     axes = [parse_axis(a) for a in args.axes]
     base = json.loads(args.base)
@@ -91,7 +93,9 @@ def main(argv=None):
             row["robustness_v2_subset"] = robustness_subset(robot, task, options, args.robustness_every)
         rows.append(row)
         p = row["performance_v2"]
-        line = f"{json.dumps(chosen)}  performance-v2 {p['score_v2']:.4f} (up {p['swingup_time']:.3f} s)"
+        line = (f"{json.dumps(chosen)}  performance-v2 {p['score_v2']:.4f} (up {p['swingup_time']:.3f} s, "
+                f"E {p['energy']:.2f}, tau {p['tau_cost']:.2f}, smooth {p['tau_smoothness']:.4f}, "
+                f"vel {p['velocity_cost']:.1f})")
         if seeds:
             g = row["global_v3"]
             line += "  global-v3 " + " ".join(f"{v:.2f}" for v in g["time_up"].values()) + \

@@ -262,6 +262,23 @@ def test_its_options_carry_over_by_similarity(acrobot):
     assert 120 < g < 140 and 0.9 < t < 1.1 and scaled["rho_in"] == DEFAULTS["rho_in"]
 
 
+def test_its_defaults_follow_the_actuation_pattern(acrobot):
+    """A passive shoulder (their acrobot, the gymnast) takes :data:`DEFAULTS` as they are; a driven one (their
+    pendubot, the chain with a passive middle joint) takes its pattern's changes (a shorter horizon), and an option
+    given still wins over both."""
+    from paa_mj.control.mpc import PATTERN_DEFAULTS, pattern
+
+    robot, task = acrobot
+    assert MPCController(robot.analytic, task, robot.torque_limits).options == DEFAULTS
+    assert pattern(load_robot("gymnast").analytic) == "passive shoulder"
+    assert pattern(passive_middle().analytic) == "driven shoulder"
+    pendubot = load_robot("realaigym_pendubot")
+    goal = Task.named("stretched", pendubot)
+    options = MPCController(pendubot.analytic, goal, pendubot.torque_limits).options
+    assert options == {**DEFAULTS, **PATTERN_DEFAULTS["driven shoulder"]} and options["horizon"] < DEFAULTS["horizon"]
+    assert MPCController(pendubot.analytic, goal, pendubot.torque_limits, horizon=1.0).options["horizon"] == 1.0
+
+
 def test_the_header_slots_are_distinct():
     """Every named slot of the parameter vector's header (mpc_kernels' and mpc_law's) is its own: a merge once put
     the motor count and the estimator's lag gate in one slot."""
@@ -277,7 +294,7 @@ def test_the_header_slots_are_distinct():
 def test_one_set_of_defaults_swings_the_family_up(name, goal, within):
     """Their performance v2 from hanging at rest with the defaults carried over by similarity: the 53 kg gymnast's
     kip to the folded goal and chain4's to the stretched one up within 5 s and held (the paper's vcl: 18 s on the
-    gymnast), RealAIGym's pendubot within 2 s."""
+    gymnast), RealAIGym's pendubot (its pattern's defaults) within 2 s."""
     robot = load_robot(name)
     task = Task.named(goal, robot)
     summary, _ = rg.performance_v2(robot, make_controller("mpc", robot, task=task), task)

@@ -64,6 +64,30 @@ DEFAULTS = {
 #: The robot the defaults were searched on: every option is stated on its scale (:func:`similarity`).
 REFERENCE = "realaigym_acrobot"
 
+#: Changes to :data:`DEFAULTS` per actuation pattern (:func:`pattern`), stated on :data:`REFERENCE`'s scale like every
+#: option and carried over by :data:`SIMILARITY` like them. "passive shoulder" (joint 1 without a motor: the acrobot,
+#: the gymnast, chain4) takes DEFAULTS as they are; "driven shoulder" (a motor at joint 1, which carries the whole
+#: chain: RealAIGym's pendubot) takes a shorter horizon and dearer torques, from ``scripts/mpc_search.py --robot
+#: realaigym_pendubot`` (docs/controllers.md): the 1 s horizon lets its plan swing back first (1.1-1.3 s up), a 0.5 s
+#: one swings it straight up (0.7 s from hanging, ~0.8 s after their global test's resets), and torques weighed
+#: 300 / 0.05 times as much keep that swing from spending more than it must.
+PATTERN_DEFAULTS = {
+    "passive shoulder": {},
+    "driven shoulder": {"horizon": 0.5, "w_speed": 0.2, "r": 300.0, "r_rate": 0.3, "rho_in": 0.3},
+}
+
+
+def pattern(model: AnalyticModel) -> str:
+    """The robot's actuation pattern as :data:`PATTERN_DEFAULTS` names it: "driven shoulder" where joint 1 (the
+    joint at the bar, carrying the whole chain) has a motor, "passive shoulder" otherwise."""
+    return "driven shoulder" if 0 in tuple(model.actuated) else "passive shoulder"
+
+
+def defaults(model: AnalyticModel) -> dict:
+    """:data:`DEFAULTS` with the changes of the robot's actuation pattern (:data:`PATTERN_DEFAULTS`), on
+    :data:`REFERENCE`'s scale."""
+    return {**DEFAULTS, **PATTERN_DEFAULTS[pattern(model)]}
+
 #: How each option carries over from :data:`REFERENCE` to another robot by dynamic similarity: (a, c, b) multiplies
 #: it by g^a g_j^c t^b (:func:`similarity`): g = G / G_ref the ratio of the robots' gravity torque scales, g_j that of
 #: motor j's (c != 0: an option per motor), t = T / T_ref that of their natural times (:func:`robot_scales`). Times
@@ -156,7 +180,8 @@ class MPCController(Controller):
         held level).
     **options
         Any of :data:`DEFAULTS`, stated on :data:`REFERENCE`'s scale (the defaults' robot) and carried over to this
-        one by dynamic similarity (:data:`SIMILARITY`; :attr:`scaled` the values used).
+        one by dynamic similarity (:data:`SIMILARITY`; :attr:`scaled` the values used); those not given take
+        :func:`defaults` (the robot's actuation pattern's).
     """
 
     name = "mpc"
@@ -165,7 +190,7 @@ class MPCController(Controller):
         unknown = sorted(set(options) - set(DEFAULTS))
         if unknown:
             raise PaaError(f"mpc has no option(s) {', '.join(unknown)}; its options: {', '.join(DEFAULTS)}")
-        given = {**DEFAULTS, **{k: float(v) for k, v in options.items()}}
+        given = {**defaults(model), **{k: float(v) for k, v in options.items()}}
         o = scaled_options(given, model)
         n, nu = model.n_links, model.n_motors
         joints = list(model.actuated)

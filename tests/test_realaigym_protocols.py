@@ -142,6 +142,24 @@ def test_scores_by_hand():
     assert s["model"] == pytest.approx(3 / 6) and s["overall"] == pytest.approx((0.5 * 5 + 0.5) / 6)
 
 
+def test_the_robot_scaled_score_is_theirs_on_their_acrobot_and_keeps_a_similar_motions_score():
+    """The normalisations carried by similarity are theirs on their acrobot; on a robot k times heavier (g = g_j = k)
+    the same motion with k times the torque scores what it scores on theirs; a robot s times slower stretches the
+    time-like norms by s and shrinks the rate-like ones by s."""
+    assert rg.robot_norms(load_robot("realaigym_acrobot")) == sc.V2_NORMS
+    T = np.array([0.0, 0.5, 1.5, 2.0])
+    X = np.array([[0.0, 0.0, 1.0, 2.0], [3.0, 0.2, 3.0, 0.0], [3.1, 0.0, -1.0, 1.0], [3.14, 0.0, -0.5, 0.5]])
+    U = np.array([[0.0, 2.0], [0.0, -1.0], [0.0, 4.0], [0.0, 0.5]])  # the motor at joint 2, as on their acrobot
+    up = sc.up_rows(X, (1.0, 1.0), 2.0)
+    theirs = sc.performance(T, X, U, up, 2.0)["score_v2"]
+    assert theirs > 0
+    heavy = sc.performance(T, X, 3.0 * U, up, 2.0, sc.scaled_norms(3.0, [3.0], 1.0, 1.0))
+    assert heavy["score_v2_scaled"] == pytest.approx(theirs, abs=1e-12) and heavy["score_v2"] < theirs
+    slow = sc.scaled_norms(1.0, [1.0], 2.0, 1.0)
+    assert slow == pytest.approx({"swingup_time": 40.0, "energy": 60.0, "tau_cost": 40.0, "tau_smoothness": 0.05,
+                                  "velocity_cost": 200.0})
+
+
 def test_final_state_success_wraps_angles():
     goal = np.zeros(4)
     assert sc.final_state_success([2 * np.pi - 0.3, 0.3, 0.9, -0.9], goal)

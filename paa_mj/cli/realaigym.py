@@ -62,7 +62,9 @@ def _print(summary, out):
         c = result["criteria"]
         print(f"{head}: success {int(c['success'])}, swing-up {c['swingup_time']:.3f} s, energy {c['energy']:.2f} J,"
               f" torque cost {c['tau_cost']:.2f}, smoothness {c['tau_smoothness']:.4f}, velocity cost"
-              f" {c['velocity_cost']:.2f}; RealAI score v2 {result['score']:.3f}")
+              f" {c['velocity_cost']:.2f}; RealAI score v2 {result['score']:.3f}"
+              + ("" if result["score_robot_scaled"] == result["score"] else
+                 f" (robot-scaled {result['score_robot_scaled']:.3f})"))
     elif summary["protocol"] == "global-v3":
         print(f"{head}, seed {summary['seed']}: up {result['time_up']:.3f} s of 60, score {result['score']:.3f}")
     elif "scores" in result:

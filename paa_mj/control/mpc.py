@@ -23,14 +23,12 @@ form's ``memory``, one per rollout): nothing of the run's disturbances reaches i
 """
 from __future__ import annotations
 
-import functools
-import math
-
 import numpy as np
 
 from ..errors import PaaError
 from ..model import chain
 from ..model.dynamics import AnalyticModel
+from ..model.similarity import REFERENCE, similarity
 from ..task import Task
 from .base import CompiledForm, Controller, kernel
 from .record import controller
@@ -61,8 +59,7 @@ DEFAULTS = {
     "lag_gate": 0.03,      # N m, the residual beyond which a step does not score the latencies
 }
 
-#: The robot the defaults were searched on: every option is stated on its scale (:func:`similarity`).
-REFERENCE = "realaigym_acrobot"
+# REFERENCE: the robot the defaults were searched on; every option is stated on its scale (:func:`similarity`).
 
 #: Changes to :data:`DEFAULTS` per actuation pattern (:func:`pattern`), stated on :data:`REFERENCE`'s scale like every
 #: option and carried over by :data:`SIMILARITY` like them. "passive shoulder" (joint 1 without a motor: the acrobot,
@@ -90,7 +87,7 @@ def defaults(model: AnalyticModel) -> dict:
 
 #: How each option carries over from :data:`REFERENCE` to another robot by dynamic similarity: (a, c, b) multiplies
 #: it by g^a g_j^c t^b (:func:`similarity`): g = G / G_ref the ratio of the robots' gravity torque scales, g_j that of
-#: motor j's (c != 0: an option per motor), t = T / T_ref that of their natural times (:func:`robot_scales`). Times
+#: motor j's (c != 0: an option per motor), t = T / T_ref that of their natural times (:func:`~paa_mj.model.similarity.robot_scales`). Times
 #: scale by t; the cost is kept without unit, so that a motion that is the reference's in the units (G, T) costs what
 #: the reference's does: a weight of (1 - cos e) by 1/t, of qd^2 by t, of motor j's u^2 by 1/(t g_j^2), of its
 #: (du)^2/h by t/g_j^2 (h a time); the LQR's Q and R as the running cost's, so that its S, the terminal cost and the
@@ -105,33 +102,6 @@ SIMILARITY = {
     "lag_memory": (0, 0, 1),
     "lag_gate": (1, 0, 0),
 }
-
-
-def robot_scales(model: AnalyticModel):
-    """(G, C, T) of a robot: its gravity torque scale G = sum_k b_k [N m] (the whole chain held level about the bar);
-    each motor's, C_j = sum_{k >= a_j} b_k [N m] (the gravity torque motor j on joint a_j carries at worst: the links
-    beyond it held level); its natural time T = 1 / lambda [s], lambda^2 the largest eigenvalue of
-    M(0)^-1 (-dG/dq)(0): the rate of the fastest fall of the stretched chain balanced upright, motors off (of any
-    chain's motions the one a plan's knots must resolve; sqrt(I / G) of the whole chain's inertia I about the bar is
-    slower than it by 2 to 5 on the family's robots)."""
-    b = model.gravity_constants
-    q = np.zeros(model.n_links)
-    rates = np.linalg.eigvals(np.linalg.solve(model.mass_matrix(q), -model.gravity_jacobian(q))).real
-    return float(np.sum(b)), np.cumsum(b[::-1])[::-1][list(model.actuated)], 1.0 / math.sqrt(float(np.max(rates)))
-
-
-@functools.lru_cache(maxsize=1)
-def _reference_scales():
-    from ..model import load_robot
-
-    return robot_scales(load_robot(REFERENCE).analytic)
-
-
-def similarity(model: AnalyticModel):
-    """(g, g_j, t) = (G / G_ref, C_j / C_ref, T / T_ref) of :func:`robot_scales` against :data:`REFERENCE` (C_ref the
-    largest of its motors'): each exactly 1 on it and on any robot of its links with the same motors."""
-    (G, C, T), (G0, C0, T0) = robot_scales(model), _reference_scales()
-    return G / G0, C / np.max(C0), T / T0
 
 
 def scaled_options(options: dict, model: AnalyticModel) -> dict:

@@ -15,6 +15,8 @@ Performance (``leaderboard_scores``):
 - velocity cost: sum_k qd_k' qd_k (t_{k+1} - t_k) [rad^2/s];
 - score v2: success (1 - (1 / w) sum_c tanh(pi c / n_c)), w the number of criteria with a non-zero weight (5);
   their code has the pi that their published rules page omits (tanh(c / n_c)): the code is followed.
+- robot-scaled score v2 (ours, not theirs): the same with each n_c carried from their acrobot to the robot by dynamic
+  similarity (:func:`scaled_norms`), for robots whose criteria saturate their acrobot's normalisations.
 
 Robustness (``get_scores``): the share of successful runs (model, torque response, delay, perturbations) or of
 levels whose repetitions succeed more than half the time (velocity noise, torque noise); the overall score is
@@ -35,6 +37,25 @@ V1_WEIGHTS = {"swingup_time": 0.2, "max_tau": 0.1, "energy": 0.1, "integ_tau": 0
 V1_NORMS = {"swingup_time": 10.0, "max_tau": 6.0, "energy": 100.0, "integ_tau": 60.0, "tau_cost": 360.0,
             "tau_smoothness": 12.0, "velocity_cost": 1000.0}
 ROBUSTNESS_CRITERIA = ("model", "measurement_noise", "u_noise", "u_responsiveness", "delay", "perturbation")
+
+
+def scaled_norms(g, g_motors, t, links) -> dict:
+    """:data:`V2_NORMS` carried from their acrobot to a robot whose scales against it are (g, g_j, t)
+    (:func:`~paa_mj.model.similarity.similarity`: gravity torque, each motor's carried gravity torque, natural time)
+    and whose joints number ``links`` times theirs: a motion that is their acrobot's in the units (G, C_j, T) then
+    scores what theirs does. Swing-up time by t; energy (the work that lifts the chain) by g; torque cost
+    (sum_j u_j^2 dt) by sum_j g_j^2 t; smoothness (sum_j of the torque's step-to-step change, at a fixed step) by
+    sum_j g_j / t; velocity cost (sum over the joints of qd^2 dt) by links / t. Each is exactly theirs on their
+    acrobot."""
+    g_motors = np.asarray(g_motors, float)
+    factors = {"swingup_time": t, "energy": g, "tau_cost": float(np.sum(g_motors ** 2)) * t,
+               "tau_smoothness": float(np.sum(g_motors)) / t, "velocity_cost": links / t}
+    return {k: V2_NORMS[k] * factors[k] for k in V2_NORMS}
+
+
+def score_v2(criteria: dict, success: bool, norms=V2_NORMS) -> float:
+    """Their score v2 of a run's ``criteria`` (module docstring) with the normalisations ``norms``."""
+    return float(success * (1.0 - sum(np.tanh(np.pi * criteria[k] / n) for k, n in norms.items()) / len(norms)))
 
 
 def tip_height(X, lengths):
@@ -83,9 +104,10 @@ def velocity_cost(T, X):
     return float(np.einsum("ij, i, ij", X[:-1, n:], np.diff(T), X[:-1, n:]))
 
 
-def performance(T, X, U, up, t_final):
+def performance(T, X, U, up, t_final, scaled=None):
     """Their criteria and both scores of one run's rows (module docstring); ``up``: which rows count as up
-    (their rule: :func:`up_rows`)."""
+    (their rule: :func:`up_rows`); ``scaled``: the robot's normalisations (:func:`scaled_norms`), which add the
+    robot-scaled score v2."""
     T, X, U = (np.asarray(a, float) for a in (T, X, U))
     swingup = swingup_time(T, np.asarray(up, bool), t_final)
     success = bool(swingup < T[-1])
@@ -93,8 +115,10 @@ def performance(T, X, U, up, t_final):
          "integ_tau": integrated_torque(T, U), "tau_cost": torque_cost(T, U), "tau_smoothness": tau_smoothness(U),
          "velocity_cost": velocity_cost(T, X)}
     v1 = success * (1.0 - sum(V1_WEIGHTS[k] * c[k] / V1_NORMS[k] for k in V1_WEIGHTS))
-    v2 = success * (1.0 - sum(np.tanh(np.pi * c[k] / n) for k, n in V2_NORMS.items()) / len(V2_NORMS))
-    return {"success": success, **c, "score_v1": float(v1), "score_v2": float(v2)}
+    out = {"success": success, **c, "score_v1": float(v1), "score_v2": score_v2(c, success)}
+    if scaled is not None:
+        out["score_v2_scaled"] = score_v2(c, success, scaled)
+    return out
 
 
 def uptime(T, up):

@@ -39,6 +39,7 @@ from ..control.base import controller_name, reset_controller, torque_of
 from ..errors import PaaError
 from ..limits import check_seed
 from ..model.robot import Robot
+from ..model.similarity import links_ratio, similarity
 from . import simulator as protocol
 from ..sim.batch import check_engine
 from ..sim.compiled.engine import pack
@@ -239,6 +240,13 @@ def _saved_rows(T, X, U):
     return T[:len(U)], X[:len(U)], U
 
 
+def robot_norms(robot: Robot) -> dict:
+    """Their v2 normalisations carried to ``robot`` by dynamic similarity (:func:`~paa_mj.realaigym.scores.
+    scaled_norms`): theirs on their acrobot."""
+    model = robot.analytic
+    return scores.scaled_norms(*similarity(model), links_ratio(model))
+
+
 def performance_v2(robot: Robot, controller, task: Task, x0=None, engine="cpu", device=None) -> dict:
     """Their simulation_v2 run and scores (module docstring); ``engine``, ``device``: :class:`Runs`'s."""
     runs = Runs(robot, controller, engine, device)
@@ -246,8 +254,9 @@ def performance_v2(robot: Robot, controller, task: Task, x0=None, engine="cpu", 
     X, U = runs.run(plant(robot), hanging(runs.n) if x0 is None else x0, T)
     rows = _saved_rows(T[:len(X)], X, U)
     with np.errstate(all="ignore"):  # a diverged run's costs: said once, as every command says it (below)
-        result = scores.performance(*rows, up_rows(robot, task, X[:len(U)]), T_FINAL)
-    summary = {"criteria": result, "score": result["score_v2"], "steps": len(U),
+        result = scores.performance(*rows, up_rows(robot, task, X[:len(U)]), T_FINAL, robot_norms(robot))
+    summary = {"criteria": result, "score": result["score_v2"], "score_robot_scaled": result["score_v2_scaled"],
+               "steps": len(U),
                "diverged": _diverged(T[:len(X)], X, U, runs.n),
                **scores.no_action(X, U, robot.analytic.gravity_constants)}
     return summary, dict(zip("TXU", rows))

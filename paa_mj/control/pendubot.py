@@ -37,6 +37,7 @@ import numpy as np
 from numba import njit, types
 
 from ..errors import PaaError
+from ..jit import lazy_njit
 from ..model import chain
 from ..model.dynamics import AnalyticModel
 from ..task import Task
@@ -95,7 +96,7 @@ def fantoni_kernel(x, t, params, memory, tau):
     return fantoni_torque(params, x, tau, memory)
 
 
-@njit(types.void(types.float64[:], types.float64[:, :], types.float64[:, :]), cache=True)
+@lazy_njit(types.void(types.float64[:], types.float64[:, :], types.float64[:, :]), cache=True)
 def _rows(params, x, tau):
     work = np.empty(_WORK)
     for r in range(x.shape[0]):

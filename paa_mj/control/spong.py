@@ -52,10 +52,11 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, types
+from numba import types
 from numba.extending import register_jitable
 
 from ..errors import PaaError
+from ..jit import lazy_njit
 from ..model import chain
 from ..model.dynamics import AnalyticModel
 from ..task import Task
@@ -144,7 +145,7 @@ def spong_kernel(x, t, params, memory, tau):
 
 
 # the layouts of KERNEL_SIG, which the kernel passes: the law is compiled once for both
-@njit(types.void(types.float64[:], types.float64[:, :], types.float64[:, :], types.int8[:]), cache=True)
+@lazy_njit(types.void(types.float64[:], types.float64[:, :], types.float64[:, :], types.int8[:]), cache=True)
 def _spong_rows(params, x, tau, mode):
     work = np.empty(_WORK)
     for r in range(x.shape[0]):

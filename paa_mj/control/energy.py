@@ -235,11 +235,10 @@ def chain_energy_kernel(x, t, params, memory, tau):
     return 0
 
 
-# Row by row with the layouts the kernel passes (KERNEL_SIG's strided arrays; contiguous states and scratch), so
+# Row by row with the layouts the kernel passes (KERNEL_SIG's strided arrays, its memory the scratch ``work``), so
 # that the law and its helpers are compiled once for both.
-@lazy_njit(types.void(types.float64[:], types.float64[:, :], types.float64[:, :]), cache=True)
-def _chain_torque_rows(params, x, out):
-    work = np.empty(chain_work_size(int(params[_C_N])))
+@lazy_njit(types.void(types.float64[:], types.float64[:, :], types.float64[:, :], types.float64[:]), cache=True)
+def _chain_torque_rows(params, x, out, work):
     for r in range(x.shape[0]):
         chain_energy_torque(params, x[r], out[r], work)
 
@@ -290,7 +289,7 @@ class _ChainLaw:
         x = np.concatenate(np.broadcast_arrays(q, qd), axis=-1)
         flat = np.ascontiguousarray(x.reshape(-1, x.shape[-1]))
         out = np.empty((len(flat), q.shape[-1] - 1))
-        _chain_torque_rows(self.params, flat, out)
+        _chain_torque_rows(self.params, flat, out, np.empty(chain_work_size(int(self.params[_C_N]))))
         return out.reshape(x.shape[:-1] + (q.shape[-1] - 1,))
 
     def _rows(self, q):

@@ -112,22 +112,32 @@ def _bounds():
     kd_min_search(chain4.analytic, Task.named("folded", chain4).goal_energy(chain4.analytic))
 
 
+def _signed():
+    from .jit import LazyDispatcher
+
+    for kernel in cached_kernels().values():
+        if isinstance(kernel, LazyDispatcher):
+            kernel.compile_lazily()
+
+
 #: The stages of :func:`compile_kernels`: what each compiles, and the code that compiles it.
 STAGES = (("the rollouts: compiled and Python controllers, single and batched", _rollouts),
           ("the family: the chain's dynamics and controllers", _family),
           ("the Gymnasium environments, single and vector", _environments),
           ("RealAIGym's simulator (paa-mj realaigym)", _protocols),
-          ("the certified search for kD_min (41) of a chain (paa-mj theory)", _bounds))
+          ("the certified search for kD_min (41) of a chain (paa-mj theory)", _bounds),
+          ("every other kernel of a fixed signature (controllers and conditions no stage ran)", _signed))
 
 
 def compile_kernels(progress=None) -> list[dict]:
     """Compile (or load from the cache) every kernel of the package; the CPU-seconds of each stage.
 
-    The first stage includes the import of the package's compiled modules, whose controller kernels are compiled
-    on import (they have a fixed signature). ``progress``: called with each stage's description as it starts.
+    Kernels of a fixed signature (every controller's and condition's) compile at their first use
+    (:func:`paa_mj.jit.lazy_njit`), in the stage that first runs them; the last stage compiles those no stage ran.
+    ``progress``: called with each stage's description as it starts.
     """
     start = time.process_time()
-    from .control import registry  # noqa: F401  (imports every controller's module: kernels compile on import)
+    from .control import registry  # noqa: F401  (imports every controller's module)
 
     stages = []
     for description, stage in STAGES:

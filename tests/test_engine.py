@@ -262,7 +262,7 @@ def test_compile_leaves_no_kernel_to_compile_later():
     proc = subprocess.run([sys.executable, "-m", "paa_mj.cli", "compile", "--json"], capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
     report = json.loads(proc.stdout)
-    assert report["uncached"] == [] and len(report["stages"]) == 5
+    assert report["uncached"] == [] and len(report["stages"]) == 6
     assert report["several_signatures"] == {}
     kernels = cached_kernels()
     assert len(kernels) >= 50 and report["cache"] in str(next(iter(kernels.values()))._cache._cache_path)

@@ -198,14 +198,14 @@ def test_with_damping_the_lyapunov_rate_has_the_damping_term(n):
 
 
 def test_the_chain_law_is_the_papers_law_for_the_gymnast(gymnast, rng):
-    from paa_mj.control.energy import _chain_torque_rows, chain_parameters, EnergyVCLController
+    from paa_mj.control.energy import _chain_torque_rows, chain_parameters, chain_work_size, EnergyVCLController
 
     gains = gymnast.gains
     paper = EnergyVCLController(gymnast.analytic, **gains)
     params = chain_parameters(gymnast.analytic, Task.named("folded", gymnast), gains["kD"], gains["kP"], gains["kV"], True)
     x = np.ascontiguousarray(np.concatenate([rng.uniform(-3, 3, (50, 3)), rng.uniform(-2, 2, (50, 3))], 1))
     out = np.empty((50, 2))
-    _chain_torque_rows(params, x, out)
+    _chain_torque_rows(params, x, out, np.empty(chain_work_size(3)))
     assert np.allclose(out, paper.torque(x[:, :3], x[:, 3:]), rtol=1e-11, atol=1e-9)
 
 

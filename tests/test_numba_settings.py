@@ -104,3 +104,40 @@ def test_unreadable_cache_files_are_dropped_and_compiled_again(tmp_path):
     assert again.returncode == 0 and "Error" not in again.stderr, again.stderr
     assert json.loads(again.stdout)["final_state"] == json.loads(sound.stdout)["final_state"]
     assert any(path.exists() and path.stat().st_size > 64 for path in broken)
+
+
+def test_a_kernel_of_fixed_signature_compiles_at_first_use_once_for_threads_racing_to_it(tmp_path):
+    """:func:`paa_mj.jit.lazy_njit`: nothing compiled on import; the first calls, from several threads at once (as the
+    engine's threads make them), compile the one signature once and all get their result; then other argument
+    types are refused, as ``njit(signature)`` refuses them."""
+    import importlib.util
+    import threading
+
+    import numpy as np
+
+    source = tmp_path / "tiny_lazy_kernel.py"
+    source.write_text("from numba import types\nfrom paa_mj.jit import lazy_njit\n\n\n"
+                      "@lazy_njit(types.float64(types.float64[:]), nogil=True)\ndef total(x):\n"
+                      "    s = 0.0\n    for v in x:\n        s += v\n    return s\n")
+    spec = importlib.util.spec_from_file_location("tiny_lazy_kernel", source)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    assert module.total.signatures == []  # imported, not compiled
+    barrier, results, errors = threading.Barrier(4), [], []
+
+    def call(k):
+        barrier.wait()
+        try:
+            results.append(module.total(np.arange(k + 3.0)[::1 + k % 2]))
+        except Exception as err:  # noqa: BLE001 - reported below
+            errors.append(err)
+
+    threads = [threading.Thread(target=call, args=(k,)) for k in range(4)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    assert errors == [] and sorted(results) == [2.0, 3.0, 6.0, 10.0]
+    assert len(module.total.signatures) == 1
+    with pytest.raises(TypeError):
+        module.total(np.arange(3))  # int64: no second signature compiled

@@ -10,6 +10,9 @@ import pytest
 ROOT = Path(__file__).resolve().parent.parent
 README = ROOT / "README.md"
 PAGES = [README, ROOT / "docs" / "python.md", ROOT / "docs" / "gym.md"]
+#: docs/python.md runs every layer of the package in turn (16 CPU-s): under ``slow``; the README's and gym.md's code,
+#: the same kind of check, stay in the quick suite.
+SLOW_PAGES = {"python.md"}
 SAYS = re.compile(r"#\s*->\s*(.+?)\s*$", re.M)
 
 
@@ -17,7 +20,8 @@ def blocks(page):
     return re.findall(r"```python\n(.*?)```", page.read_text(), flags=re.S)
 
 
-@pytest.mark.parametrize("page", PAGES, ids=lambda page: page.name)
+@pytest.mark.parametrize("page", [pytest.param(page, id=page.name, marks=[pytest.mark.slow] * (page.name in SLOW_PAGES))
+                                  for page in PAGES])
 def test_the_python_of_a_page_runs_and_prints_what_it_says(page, tmp_path):
     code = "\n".join(blocks(page))
     if "render_trajectory" in code:

@@ -25,10 +25,11 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from numba import njit, types
+from numba import types
 from numba.experimental.function_type import WrapperAddressProtocol, _get_wrapper_address
 
 from ..errors import PaaError
+from ..jit import lazy_njit
 from ..task import Task
 
 
@@ -41,8 +42,11 @@ KERNEL_TYPE = types.FunctionType(KERNEL_SIG)
 
 
 def kernel(function):
-    """Compile ``function`` as a controller or condition kernel (:data:`KERNEL_SIG`), cached on disk."""
-    return njit(KERNEL_SIG, cache=True)(function)
+    """Compile ``function`` as a controller or condition kernel (:data:`KERNEL_SIG`), cached on disk.
+
+    Compiled (or loaded from the cache) on first use, not on import: a process that runs one controller does not
+    load the machine code of every other (:func:`paa_mj.jit.lazy_njit`)."""
+    return lazy_njit(KERNEL_SIG, cache=True)(function)
 
 
 class KernelAddress(WrapperAddressProtocol):

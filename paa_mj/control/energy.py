@@ -35,9 +35,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, types
+from numba import types
 from numba.extending import register_jitable
 
+from ..jit import lazy_njit
 from ..model import chain
 from ..model import equations as eq
 from ..model.dynamics import AnalyticModel
@@ -234,16 +235,15 @@ def chain_energy_kernel(x, t, params, memory, tau):
     return 0
 
 
-# Row by row with the layouts the kernel passes (KERNEL_SIG's strided arrays; contiguous states and scratch), so
+# Row by row with the layouts the kernel passes (KERNEL_SIG's strided arrays, its memory the scratch ``work``), so
 # that the law and its helpers are compiled once for both.
-@njit(types.void(types.float64[:], types.float64[:, :], types.float64[:, :]), cache=True)
-def _chain_torque_rows(params, x, out):
-    work = np.empty(chain_work_size(int(params[_C_N])))
+@lazy_njit(types.void(types.float64[:], types.float64[:, :], types.float64[:, :], types.float64[:]), cache=True)
+def _chain_torque_rows(params, x, out, work):
     for r in range(x.shape[0]):
         chain_energy_torque(params, x[r], out[r], work)
 
 
-@njit(types.void(types.float64[:], types.float64[:, ::1], types.float64[:, ::1], types.float64[:, :, ::1]), cache=True)
+@lazy_njit(types.void(types.float64[:], types.float64[:, ::1], types.float64[:, ::1], types.float64[:, :, ::1]), cache=True)
 def _chain_error_rows(params, q, e, rate):
     for r in range(q.shape[0]):
         chain_error(params, q[r], e[r], rate[r])
@@ -289,7 +289,7 @@ class _ChainLaw:
         x = np.concatenate(np.broadcast_arrays(q, qd), axis=-1)
         flat = np.ascontiguousarray(x.reshape(-1, x.shape[-1]))
         out = np.empty((len(flat), q.shape[-1] - 1))
-        _chain_torque_rows(self.params, flat, out)
+        _chain_torque_rows(self.params, flat, out, np.empty(chain_work_size(int(self.params[_C_N]))))
         return out.reshape(x.shape[:-1] + (q.shape[-1] - 1,))
 
     def _rows(self, q):

@@ -217,8 +217,8 @@ class MPCController(Controller):
         nu = self.model.n_motors
         tau = np.empty((x.shape[0], nu))
         mode = np.empty(x.shape[0], np.int8)
-        for r in range(x.shape[0]):
-            mode[r] = mpc_law.mpc_torque(self.params, x[r], float(t), memory[r], tau[r])
+        for r in range(x.shape[0]):  # the kernel itself: the law compiled once, for the engines' array layouts
+            mode[r] = mpc_kernel(x[r], float(t), self.params, memory[r], tau[r])
         self.mode = mode.reshape(batch) if batch else mode[0]
         return tau.reshape(batch + (nu,))
 

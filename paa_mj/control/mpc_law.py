@@ -362,7 +362,8 @@ def mpc_torque(params, y, t, memory, tau):
         memory[M_VALID] = 0.0
         memory[M_MODE] = 0.0
         estimator_views(params, memory, y.size // 2, tau.size)[0][E_VALID] = 0.0
-        mode = _law(params, y, t, memory, tau)
+        x[:] = y  # the measurement, in the estimate's array: _law (and the solver) compiled for one layout only
+        mode = _law(params, x, t, memory, tau)
         if not _finite(tau):
             memory[M_VALID] = 0.0
             tau[:] = 0.0

@@ -37,6 +37,7 @@ import numpy as np
 from numba import njit, types
 
 from ..errors import PaaError
+from ..jit import lazy_njit
 from ..model import chain
 from ..model.dynamics import AnalyticModel
 from ..task import Task
@@ -95,9 +96,8 @@ def fantoni_kernel(x, t, params, memory, tau):
     return fantoni_torque(params, x, tau, memory)
 
 
-@njit(types.void(types.float64[:], types.float64[:, :], types.float64[:, :]), cache=True)
-def _rows(params, x, tau):
-    work = np.empty(_WORK)
+@lazy_njit(types.void(types.float64[:], types.float64[:, :], types.float64[:, :], types.float64[:]), cache=True)
+def _rows(params, x, tau, work):  # the kernel's layouts (its memory the scratch): the law compiled once for both
     for r in range(x.shape[0]):
         fantoni_torque(params, x[r], tau[r], work)
 
@@ -154,7 +154,7 @@ class FantoniController(Controller):
         batch = q.shape[:-1]
         x = np.ascontiguousarray(np.concatenate([q, qd], axis=-1).reshape(-1, 4))
         tau = np.empty((x.shape[0], 1))
-        _rows(self.params, x, tau)
+        _rows(self.params, x, tau, np.empty(_WORK))
         return tau.reshape(batch + (1,))
 
     def compiled(self) -> CompiledForm:

@@ -52,10 +52,11 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, types
+from numba import types
 from numba.extending import register_jitable
 
 from ..errors import PaaError
+from ..jit import lazy_njit
 from ..model import chain
 from ..model.dynamics import AnalyticModel
 from ..task import Task
@@ -143,10 +144,11 @@ def spong_kernel(x, t, params, memory, tau):
     return spong_torque(params, x, tau, memory)
 
 
-# the layouts of KERNEL_SIG, which the kernel passes: the law is compiled once for both
-@njit(types.void(types.float64[:], types.float64[:, :], types.float64[:, :], types.int8[:]), cache=True)
-def _spong_rows(params, x, tau, mode):
-    work = np.empty(_WORK)
+# the layouts of KERNEL_SIG, which the kernel passes (its memory the scratch ``work``): the law is compiled once for
+# both
+@lazy_njit(types.void(types.float64[:], types.float64[:, :], types.float64[:, :], types.int8[:], types.float64[:]),
+           cache=True)
+def _spong_rows(params, x, tau, mode, work):
     for r in range(x.shape[0]):
         mode[r] = spong_torque(params, x[r], tau[r], work)
 
@@ -242,7 +244,7 @@ class SpongController(Controller):
         x = np.ascontiguousarray(np.concatenate([q, qd], axis=-1).reshape(-1, 4))
         tau = np.empty((x.shape[0], 1))
         mode = np.empty(x.shape[0], np.int8)
-        _spong_rows(self.params, x, tau, mode)
+        _spong_rows(self.params, x, tau, mode, np.empty(_WORK))
         self.mode = mode.reshape(batch) if batch else mode[0]
         return tau.reshape(batch + (1,))
 

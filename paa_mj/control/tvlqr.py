@@ -22,10 +22,11 @@ the same table. After T the LQR (67) takes over (:func:`kip_controller`).
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, types
+from numba import types
 from numba.extending import register_jitable
 
 from ..errors import PaaError
+from ..jit import lazy_njit
 from ..model.dynamics import AnalyticModel
 from ..model.states import wrap
 from ..task import Task
@@ -75,7 +76,7 @@ def tvlqr_kernel(x, t, params, memory, tau):
 _MATRICES = types.float64[:, :, ::1]
 
 
-@njit(types.float64[::1](types.float64, types.float64[::1], types.float64, _MATRICES, _MATRICES,
+@lazy_njit(types.float64[::1](types.float64, types.float64[::1], types.float64, _MATRICES, _MATRICES,
                          types.float64[:, ::1], types.float64[:, ::1]), cache=True)
 def riccati_field(t, s_flat, step, A_all, B_all, R_inv, Q):
     """dS/dt = -(A^T S + S A - S B R^-1 B^T S + Q) at time t [s], symmetrised, S flattened (nx * nx).

@@ -39,6 +39,7 @@ from numba.extending import register_jitable
 
 from ..model import chain
 from ..control.base import KERNEL_TYPE
+from ..jit import lazy_njit
 from ..sim.compiled.step import evaluate_once
 
 _C1, _C2 = types.float64[::1], types.float64[:, ::1]
@@ -290,7 +291,7 @@ def measure_or_reset(A, P, X, k, T, delay_steps, sigma_meas, normals_k, reset, r
     return True
 
 
-@njit(types.int64(KERNEL_TYPE, KERNEL_TYPE, KERNEL_TYPE, _C1, _C1, _C1, _C2, _C2, _C1, types.float64, types.int64, _C1,
+@lazy_njit(types.int64(KERNEL_TYPE, KERNEL_TYPE, KERNEL_TYPE, _C1, _C1, _C1, _C2, _C2, _C1, types.float64, types.int64, _C1,
                   types.float64, _C1, _C2, _C2, _C1), cache=True, nogil=True)
 def rollout_compiled(first, second, condition, params, memory, P, X, U, T, dt, delay_steps, sigma_meas,
                      responsiveness, sigma_u, normals, perturbation, reset):

@@ -14,13 +14,14 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, types
+from numba import types
 from tqdm import tqdm
 
 from ...control.base import (KERNEL_TYPE, CompiledForm, KernelAddress, check_binding, controller_name, mode_of,
                             reset_controller, torque_of)
 from ...control.combined import CombinedController
 from ...errors import PaaError, SimulationDiverged
+from ...jit import lazy_njit
 from ...limits import check_memory, check_steps, positive_finite
 from ...model.robot import Robot
 from ...task import BOOK, Task, as_task, book_rows, entered_times
@@ -45,7 +46,7 @@ class _NonFiniteTorque(Exception):
 _VECTOR = types.float64[::1]
 
 
-@njit(types.boolean(KERNEL_TYPE, _VECTOR, types.float64, _VECTOR, _VECTOR, _VECTOR, _VECTOR, _VECTOR, _VECTOR),
+@lazy_njit(types.boolean(KERNEL_TYPE, _VECTOR, types.float64, _VECTOR, _VECTOR, _VECTOR, _VECTOR, _VECTOR, _VECTOR),
       cache=True)
 def closed_loop_field(kernel, x, t, params, memory, limits, constants, out, work):
     """f(t, x) = [qd, qdd(q, qd, tau(x, t))] of (1) closed by a compiled law into ``out`` (2n); returns whether the

@@ -24,6 +24,7 @@ from numba import njit, types
 
 from ...control.base import KERNEL_TYPE
 from ...errors import PaaError
+from ...jit import lazy_njit
 from ...mujoco_log import mujoco_log_off
 from .engine import RUNNING, Outcome, Plan, RunArrays, memory_size, packed_controllers
 from .records import RUN_T, SAMPLES_T, SETTINGS_T, STATE_T, Physics
@@ -62,14 +63,14 @@ _AFTER_SIG = types.void(_I1, types.int64, types.float64[:, ::1], _I1, types.int3
                         STATE_T, SAMPLES_T)
 
 
-@njit(_BEGIN_SIG, cache=True)
+@lazy_njit(_BEGIN_SIG, cache=True)
 def _begin(group, rows, at, warnings, x0, state, memory0):
     """Start the rollouts ``group`` (their rows reset): x0 into the rows, the records at their start."""
     for r in group:
         begin_rollout(r, _physics(r, rows, at, warnings), x0, state, memory0)
 
 
-@njit(_BEFORE_SIG, cache=True)
+@lazy_njit(_BEFORE_SIG, cache=True)
 def _before(first, second, condition, params, group, step, rows, at, warnings, run, settings, state, samples, go):
     """Step ``step`` of the running rollouts of ``group`` up to the physics: measure, the controller (as
     :func:`~paa_mj.sim.compiled.step.advance_compiled` calls it), :func:`~paa_mj.sim.compiled.step.before_physics`; ``go[r]`` = 1
@@ -87,7 +88,7 @@ def _before(first, second, condition, params, group, step, rows, at, warnings, r
             go[r] = 1
 
 
-@njit(_AFTER_SIG, cache=True)
+@lazy_njit(_AFTER_SIG, cache=True)
 def _after(ids, step, rows, at, warnings, run, state, samples):
     """Step ``step`` of the rollouts ``ids`` after their ``mj_step``: :func:`~paa_mj.sim.compiled.step.after_physics`."""
     for r in ids:

@@ -29,6 +29,7 @@ import numpy as np
 from numba import njit, types
 
 from ...control.base import KERNEL_TYPE
+from ...jit import lazy_njit
 from ...task import P_GOAL, book_start, book_update
 from .mujoco_lib import WARNINGS, mj_reset as _mj_reset, mj_step as _mj_step
 from ..noise import gaussian
@@ -351,7 +352,7 @@ _ADVANCE_SIG = types.int64(KERNEL_TYPE, KERNEL_TYPE, KERNEL_TYPE, types.int64, t
                            SETTINGS_T, STATE_T, SAMPLES_T)
 
 
-@njit(_ADVANCE_SIG, nogil=True, cache=True)
+@lazy_njit(_ADVANCE_SIG, nogil=True, cache=True)
 def advance_compiled(first, second, condition, r, step_to, params, physics, run, settings, state, samples):
     """Run rollout ``r`` with a compiled controller from its current step through ``step_to``."""
     seen = np.empty(2 * physics.qpos.size)
@@ -367,7 +368,7 @@ def advance_compiled(first, second, condition, r, step_to, params, physics, run,
     return st.status
 
 
-@njit(types.int64(KERNEL_TYPE, KERNEL_TYPE, KERNEL_TYPE, _C1, types.float64, _C1, _C1, _C1), cache=True)
+@lazy_njit(types.int64(KERNEL_TYPE, KERNEL_TYPE, KERNEL_TYPE, _C1, types.float64, _C1, _C1, _C1), cache=True)
 def evaluate_once(first, second, condition, x, t, params, memory, tau):
     """:func:`call_controller` with a fixed signature (the layouts :func:`advance_compiled` passes), so that calls
     from Python compile once and share its compiled :func:`call_controller`."""

@@ -59,7 +59,7 @@ DEFAULTS = {
     "observer_speed": 0.05,  # b: share of the measured speeds' innovation
     "lag_memory": 1.0,     # s, memory of the latency's scores (0: no latency estimated)
     "lag_gate": 0.03,      # N m, the residual beyond which a step does not score the latencies
-    "observer_accel": 0.5,  # rad/s^1.5, the model's error in each joint's acceleration as white noise (its intensity)
+    "observer_accel": 0.2,  # rad/s^1.5, the model's error in each joint's acceleration as white noise (its intensity)
     "noise_memory": 0.5,   # s, memory of the angles' noise statistics (0: the angles are trusted as measured)
 }
 

@@ -15,9 +15,22 @@ It keeps the torques the law commanded (c_{k-1}, c_{k-2}, ...) and
    \ddot q from (1) on the model, over the steps where the best d explains the angles within a torque of g (the
    gate; a push explains nothing of the latency); the latency D is the best-scoring d (switched only on a score
    10 % lower; none is scored with T_\lambda = 0);
-2. filters the delayed state: x^- = F_{\Delta t}(\hat x, c_{k-1-D}) (one RK4 step of (1)), then
-   \hat q = q_k and \hat{\dot q} = \dot q^- + a\, \mathrm{wrap}(q_k - q^-) / \Delta t + b\, (\dot q_k - \dot q^-)
-   (the angles are trusted, the speeds weighed by b against the model and the angles' innovation);
+2. filters the delayed state: x^- = F_{\Delta t}(\hat x, c_{k-1-D}) (one RK4 step of (1)), then, per joint,
+
+   .. math:: \hat q = q^- + \alpha\, \nu, \qquad
+             \hat{\dot q} = \dot q^- + \min(a, \beta)\, \nu / \Delta t + b\, (\dot q_k - \dot q^-), \qquad
+             \nu = \mathrm{wrap}(q_k - q^-),
+
+   (\alpha, \beta) the steady-state Kalman gains of an angle measured with noise \sigma whose acceleration the model
+   knows to white noise of intensity w (:func:`tracking_gains`, at \lambda = w \Delta t^{3/2} / \sigma); \sigma is
+   estimated from the measurements alone (a): exact angles (\sigma = 0) give \alpha = 1, \beta = 2, the angles
+   trusted and the speeds corrected by a of the angles' innovation over the step and b of the measured speeds';
+
+   a. each angle's residual r_k = q_k - 2 q_{k-1} + q_{k-2} - \Delta t^2 \ddot q(\hat x_{k-1}, c) (the model's
+      second difference over the two steps) is white noise's [1, -2, 1] filter, whose lag-one autocovariance is
+      -4 \sigma^2, plus the model's error, whose lag-one autocovariance is >= 0 (smooth) or 0 (white); over a
+      running mean of memory T_n (``noise_memory``) \sigma^2 = max(0, -c_1 / 4 - 2 s), s = c_0 / (4 \sqrt N) the
+      mean's standard error over N = 2 T_n / \Delta t samples (so that a model error is not taken for noise);
 3. predicts over the latency: x = F_{\Delta t}(\cdots F_{\Delta t}(\hat x, c_{k-D}) \cdots, c_{k-1}).
 
 A gap in time (more than :data:`GAP` s since the last call, or time running back) starts the estimate afresh from

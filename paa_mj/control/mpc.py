@@ -57,6 +57,8 @@ DEFAULTS = {
     "observer_speed": 0.05,  # b: share of the measured speeds' innovation
     "lag_memory": 1.0,     # s, memory of the latency's scores (0: no latency estimated)
     "lag_gate": 0.03,      # N m, the residual beyond which a step does not score the latencies
+    "observer_accel": 0.2,  # rad/s^1.5, the model's error in each joint's acceleration as white noise (its intensity)
+    "noise_memory": 0.5,   # s, memory of the angles' noise statistics (0: the angles are trusted as measured)
 }
 
 # REFERENCE: the robot the defaults were searched on; every option is stated on its scale (:func:`similarity`).
@@ -100,7 +102,7 @@ SIMILARITY = {
     "rho_out": (0, 0, 0), "pump": (0, 0, 1), "pump_kp": (1, 0, 0), "pump_kd": (1, 0, 1), "restart": (0, 0, 0),
     "respin": (1, 0, 0), "estimate": (0, 0, 0), "observer_angle": (0, 0, 0), "observer_speed": (0, 0, 0),
     "lag_memory": (0, 0, 1),
-    "lag_gate": (1, 0, 0),
+    "lag_gate": (1, 0, 0), "observer_accel": (0, 0, -1.5), "noise_memory": (0, 0, 1),
 }
 
 
@@ -187,6 +189,7 @@ class MPCController(Controller):
                 mpc_law.H_LAG_GATE]] = [o["estimate"], o["observer_angle"], o["observer_speed"], o["lag_memory"],
                                         o["lag_gate"]]
         header[mpc_law.H_RESPIN] = o["respin"]
+        header[[mpc_law.H_OBS_ACCEL, mpc_law.H_NOISE_MEMORY]] = [o["observer_accel"], o["noise_memory"]]
         self.params = np.concatenate([
             header, task.goal, limit, model.inertia_constants.reshape(-1), model.gravity_constants,
             np.broadcast_to(p.damping, (n,)), np.broadcast_to(p.armature, (n,)), chain.drive_map(n, joints),
@@ -237,7 +240,7 @@ class MPCController(Controller):
             settings=("horizon", "knot", "period", "iterations", "cold_iterations", "w_angle", "w_speed",
                       "r", "r_rate", "terminal", "q_angle", "q_speed", "r_lqr", "rho_in", "rho_out", "pump", "pump_kp",
                       "pump_kd", "restart", "respin", "estimate", "observer_angle", "observer_speed", "lag_memory",
-                      "lag_gate", "limit"),
+                      "lag_gate", "observer_accel", "noise_memory", "limit"),
             passive=None,
             checked=(("realaigym_acrobot", "stretched"), ("acrobot", "stretched"), ("realaigym_pendubot", "stretched")))
 def build_mpc(robot, task, gains=None, check=True, limit=None, **options):

@@ -365,3 +365,40 @@ def test_the_estimator_holds_the_top_under_noise_on_the_angles_too():
     assert error < 0.1 and law.cold <= 10
     trusting, error = run(noise_memory=0.0)  # the angles trusted as measured: today's filter before the noise's
     assert trusting.cold > 100 and error > 1.0
+
+
+def test_a_plan_that_runs_away_is_never_kept():
+    """chain4 spun to 142 rad/s at its last joint: planned on single 16 ms RK4 knots its rollouts run away, and no such
+    plan is kept (the law brakes until the next solve); planned with the RK4 sub-steps of a fast state (the default
+    ``turn``) a finite plan is found."""
+    from paa_mj.control import mpc_law
+
+    robot = load_robot("chain4")
+    x = np.array([8.7, 7.7, -14.3, 2.0, -2.0, -11.5, 32.0, 142.0])
+    costs = {}
+    for turn in (0.0, DEFAULTS["turn"]):
+        c = make_controller("mpc", robot, task="stretched", turn=turn)
+        memory = c.memory0.copy()
+        mpc_law.replan(c.params, mk.unpack(c.params), x, 0.0, memory)
+        X = mpc_law.plan_views(c.params, memory)[2]
+        costs[turn] = memory[mk.M_COST]
+        kept = memory[mk.M_VALID] == 1.0
+        assert kept == np.isfinite(costs[turn]) and kept != (memory[mpc_law.M_BRAKE] == 1.0)
+        assert not kept or np.all(np.isfinite(X))
+    assert np.isfinite(costs[DEFAULTS["turn"]])
+
+
+def test_the_braking_guess_takes_energy_out_of_a_spin():
+    """The braking guess u_j = -k_b qd_a (clamped) rolled out from RealAIGym's acrobot spinning: every motor's power
+    is at most zero, and the chain ends the horizon with less energy than it started."""
+    from paa_mj.control import mpc_law
+
+    robot = load_robot("realaigym_acrobot")
+    c = make_controller("mpc", robot, task="stretched")
+    p, model = c.params, mk.unpack(c.params)
+    knots = int(p[mk.H_KNOTS])
+    U, X = np.empty((knots, 1)), np.empty((knots + 1, 4))
+    x0 = np.array([2.0, -1.0, 8.0, 40.0])
+    mpc_law.pump_guess(p, model, x0, U, X, 0.0, 0.0, p[mpc_law.H_BRAKE] * p[mk.H_PUMP_KD])
+    assert np.all(U[:, 0] * X[:-1, 3] <= 0.0)
+    assert mk.energy(model, X[-1]) < mk.energy(model, x0) - 1.0

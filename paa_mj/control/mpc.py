@@ -11,8 +11,10 @@ acts on y itself), then
 2. otherwise follows a plan of N knots of h seconds: every ``period`` seconds it solves the plan again by iLQR
    (:mod:`paa_mj.control.mpc_kernels`: RK4 knots on (1) with the robot's parameters, box-clamped DDP, a terminal
    cost s e^T S e), warm-started from the plan it keeps, shifted to t; where the state is far from where the plan
-   put it (a push, a reset), or there is no plan, it also solves from an energy-pumping guess and from zero torque
-   and keeps the cheapest. Between solves it applies
+   put it (a push, a reset), or there is no plan, it also solves from an energy-pumping guess, from the clamped LQR's
+   rollout and, on a chain spinning with energy to spare, from a braking guess (u_j = -k_b qd_a), and keeps the
+   cheapest finite plan (none finite: it brakes until the next solve); a solve from a state that turns a link more
+   than ``turn`` rad per knot integrates each knot in RK4 sub-steps of at most that turn. Between solves it applies
 
    .. math:: \\tau = \\bar u(t) + K_i \\left(x - \\bar x(t)\\right),
 
@@ -52,6 +54,8 @@ DEFAULTS = {
     "pump": 1.0, "pump_kp": 5.0, "pump_kd": 0.5,   # the energy-pumping guess
     "restart": 0.5,        # distance of the state from the plan's that restarts the solve
     "respin": 3.0,         # J above the goal's energy beyond which it solves afresh every 5 periods (0: never)
+    "brake": 3.0,          # gain of the braking guess tried then, in units of pump_kd (0: none)
+    "turn": 0.5,           # rad a link turns per knot at a solve's state beyond which it plans with RK4 sub-steps
     "estimate": 1.0,       # 1: act on the estimator's state (paa_mj.control.mpc_law), 0: on the measurement
     "observer_angle": 0.5,  # a: share of the angles' innovation / dt added to the speeds
     "observer_speed": 0.05,  # b: share of the measured speeds' innovation
@@ -100,8 +104,8 @@ SIMILARITY = {
     "cold_iterations": (0, 0, 0), "w_angle": (0, 0, -1), "w_speed": (0, 0, 1), "r": (0, -2, -1), "r_rate": (0, -2, 1),
     "terminal": (0, 0, 0), "q_angle": (0, 0, -1), "q_speed": (0, 0, 1), "r_lqr": (0, -2, -1), "rho_in": (0, 0, 0),
     "rho_out": (0, 0, 0), "pump": (0, 0, 1), "pump_kp": (1, 0, 0), "pump_kd": (1, 0, 1), "restart": (0, 0, 0),
-    "respin": (1, 0, 0), "estimate": (0, 0, 0), "observer_angle": (0, 0, 0), "observer_speed": (0, 0, 0),
-    "lag_memory": (0, 0, 1),
+    "respin": (1, 0, 0), "brake": (0, 0, 0), "turn": (0, 0, 0), "estimate": (0, 0, 0), "observer_angle": (0, 0, 0),
+    "observer_speed": (0, 0, 0), "lag_memory": (0, 0, 1),
     "lag_gate": (1, 0, 0), "observer_accel": (0, 0, -1.5), "noise_memory": (0, 0, 1),
 }
 
@@ -188,7 +192,7 @@ class MPCController(Controller):
         header[[mpc_law.H_ESTIMATE, mpc_law.H_OBS_ANGLE, mpc_law.H_OBS_SPEED, mpc_law.H_LAG_MEMORY,
                 mpc_law.H_LAG_GATE]] = [o["estimate"], o["observer_angle"], o["observer_speed"], o["lag_memory"],
                                         o["lag_gate"]]
-        header[mpc_law.H_RESPIN] = o["respin"]
+        header[[mpc_law.H_RESPIN, mpc_law.H_BRAKE, mpc_law.H_FAST]] = [o["respin"], o["brake"], o["turn"]]
         header[[mpc_law.H_OBS_ACCEL, mpc_law.H_NOISE_MEMORY]] = [o["observer_accel"], o["noise_memory"]]
         self.params = np.concatenate([
             header, task.goal, limit, model.inertia_constants.reshape(-1), model.gravity_constants,
@@ -239,8 +243,8 @@ class MPCController(Controller):
             " the goal", hands_over=True, kernels=(mpc_kernel,),
             settings=("horizon", "knot", "period", "iterations", "cold_iterations", "w_angle", "w_speed",
                       "r", "r_rate", "terminal", "q_angle", "q_speed", "r_lqr", "rho_in", "rho_out", "pump", "pump_kp",
-                      "pump_kd", "restart", "respin", "estimate", "observer_angle", "observer_speed", "lag_memory",
-                      "lag_gate", "observer_accel", "noise_memory", "limit"),
+                      "pump_kd", "restart", "respin", "brake", "turn", "estimate", "observer_angle", "observer_speed",
+                      "lag_memory", "lag_gate", "observer_accel", "noise_memory", "limit"),
             passive=None,
             checked=(("realaigym_acrobot", "stretched"), ("acrobot", "stretched"), ("realaigym_pendubot", "stretched")))
 def build_mpc(robot, task, gains=None, check=True, limit=None, **options):

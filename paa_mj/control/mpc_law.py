@@ -47,9 +47,9 @@ from numba import njit
 from ..model import chain
 from ..model.states import wrap
 from .mpc_kernels import (H_E_GOAL, H_ITERS, H_ITERS_COLD, H_KNOTS, H_N, H_NU, H_PERIOD, H_PUMP, H_PUMP_KD, H_PUMP_KP,
-                          H_RESTART, H_RHO_IN, H_RHO_OUT, H_STEP, M_COST, M_MODE, M_NEXT, M_SOLVES, M_T0,
+                          H_RESTART, H_RHO_IN, H_RHO_OUT, H_STEP, H_TURN, M_COST, M_MODE, M_NEXT, M_SOLVES, M_T0,
                           M_VALID, MEMORY_HEADER, _clamp, _forward, acceleration, energy, ilqr, lqr_cost, lqr_torque,
-                          scratch, step, unpack)
+                          scratch, step, substeps, unpack)
 from . import mpc_kernels as mk
 
 #: Latencies the estimator scores, in control calls (0 .. LAGS - 1: up to 46 ms at RealAIGym's 2 ms).
@@ -58,11 +58,16 @@ LAGS = 24
 GAP = 0.05
 # parameters of the estimator in the parameter vector's header
 H_ESTIMATE, H_OBS_ANGLE, H_OBS_SPEED, H_LAG_MEMORY, H_LAG_GATE = 16, 17, 18, 19, 21  # mpc_kernels.H_NU: 23
-H_OBS_ACCEL, H_NOISE_MEMORY = 14, 15
+H_OBS_ACCEL, H_NOISE_MEMORY = 25, 26
 # the energy above the goal's [J] beyond which a plan is solved afresh every 5 periods (0: never)
 H_RESPIN = 22
-# the memory's slot of the time of the last fresh solve
-M_COLD = MEMORY_HEADER - 1
+# the braking guess's gain in units of pump_kd (0: none)
+H_BRAKE = 24
+# the turn per knot [rad] of a link at a solve's state beyond which that solve's knots take RK4 sub-steps of at most
+# that turn (mpc_kernels.H_TURN in its copy of the parameters; 0: never)
+H_FAST = 15
+# the memory's slots of the time of the last fresh solve, and of the flag "no finite plan: brake until the next solve"
+M_COLD, M_BRAKE = MEMORY_HEADER - 1, MEMORY_HEADER - 2
 # the estimator's header in the memory
 E_VALID, E_T, E_TM1, E_TM2, E_COUNT, E_LAG, E_WEIGHT = range(7)
 E_HEADER = 8
@@ -264,23 +269,29 @@ def remember_torque(params, memory, tau, n):
 
 
 @njit(cache=True)
-def pump_guess(params, model, x0, U, X):
-    """A first guess from far away: the energy-pumping law u_j = k_e (E* - E) qd_a - k_p wrap(q_a - q*_a) - k_d qd_a
-    (clamped) for motor j on joint a, rolled out on the model into U, X."""
+def pump_torque(params, model, x, ke, kp, kd, u):
+    """u_j = k_e (E* - E) qd_a - k_p wrap(q_a - q*_a) - k_d qd_a (clamped) for motor j on joint a, into u: the
+    energy-pumping law; with k_e = k_p = 0 the brake (power -k_d qd_a^2 into the chain from each motor)."""
     goal, umax, drive = model[4], model[5], model[12]
     n = goal.size
+    gap = params[H_E_GOAL] - energy(model, x) if ke != 0.0 else 0.0
+    for a in range(n):
+        j = int(drive[a])
+        if j >= 0:
+            qd = x[n + a]
+            u[j] = _clamp(ke * gap * qd - kp * wrap(x[a] - goal[a]) - kd * qd, umax[j])
+
+
+@njit(cache=True)
+def pump_guess(params, model, x0, U, X, ke, kp, kd):
+    """A first guess from far away: :func:`pump_torque` with (ke, kp, kd) rolled out on the model into U, X (the
+    energy-pumping guess with the options pump, pump_kp, pump_kd; the braking guess with (0, 0, k_b))."""
+    n = x0.size // 2
     h = params[H_STEP]
     ws = scratch(n)
     X[0] = x0
     for k in range(U.shape[0]):
-        gap = params[H_E_GOAL] - energy(model, X[k])
-        for a in range(n):
-            j = int(drive[a])
-            if j < 0:
-                continue
-            qd = X[k, n + a]
-            v = params[H_PUMP] * gap * qd - params[H_PUMP_KP] * wrap(X[k, a] - goal[a]) - params[H_PUMP_KD] * qd
-            U[k, j] = _clamp(v, umax[j])
+        pump_torque(params, model, X[k], ke, kp, kd, U[k])
         step(params, X[k], U[k], h, X[k + 1], ws)
 
 
@@ -350,57 +361,94 @@ def _plan_torque(U, s, j, start):
 
 
 @njit(cache=True)
+def _far(params, model, x, t, memory):
+    """Whether the state is far from where the kept plan put it at t (a push, a reset), or is a spinning chain with
+    energy to spare at a time to solve afresh (every 5 periods while E - E* > respin: the kept plan, followed from a
+    spin, tends to keep spinning, and the energy-pumping guess brakes)."""
+    n = x.size // 2
+    uprev, ustart, X, U, K = plan_views(params, memory)
+    predicted = np.empty(x.size)
+    _plan_state(X, (t - memory[M_T0]) / params[H_STEP], predicted)
+    gap = 0.0
+    for j in range(x.size):  # speeds count a tenth: a noisy speed is no reason to start again
+        d = wrap(x[j] - predicted[j]) if j < n else 0.1 * (x[j] - predicted[j])
+        gap += d * d
+    if gap > params[H_RESTART] ** 2:
+        return True
+    if params[H_RESPIN] > 0.0 and t - memory[M_COLD] >= 5.0 * params[H_PERIOD] - 1e-9:
+        return energy(model, x) - params[H_E_GOAL] > params[H_RESPIN]
+    return False
+
+
+@njit(cache=True)
+def _shifted_solve(params, model, x, t, memory, Ug, Xg, Kg, iterations):
+    """iLQR from the kept plan shifted to t and followed from x with its own feedback (an open-loop shift of a swing
+    diverges), into Ug, Xg, Kg; returns its cost (inf where it runs away)."""
+    n = x.size // 2
+    knots, nu = Ug.shape
+    uprev, ustart, X, U, K = plan_views(params, memory)
+    s = (t - memory[M_T0]) / params[H_STEP]
+    Xs = np.empty((knots + 1, x.size))
+    Us = np.empty((knots, nu))
+    for k in range(knots + 1):
+        _plan_state(X, s + k, Xs[k])
+    for k in range(knots):
+        for j in range(nu):
+            Us[k, j] = _plan_torque(U, s + k + 0.5, j, ustart[j])
+        Kg[k] = K[min(max(int(s + k + 0.5), 0), knots - 1)]
+    _forward(params, model, x, uprev, Xs, Us, np.zeros((knots, nu)), Kg, 0.0, Xg, Ug, scratch(n))
+    return ilqr(params, model, x, uprev, Ug, Xg, Kg, iterations)
+
+
+@njit(cache=True)
+def _fast(params, x):
+    """The parameters a solve from x plans with: with RK4 sub-steps (mpc_kernels.substeps) where x spins a link more
+    than H_FAST rad per knot (a chain spun past its knots, where RK4 runs away; slower solves keep one step per knot,
+    so that the swing from hanging is planned as before)."""
+    if params[H_FAST] <= 0.0:
+        return params
+    fast = params.copy()
+    fast[H_TURN] = params[H_FAST]
+    return fast if substeps(fast, x, params[H_STEP]) > 1 else params
+
+
+@njit(cache=True)
 def replan(params, model, x, t, memory):
     """Solve the plan again from the measured x at time t, warm-started from the kept plan shifted to t (and, when
-    the state is far from where the plan put it, or there is no plan, from the energy-pumping guess and from the
-    clamped LQR's rollout: the cheapest after iLQR is kept; from zero torque iLQR finds spinning minima)."""
-    nx = x.size
-    n = nx // 2
+    :func:`_far` or there is no plan, from the energy-pumping guess, from the clamped LQR's rollout and, on a
+    spinning chain, from the braking guess: the cheapest after iLQR is kept; from zero torque iLQR finds spinning
+    minima). A plan whose rollout is not finite (RK4 knots on a chain spun past them) is never kept: where none is
+    finite the kept plan is dropped and the law brakes (M_BRAKE) until the next solve, which starts afresh. A solve from
+    a fast state plans with RK4 sub-steps (:func:`_fast`)."""
     nu = int(params[H_NU])
     knots = int(params[H_KNOTS])
-    h = params[H_STEP]
     uprev, ustart, X, U, K = plan_views(params, memory)
+    params = _fast(params, x)
     Ug = np.empty((knots, nu))
-    Xg = np.empty((knots + 1, nx))
-    Kg = np.empty((knots, nu, nx + nu))
-    restart = memory[M_VALID] == 0.0
+    Xg = np.empty((knots + 1, x.size))
+    Kg = np.empty((knots, nu, x.size + nu))
+    valid = memory[M_VALID] != 0.0
+    restart = not valid or _far(params, model, x, t, memory)
     best = math.inf
-    if not restart:
-        s = (t - memory[M_T0]) / h
-        predicted = np.empty(nx)
-        _plan_state(X, s, predicted)
-        gap = 0.0
-        for j in range(nx):  # speeds count a tenth: a noisy speed is no reason to start again
-            d = wrap(x[j] - predicted[j]) if j < n else 0.1 * (x[j] - predicted[j])
-            gap += d * d
-        restart = gap > params[H_RESTART] ** 2
-        # a chain spinning with energy to spare (their global test's resets) is solved afresh now and then too: the
-        # kept plan, followed from a spin, tends to keep spinning, and the energy-pumping guess brakes
-        if params[H_RESPIN] > 0.0 and t - memory[M_COLD] >= 5.0 * params[H_PERIOD] - 1e-9:
-            restart = restart or energy(model, x) - params[H_E_GOAL] > params[H_RESPIN]
-        # the kept plan shifted to t, followed with its own feedback (an open-loop shift of a swing diverges)
-        Xs = np.empty((knots + 1, nx))
-        Us = np.empty((knots, nu))
-        zero = np.zeros((knots, nu))
-        for k in range(knots + 1):
-            _plan_state(X, s + k, Xs[k])
-        for k in range(knots):
-            for j in range(nu):
-                Us[k, j] = _plan_torque(U, s + k + 0.5, j, ustart[j])
-            i = min(max(int(s + k + 0.5), 0), knots - 1)
-            Kg[k] = K[i]
-        _forward(params, model, x, uprev, Xs, Us, zero, Kg, 0.0, Xg, Ug, scratch(n))
-        best = ilqr(params, model, x, uprev, Ug, Xg, Kg, int(params[H_ITERS_COLD] if restart else params[H_ITERS]))
-        U[:, :] = Ug
-        X[:, :] = Xg
-        K[:, :, :] = Kg
-    if restart:
+    if valid:
+        best = _shifted_solve(params, model, x, t, memory, Ug, Xg, Kg,
+                              int(params[H_ITERS_COLD] if restart else params[H_ITERS]))
+        if best < math.inf:
+            U[:, :] = Ug
+            X[:, :] = Xg
+            K[:, :, :] = Kg
+    if restart or best == math.inf:
         memory[M_COLD] = t
-        for guess in range(2):
+        spinning = energy(model, x) - params[H_E_GOAL] > params[H_RESPIN]
+        for guess in range(3):
             if guess == 0:
-                pump_guess(params, model, x, Ug, Xg)
-            else:
+                pump_guess(params, model, x, Ug, Xg, params[H_PUMP], params[H_PUMP_KP], params[H_PUMP_KD])
+            elif guess == 1:
                 lqr_guess(params, model, x, Ug, Xg)
+            elif params[H_BRAKE] > 0.0 and spinning:
+                pump_guess(params, model, x, Ug, Xg, 0.0, 0.0, params[H_BRAKE] * params[H_PUMP_KD])
+            else:
+                break
             cost = ilqr(params, model, x, uprev, Ug, Xg, Kg, int(params[H_ITERS_COLD]))
             if cost < best:
                 best = cost
@@ -410,7 +458,8 @@ def replan(params, model, x, t, memory):
     ustart[:] = uprev
     memory[M_T0] = t
     memory[M_NEXT] = t + params[H_PERIOD]
-    memory[M_VALID] = 1.0
+    memory[M_BRAKE] = 1.0 if best == math.inf else 0.0
+    memory[M_VALID] = 0.0 if best == math.inf else 1.0
     memory[M_COST] = best
     memory[M_SOLVES] += 1.0
 
@@ -430,6 +479,7 @@ def mpc_torque(params, y, t, memory, tau):
         # the plan (or the estimate) ran away (RK4 knots of a chain spun to hundreds of rad/s): start both afresh from
         # the measurement, and let go of the chain where even that plan is not finite
         memory[M_VALID] = 0.0
+        memory[M_BRAKE] = 0.0
         memory[M_MODE] = 0.0
         estimator_views(params, memory, y.size // 2, tau.size)[0][E_VALID] = 0.0
         x[:] = y  # the measurement, in the estimate's array: _law (and the solver) compiled for one layout only
@@ -472,9 +522,14 @@ def _law(params, x, t, memory, tau):
         for j in range(nu):
             uprev[j] = tau[j]
         memory[M_VALID] = 0.0
+        memory[M_BRAKE] = 0.0
         return 1
-    if memory[M_VALID] == 0.0 or t >= memory[M_NEXT] - 1e-9:
+    if (memory[M_VALID] == 0.0 and memory[M_BRAKE] == 0.0) or t >= memory[M_NEXT] - 1e-9:
         replan(params, model, x, t, memory)
+    if memory[M_BRAKE] != 0.0:
+        pump_torque(params, model, x, 0.0, 0.0, max(params[H_BRAKE], 1.0) * params[H_PUMP_KD], tau)
+        uprev[:] = tau
+        return 0
     s = (t - memory[M_T0]) / h
     i = min(max(int(s), 0), U.shape[0] - 1)
     ref = np.empty(nx)

@@ -3,6 +3,7 @@ acrobot, one law compiled and in Python, and that it reads nothing but the measu
 import numpy as np
 import pytest
 
+from paa_mj.control import mpc_estimator
 from paa_mj.control import mpc_kernels as mk
 from paa_mj.control.mpc import DEFAULTS, MPCController
 from paa_mj.control.registry import make_controller
@@ -192,23 +193,19 @@ class _Law:
         return self.inner.torque(q, qd, t)
 
     def estimator(self):
-        from paa_mj.control import mpc_law
-
         memory = self.inner._memory[1][0]
-        return mpc_law.estimator_views(self.inner.params, memory, 2, 1)
+        return mpc_estimator.estimator_views(self.inner.params, memory, 2, 1)
 
 
 def test_the_estimator_finds_the_loops_latency_and_holds_the_top(acrobot):
     """Their delay of 20 ms (the state measured 10 of their 2 ms steps late): the latency scored from the angles'
     second differences is those 10 calls, and the swing-up is held (their final-state success)."""
-    from paa_mj.control import mpc_law
-
     robot, task = acrobot
     law = _Law(robot, task)
     T = rg.their_times(4.0)
     X, _ = rg.Runs(robot, law).run(rg.plant(robot), rg.hanging(2), T, delay=0.02)
     head = law.estimator()[0]
-    assert int(head[mpc_law.E_LAG]) == int(0.02 / rg.DT)
+    assert int(head[mpc_estimator.E_LAG]) == int(0.02 / rg.DT)
     assert _final_success(robot, task, X)
     off = _Law(robot, task, estimate=0.0)
     X, _ = rg.Runs(robot, off).run(rg.plant(robot), rg.hanging(2), T, delay=0.02)
@@ -280,11 +277,11 @@ def test_its_defaults_follow_the_actuation_pattern(acrobot):
 
 
 def test_the_header_slots_are_distinct():
-    """Every named slot of the parameter vector's header (mpc_kernels' and mpc_law's) is its own: a merge once put
-    the motor count and the estimator's lag gate in one slot."""
+    """Every named slot of the parameter vector's header (mpc_kernels', mpc_law's and mpc_estimator's) is its own: a
+    merge once put the motor count and the estimator's lag gate in one slot."""
     from paa_mj.control import mpc_law
 
-    slots = {name: getattr(module, name) for module in (mk, mpc_law) for name in dir(module)
+    slots = {name: getattr(module, name) for module in (mk, mpc_law, mpc_estimator) for name in dir(module)
              if name.startswith("H_") and isinstance(getattr(module, name), int)}
     assert len(set(slots.values())) == len(slots) and max(slots.values()) < mk.HEADER
 
@@ -359,8 +356,8 @@ def test_the_estimator_holds_the_top_under_noise_on_the_angles_too():
         return law, error
 
     law, error = run()
-    head, _, _, _, _, _, stats = mpc_law.estimator_views(law.inner.params, law.memory, 2, 1)
-    sigma = [np.sqrt(mpc_law.angle_variance(law.inner.params, 1e-3, head, stats, i)) for i in range(2)]
+    head, _, _, _, _, _, stats = mpc_estimator.estimator_views(law.inner.params, law.memory, 2, 1)
+    sigma = [np.sqrt(mpc_estimator.angle_variance(law.inner.params, 1e-3, head, stats, i)) for i in range(2)]
     np.testing.assert_allclose(sigma, 0.01, rtol=0.2)
     assert error < 0.1 and law.cold <= 10
     trusting, error = run(noise_memory=0.0)  # the angles trusted as measured: today's filter before the noise's

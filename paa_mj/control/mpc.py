@@ -34,6 +34,7 @@ from ..model.similarity import REFERENCE, similarity
 from ..task import Task
 from .base import CompiledForm, Controller, kernel
 from .record import controller
+from . import mpc_estimator as me
 from . import mpc_kernels as mk
 from . import mpc_law
 
@@ -189,11 +190,10 @@ class MPCController(Controller):
             n, knots, o["knot"], o["period"], o["iterations"], o["rho_in"], o["rho_out"], o["terminal"], o["pump"],
             o["restart"], o["cold_iterations"], o["pump_kp"], o["pump_kd"], task.goal_energy(model)]
         header[mk.H_NU] = nu
-        header[[mpc_law.H_ESTIMATE, mpc_law.H_OBS_ANGLE, mpc_law.H_OBS_SPEED, mpc_law.H_LAG_MEMORY,
-                mpc_law.H_LAG_GATE]] = [o["estimate"], o["observer_angle"], o["observer_speed"], o["lag_memory"],
-                                        o["lag_gate"]]
+        header[[me.H_ESTIMATE, me.H_OBS_ANGLE, me.H_OBS_SPEED, me.H_LAG_MEMORY, me.H_LAG_GATE]] = [
+            o["estimate"], o["observer_angle"], o["observer_speed"], o["lag_memory"], o["lag_gate"]]
         header[[mpc_law.H_RESPIN, mpc_law.H_BRAKE, mpc_law.H_FAST]] = [o["respin"], o["brake"], o["turn"]]
-        header[[mpc_law.H_OBS_ACCEL, mpc_law.H_NOISE_MEMORY]] = [o["observer_accel"], o["noise_memory"]]
+        header[[me.H_OBS_ACCEL, me.H_NOISE_MEMORY]] = [o["observer_accel"], o["noise_memory"]]
         self.params = np.concatenate([
             header, task.goal, limit, model.inertia_constants.reshape(-1), model.gravity_constants,
             np.broadcast_to(p.damping, (n,)), np.broadcast_to(p.armature, (n,)), chain.drive_map(n, joints),

@@ -70,6 +70,9 @@ def test_an_lqr_alone_that_spins_is_not_told_of_a_switch_nor_of_a_longer_run(gym
     assert words.startswith("not at the stretched goal at the end under the balance (67) from the start (never"
                             " entered region (68) in 30 s), spinning at 78.7 rad/s")
     assert "after switching" not in words and "longer --t-final" not in words
+    moving = outcome_words(status="ok", success=False, task=task, t_final=2.0, switch_time=0.0, t_region=None,
+                           hands_over=False, final_state=[3.0, 0.5, 0.2, 2.0, -1.0, 0.5], recent_speeds=[2.0, 1.0])
+    assert "longer --t-final" not in moving and "region of attraction (paa-mj roa)" in moving  # a balance alone
 
 
 def test_simulate_from_duu_says_stuck_at_duu_as_basin_does(run):

@@ -164,5 +164,7 @@ def outcome_words(*, status: str, success: bool, task, t_final: float, switch_ti
         return f"not balanced at the {goal} goal at the end{switched}{ending}{saturated}" + (
             unstable * remedies or _try(["--switch roa (a certified hand-over)"] * region + longer + elsewhere))
     # a controller without a hand-over: where it went, not a switch it never had
+    if switched and t_region is None:  # the balance alone, started outside its region: a longer run keeps it out
+        longer = ["a start inside its region of attraction (paa-mj roa)", "a swing-up controller"]
     return f"not at the {goal} goal at the end{switched} ({entered}){ending}{saturated}" + (
         unstable * remedies or _try(longer + other_gains + elsewhere))

@@ -90,27 +90,7 @@ def simulate_mujoco(robot: Robot, controller="vcl", x0: ArrayLike | None = None,
     plan = build_plan(robot, task, x0, t_final, controllers, dt=dt, integrator=integrator, torque_limit=torque_limit,
                       disturbances=_one_rollout(disturbances or NO_DISTURBANCES), every=every, retire=retire)
     outcome = engine.run(plan, controllers, nthread=1, progress=progress, desc=f"{robot.name} mujoco")
-    out = outcome_arrays(plan, outcome, controllers, [robot.analytic])
-    count = int(outcome.samples["count"][0])
-    s = {k: v[0, :count] for k, v in outcome.samples.items() if k != "count"}
-    e_err, V = trajectory_quantities(controllers[0], robot, task, s["q"], s["qd"])
-    switch = out["switch_time"][0]
-    status = int(out["status"][0])
-    traj = Trajectory(s["t"].copy(), s["q"].copy(), s["qd"].copy(), s["tau"].copy(), e_err, V, s["mode"].copy(),
-                      None if np.isnan(switch) else float(switch), task=task,
-                      meta={"robot": robot.name, "engine": "mujoco", "integrator": integrator_name(model), "dt": dt,
-                            "sample_dt": every * dt, "x0": x0[0].tolist(), "t_final": float(t_final),
-                            **describe_controller(controllers[0]), "torque_limit": _limit_meta(plan),
-                            **robot.params.actuation_meta()},
-                      robot_xml=robot.xml)
-    when = float(out["t_end"][0])
-    traj.meta["success"] = bool(out["success"][0])
-    traj.meta["t_region"] = seconds_or_none(out["t_region"][0])
-    gain = balance_gain_of(controllers[0])
-    if gain is not None:
-        traj.meta["balance_sampling"] = sampled_balance(robot.analytic, gain, dt, task)
-    # the engine's peak over every step, not only over the recorded samples
-    traj.meta["max_abs_tau"] = out["max_abs_tau"][0].tolist()
+    traj, status, when = _trajectory(robot, task, model, plan, outcome, controllers, x0[0], t_final, every)
     if status in engine.DIVERGED:
         traj.meta["status"] = f"diverged at t = {when:.4f} s: {engine.STATUS_TEXT[status]}"
         if stop_on_divergence:
@@ -125,6 +105,33 @@ def simulate_mujoco(robot: Robot, controller="vcl", x0: ArrayLike | None = None,
     else:
         traj.meta["status"] = "ok"
     return traj
+
+
+def _trajectory(robot, task, model, plan, outcome, controllers, x0, t_final, every):
+    """The one rollout's :class:`Trajectory` from the engine's outcome (its samples, quantities and what the engine
+    judged of it), with the engine's status code and the time the run ended [s]."""
+    dt = float(model.opt.timestep)
+    out = outcome_arrays(plan, outcome, controllers, [robot.analytic])
+    count = int(outcome.samples["count"][0])
+    s = {k: v[0, :count] for k, v in outcome.samples.items() if k != "count"}
+    e_err, V = trajectory_quantities(controllers[0], robot, task, s["q"], s["qd"])
+    switch = out["switch_time"][0]
+    status = int(out["status"][0])
+    traj = Trajectory(s["t"].copy(), s["q"].copy(), s["qd"].copy(), s["tau"].copy(), e_err, V, s["mode"].copy(),
+                      None if np.isnan(switch) else float(switch), task=task,
+                      meta={"robot": robot.name, "engine": "mujoco", "integrator": integrator_name(model), "dt": dt,
+                            "sample_dt": every * dt, "x0": x0.tolist(), "t_final": float(t_final),
+                            **describe_controller(controllers[0]), "torque_limit": _limit_meta(plan),
+                            **robot.params.actuation_meta()},
+                      robot_xml=robot.xml)
+    traj.meta["success"] = bool(out["success"][0])
+    traj.meta["t_region"] = seconds_or_none(out["t_region"][0])
+    gain = balance_gain_of(controllers[0])
+    if gain is not None:
+        traj.meta["balance_sampling"] = sampled_balance(robot.analytic, gain, dt, task)
+    # the engine's peak over every step, not only over the recorded samples
+    traj.meta["max_abs_tau"] = out["max_abs_tau"][0].tolist()
+    return traj, status, float(out["t_end"][0])
 
 
 def _one_rollout(disturbances: Disturbances) -> Disturbances:

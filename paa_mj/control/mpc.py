@@ -240,7 +240,7 @@ class MPCController(Controller):
 
 
 @controller("mpc", "iLQR model-predictive control on the robot's own model over a receding horizon, then an LQR at"
-            " the goal", hands_over=True, kernels=(mpc_kernel,),
+            " the goal", hands_over=True, compare=True, kernels=(mpc_kernel,),
             settings=("horizon", "knot", "period", "iterations", "cold_iterations", "w_angle", "w_speed",
                       "r", "r_rate", "terminal", "q_angle", "q_speed", "r_lqr", "rho_in", "rho_out", "pump", "pump_kp",
                       "pump_kd", "restart", "respin", "brake", "turn", "estimate", "observer_angle", "observer_speed",

@@ -33,7 +33,7 @@ def cmd_realaigym(args):
         note(f"note: {summary['controller']} exerted no torque (at most {idle['max_abs_tau']:.2g} N m) and the robot"
              f" never left its start {summary['x0']}: the start is an equilibrium of the controller's law, so the"
              " score says nothing of it; start it off the equilibrium (--x0) or try a controller that swings up from"
-             " rest (--controller spong on a two-link robot)")
+             " rest (--controller mpc, on every robot of the family)")
     if args.json:
         print_json(summary)
     else:

@@ -103,7 +103,7 @@ def estimator_views(params, memory, n, nu):
     return head, xhat, q1, q2, hist, score, stats
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _score_lags(params, y, dt, head, q1, q2, hist, score, ws):
     """Step 1 of the module docstring (the angles at k - 1 and k - 2 a step dt apart each)."""
     n = q1.size
@@ -154,7 +154,7 @@ def _score_lags(params, y, dt, head, q1, q2, hist, score, ws):
     head[E_LAG] = best
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _angle_noise(params, y, dt, head, xhat, q1, q2, u, stats, ws):
     """Step 2a of the module docstring: the running statistics of each angle's residual r (the measured angles'
     second difference at k - 1 less the model's over the two steps, from the estimate at k - 1 with the torque u);
@@ -184,7 +184,7 @@ def angle_variance(params, dt, head, stats, i):
     return max(0.0, -0.25 * c1 - 0.5 * c0 / math.sqrt(samples))
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def tracking_gains(index):
     """(alpha, beta) of the steady-state Kalman filter of an angle measured with noise sigma whose acceleration is
     white noise of sigma_w per step dt (the alpha-beta filter), at the tracking index lambda = sigma_w dt^2 / sigma
@@ -197,7 +197,7 @@ def tracking_gains(index):
     return alpha, 2.0 * (2.0 - alpha) - 4.0 * math.sqrt(max(1.0 - alpha, 0.0))
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def estimate(params, y, t, memory, x):
     """The state the law acts on (module docstring) from the measurement y at time t, into x."""
     nx = y.size
@@ -256,7 +256,7 @@ def estimate(params, y, t, memory, x):
     head[E_COUNT] = count
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def remember_torque(params, memory, tau, n):
     """Keep the torque commanded now as the estimator's c_k."""
     nu = tau.size
@@ -295,7 +295,7 @@ def pump_guess(params, model, x0, U, X, ke, kp, kd):
         step(params, X[k], U[k], h, X[k + 1], ws)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def lqr_guess(params, model, x0, U, X):
     """A first guess near the goal: the clamped LQR tau = -K e rolled out on the model into U, X."""
     n = x0.size // 2
@@ -360,7 +360,7 @@ def _plan_torque(U, s, j, start):
     return (1.0 - w) * U[i, j] + w * U[i + 1, j]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _far(params, model, x, t, memory):
     """Whether the state is far from where the kept plan put it at t (a push, a reset), or is a spinning chain with
     energy to spare at a time to solve afresh (every 5 periods while E - E* > respin: the kept plan, followed from a
@@ -380,7 +380,7 @@ def _far(params, model, x, t, memory):
     return False
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _shifted_solve(params, model, x, t, memory, Ug, Xg, Kg, iterations):
     """iLQR from the kept plan shifted to t and followed from x with its own feedback (an open-loop shift of a swing
     diverges), into Ug, Xg, Kg; returns its cost (inf where it runs away)."""
@@ -400,7 +400,7 @@ def _shifted_solve(params, model, x, t, memory, Ug, Xg, Kg, iterations):
     return ilqr(params, model, x, uprev, Ug, Xg, Kg, iterations)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _fast(params, x):
     """The parameters a solve from x plans with: with RK4 sub-steps (mpc_kernels.substeps) where x spins a link more
     than H_FAST rad per knot (a chain spun past its knots, where RK4 runs away; slower solves keep one step per knot,
@@ -412,7 +412,7 @@ def _fast(params, x):
     return fast if substeps(fast, x, params[H_STEP]) > 1 else params
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def replan(params, model, x, t, memory):
     """Solve the plan again from the measured x at time t, warm-started from the kept plan shifted to t (and, when
     :func:`_far` or there is no plan, from the energy-pumping guess, from the clamped LQR's rollout and, on a
@@ -464,7 +464,7 @@ def replan(params, model, x, t, memory):
     memory[M_SOLVES] += 1.0
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def mpc_torque(params, y, t, memory, tau):
     """The controller's law at one measured state y (nx) and time t into ``tau`` (nu); returns its mode (1: the
     LQR balances, 0: the plan acts). See :mod:`paa_mj.control.mpc`."""

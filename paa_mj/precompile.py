@@ -151,7 +151,10 @@ def compile_kernels(progress=None) -> list[dict]:
 
 
 def cached_kernels() -> dict:
-    """Every numba kernel of the package cached on disk, by its qualified name (the package's modules imported)."""
+    """Every numba kernel of the package cached on disk, by its qualified name (the package's modules imported).
+
+    A helper compiled inline into its caller (``inline="always"``) has no machine code of its own to cache: it is
+    compiled, and cached, as part of its caller, and is not listed."""
     from numba.core.caching import FunctionCache
     from numba.core.registry import CPUDispatcher
 
@@ -167,7 +170,7 @@ def cached_kernels() -> dict:
             continue
         for name, value in vars(module).items():
             if (isinstance(value, CPUDispatcher) and value.__module__ == module.__name__
-                    and isinstance(value._cache, FunctionCache)):
+                    and isinstance(value._cache, FunctionCache) and value.targetoptions.get("inline") != "always"):
                 kernels[f"{module.__name__}.{name}"] = value
     return kernels
 

@@ -16,32 +16,32 @@ def run(capsys, *args):
 
 
 @pytest.fixture(scope="module")
-def atlas6():
+def atlas4():
     """The command's JSON, from its ``main`` in this process (test_json_output_of_every_command... runs atlas too)."""
     import contextlib
     import io
 
     out, err = io.StringIO(), io.StringIO()
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        code = main(["atlas", "--robot", "example2", "--vary", "l1,m1", "--grid", "6", "--json", "--scheduler",
+        code = main(["atlas", "--robot", "example2", "--vary", "l1,m1", "--grid", "4", "--json", "--scheduler",
                      "inline"])
     assert code == 0, err.getvalue()
     return json.loads(out.getvalue())
 
 
-def test_atlas_json_has_every_key(atlas6):
-    assert set(atlas6) >= {"robot", "vary", "factors", "robots", "counts"}
-    assert atlas6["robot"] == "example2" and atlas6["vary"] == ["l1", "m1"]
-    assert len(atlas6["robots"]) == 36 and len(atlas6["factors"][0]) == 6
-    np.testing.assert_allclose(atlas6["factors"][0], np.geomspace(0.25, 4, 6))
-    for row in atlas6["robots"]:
+def test_atlas_json_has_every_key(atlas4):
+    assert set(atlas4) >= {"robot", "vary", "factors", "robots", "counts"}
+    assert atlas4["robot"] == "example2" and atlas4["vary"] == ["l1", "m1"]
+    assert len(atlas4["robots"]) == 16 and len(atlas4["factors"][0]) == 4
+    np.testing.assert_allclose(atlas4["factors"][0], np.geomspace(0.25, 4, 4))
+    for row in atlas4["robots"]:
         assert set(row) >= {"factors", "params", "E_r", "holds_54", "f_min", "f_max", "udd_controllable", "kD_min",
                             "eta1", "eta2", "gains"}
         assert set(row["params"]) == {"m", "l", "lc", "J"}
         assert row["gains"]["kD"] == pytest.approx(1.05 * row["kD_min"])
         assert row["gains"]["kP"] == pytest.approx(1.05 * max(row["eta1"], row["eta2"]))
-    assert atlas6["counts"]["robots"] == 36
-    assert 0 < atlas6["counts"]["(54) holds"] < 36  # example2 fails (54); some of its family do not
+    assert atlas4["counts"]["robots"] == 16
+    assert 0 < atlas4["counts"]["(54) holds"] < 16  # example2 fails (54); some of its family do not
 
 
 def test_scaling_rules(example2):
@@ -52,9 +52,9 @@ def test_scaling_rules(example2):
     assert heavier.m[2] == 3 * p.m[2] and heavier.J[2] == pytest.approx(3 * p.J[2]) and heavier.l[2] == p.l[2]
 
 
-@pytest.mark.parametrize("index", [0, 17, 35])
-def test_robots_agree_with_theory_of_the_same_robot_from_make_model(atlas6, index, tmp_path, capsys):
-    row = atlas6["robots"][index]
+@pytest.mark.parametrize("index", [0, 6, 15])  # a corner, a robot that fails (54), the far corner
+def test_robots_agree_with_theory_of_the_same_robot_from_make_model(atlas4, index, tmp_path, capsys):
+    row = atlas4["robots"][index]
     p = row["params"]
     path = tmp_path / "robot.xml"
     args = ["make-model", "--m", *p["m"], "--l", *p["l"], "--lc", *p["lc"], "--J", *p["J"], "--out", path]

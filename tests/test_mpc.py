@@ -364,6 +364,9 @@ def test_the_estimator_holds_the_top_under_noise_on_the_angles_too():
     assert trusting.cold > 100 and error > 1.0
 
 
+# 22 CPU-s: replan called from Python compiles the solver again for Python's array layouts; its quick form is
+# test_its_torque_stays_finite_on_a_chain_spun_past_its_plans (the same spun chain4, through the compiled law)
+@pytest.mark.slow
 def test_a_plan_that_runs_away_is_never_kept():
     """chain4 spun to 142 rad/s at its last joint: planned on single 16 ms RK4 knots its rollouts run away, and no such
     plan is kept (the law brakes until the next solve); planned with the RK4 sub-steps of a fast state (the default

@@ -178,6 +178,7 @@ class _Server:
         self.port = self.sock.getsockname()[1]
         self.reply = reply
         self.done = False
+        self.closed = threading.Event()
         threading.Thread(target=self._serve, daemon=True).start()
 
     def _serve(self):
@@ -189,11 +190,14 @@ class _Server:
                 continue
             if self.reply:
                 conn.sendall(self.reply)
-            time.sleep(8)  # hold the connection: a web server waits for a request
+            # hold the connection until the test ends (a web server waits for a request): only the probe's own
+            # timeout ends the wait, however slowly a loaded machine runs the command
+            self.closed.wait()
             conn.close()
 
     def close(self):
         self.done = True
+        self.closed.set()
         self.sock.close()
 
 

@@ -85,9 +85,21 @@ def test_the_command_line_s_view_of_the_records_is_the_registry_s():
 
 def test_every_controller_is_enrolled_somewhere():
     assert {case[0] for case in APPLIES} == set(RECORDS)
+    assert {case.values[0] for case in QUICK_CASES if not case.marks} == set(RECORDS)  # each in the quick suite
 
 
-@pytest.mark.parametrize("name, robot, goal", APPLIES)
+def _quick_or_slow(cases):
+    """Each case, under ``slow`` where it is a planner's (a ``checked`` list: its short run solves its plans, 3
+    CPU-s each for ``mpc``) on a robot after the first its record lists: that first stays in the quick suite."""
+    firsts = {name: RECORDS[name].checked[0] for name, _, _ in cases if RECORDS[name].checked}
+    return [pytest.param(*case, marks=pytest.mark.slow) if firsts.get(case[0], case[1:]) != case[1:]
+            else pytest.param(*case) for case in cases]
+
+
+QUICK_CASES = _quick_or_slow(APPLIES)
+
+
+@pytest.mark.parametrize("name, robot, goal", QUICK_CASES)
 def test_builds_binds_and_runs_on_both_engines(name, robot, goal):
     """Built for the robot and task, bound to both; a short run from the task's start on the compiled MuJoCo engine
     and on the analytic one (or as much of each as it kept where it stopped, in one line) stays finite, and both

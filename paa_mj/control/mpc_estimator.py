@@ -87,7 +87,7 @@ def estimator_views(params, memory, n, nu):
     return head, xhat, q1, q2, hist, score, stats
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _score_lags(params, y, dt, head, q1, q2, hist, score, ws):
     """Step 1 of the module docstring (the angles at k - 1 and k - 2 a step dt apart each)."""
     n = q1.size
@@ -138,7 +138,7 @@ def _score_lags(params, y, dt, head, q1, q2, hist, score, ws):
     head[E_LAG] = best
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _angle_noise(params, y, dt, head, xhat, q1, q2, u, stats, ws):
     """Step 2a of the module docstring: the running statistics of each angle's residual r (the measured angles'
     second difference at k - 1 less the model's over the two steps, from the estimate at k - 1 with the torque u);
@@ -168,7 +168,7 @@ def angle_variance(params, dt, head, stats, i):
     return max(0.0, -0.25 * c1 - 0.5 * c0 / math.sqrt(samples))
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def tracking_gains(index):
     """(alpha, beta) of the steady-state Kalman filter of an angle measured with noise sigma whose acceleration is
     white noise of sigma_w per step dt (the alpha-beta filter), at the tracking index lambda = sigma_w dt^2 / sigma
@@ -181,7 +181,7 @@ def tracking_gains(index):
     return alpha, 2.0 * (2.0 - alpha) - 4.0 * math.sqrt(max(1.0 - alpha, 0.0))
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def estimate(params, y, t, memory, x):
     """The state the law acts on (module docstring) from the measurement y at time t, into x."""
     nx = y.size
@@ -240,7 +240,7 @@ def estimate(params, y, t, memory, x):
     head[E_COUNT] = count
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def remember_torque(params, memory, tau, n):
     """Keep the torque commanded now as the estimator's c_k."""
     nu = tau.size

@@ -305,7 +305,7 @@ def _with_terminal(params, model, x_end, running):
     return total
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def rollout(params, model, x0, uprev0, U, X, ws):
     """X[0] = x0, X[k + 1] = F(X[k], U[k]); returns the plan's cost J (inf where the state stops being finite)."""
     knots = U.shape[0]
@@ -319,7 +319,7 @@ def rollout(params, model, x0, uprev0, U, X, ws):
     return _with_terminal(params, model, X[knots], total)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _linearise(params, x, u, h, fx, fu, base, probe, xp, up, ws):
     """F_x (nx, nx) and F_u (nx, nu) at (x, u) by forward differences."""
     nx, nu = x.size, u.size
@@ -368,7 +368,7 @@ def _cholesky_solve(a, rhs, L, y, out):
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _backward(params, model, X, U, uprev0, FX, FU, kff, Kfb, mu, sc):
     """The DDP backward pass over the augmented state z = [x, u_prev] (nz = nx + nu), Gauss-Newton costs; fills the
     feed-forward steps kff (N, nu) and feedback gains Kfb (N, nu, nz). Returns the expected decrease's linear and

@@ -64,7 +64,7 @@ def pump_guess(params, model, x0, U, X, ke, kp, kd):
         step(params, X[k], U[k], h, X[k + 1], ws)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def lqr_guess(params, model, x0, U, X):
     """A first guess near the goal: the clamped LQR tau = -K e rolled out on the model into U, X."""
     n = x0.size // 2
@@ -129,7 +129,7 @@ def _plan_torque(U, s, j, start):
     return (1.0 - w) * U[i, j] + w * U[i + 1, j]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _far(params, model, x, t, memory):
     """Whether the state is far from where the kept plan put it at t (a push, a reset), or is a spinning chain with
     energy to spare at a time to solve afresh (every 5 periods while E - E* > respin: the kept plan, followed from a
@@ -149,7 +149,7 @@ def _far(params, model, x, t, memory):
     return False
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _shifted_solve(params, model, x, t, memory, Ug, Xg, Kg, iterations):
     """iLQR from the kept plan shifted to t and followed from x with its own feedback (an open-loop shift of a swing
     diverges), into Ug, Xg, Kg; returns its cost (inf where it runs away)."""
@@ -169,7 +169,7 @@ def _shifted_solve(params, model, x, t, memory, Ug, Xg, Kg, iterations):
     return ilqr(params, model, x, uprev, Ug, Xg, Kg, iterations)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _fast(params, x):
     """The parameters a solve from x plans with: with RK4 sub-steps (mpc_kernels.substeps) where x spins a link more
     than H_FAST rad per knot (a chain spun past its knots, where RK4 runs away; slower solves keep one step per knot,
@@ -181,7 +181,7 @@ def _fast(params, x):
     return fast if substeps(fast, x, params[H_STEP]) > 1 else params
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def replan(params, model, x, t, memory):
     """Solve the plan again from the measured x at time t, warm-started from the kept plan shifted to t (and, when
     :func:`_far` or there is no plan, from the energy-pumping guess, from the clamped LQR's rollout and, on a
@@ -233,7 +233,7 @@ def replan(params, model, x, t, memory):
     memory[M_SOLVES] += 1.0
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def mpc_torque(params, y, t, memory, tau):
     """The controller's law at one measured state y (nx) and time t into ``tau`` (nu); returns its mode (1: the
     LQR balances, 0: the plan acts). See :mod:`paa_mj.control.mpc`."""

@@ -5,7 +5,7 @@ robot's actuation pattern's defaults, ``paa_mj.control.mpc.defaults``) by their 
 subset of robustness v2 (every Nth run; the share of runs that succeed per criterion).
 
     .venv/bin/python scripts/mpc_search.py horizon=1.0,1.5 w_angle=1,3,10 [--base '{"w_speed": 0.05}']
-        [--seeds 777,1,2] [--robustness-every 3] [--robot realaigym_pendubot] [--json out.json]
+        [--seeds 777,1,2] [--robustness-every 3] [--robot realaigym_pendubot] [--goal folded] [--json out.json]
 
 One line per combination, in the order given; the same command prints the same numbers (every run is
 deterministic).
@@ -71,6 +71,7 @@ def main(argv=None):
     parser.add_argument("--seeds", default="777,1,2", help="seeds of the global v3 test")
     parser.add_argument("--robustness-every", type=int, default=0, help="every Nth run of robustness v2 (0: none)")
     parser.add_argument("--robot", default="realaigym_acrobot", help="the robot the options are scored on")
+    parser.add_argument("--goal", default="stretched", help="the goal the options are scored at")
     parser.add_argument("--json", help="write every line's numbers to this file")
     args = parser.parse_args(argv)
 
@@ -78,7 +79,7 @@ def main(argv=None):
     from paa_mj.task import Task
 
     robot = load_robot(args.robot)
-    task = Task.named("stretched", robot)
+    task = Task.named(args.goal, robot)
     axes = [parse_axis(a) for a in args.axes]
     base = json.loads(args.base)
     seeds = [int(s) for s in args.seeds.split(",") if s]

@@ -402,3 +402,18 @@ def test_the_braking_guess_takes_energy_out_of_a_spin():
     mpc_law.pump_guess(p, model, x0, U, X, 0.0, 0.0, p[mpc_law.H_BRAKE] * p[mk.H_PUMP_KD])
     assert np.all(U[:, 0] * X[:-1, 3] <= 0.0)
     assert mk.energy(model, X[-1]) < mk.energy(model, x0) - 1.0
+
+
+def test_a_motor_without_a_range_plans_within_box_times_its_gravity_torque(acrobot):
+    """chain4's motors have no range: each plans within ``box`` times the gravity torque it carries (sum_{k >= j} b_k,
+    the links beyond it held level); RealAIGym's acrobot keeps its 6 N m whatever ``box`` is (its motor has a
+    range), so that its plans, and its scores, do not move with it."""
+    robot = load_robot("chain4")
+    carried = np.cumsum(robot.analytic.gravity_constants[::-1])[::-1][list(robot.analytic.actuated)]
+    for box in (1.0, DEFAULTS["box"], 4.0):
+        c = make_controller("mpc", robot, task="stretched", box=box)
+        np.testing.assert_allclose(c.limit, box * carried)
+        assert c.params[mk.offsets(4, 3)[1]:mk.offsets(4, 3)[1] + 3].tolist() == c.limit.tolist()
+    acro, task = acrobot
+    for box in (1.0, 4.0):
+        assert make_controller("mpc", acro, task=task, box=box).limit.tolist() == [6.0]

@@ -57,6 +57,7 @@ DEFAULTS = {
     "respin": 3.0,         # J above the goal's energy beyond which it solves afresh every 5 periods (0: never)
     "brake": 3.0,          # gain of the braking guess tried then, in units of pump_kd (0: none)
     "turn": 0.5,           # rad a link turns per knot at a solve's state beyond which it plans with RK4 sub-steps
+    "box": 2.0,            # a motor without a range plans within box times the gravity torque it carries
     "estimate": 1.0,       # 1: act on the estimator's state (paa_mj.control.mpc_law), 0: on the measurement
     "observer_angle": 0.5,  # a: share of the angles' innovation / dt added to the speeds
     "observer_speed": 0.05,  # b: share of the measured speeds' innovation
@@ -105,8 +106,8 @@ SIMILARITY = {
     "cold_iterations": (0, 0, 0), "w_angle": (0, 0, -1), "w_speed": (0, 0, 1), "r": (0, -2, -1), "r_rate": (0, -2, 1),
     "terminal": (0, 0, 0), "q_angle": (0, 0, -1), "q_speed": (0, 0, 1), "r_lqr": (0, -2, -1), "rho_in": (0, 0, 0),
     "rho_out": (0, 0, 0), "pump": (0, 0, 1), "pump_kp": (1, 0, 0), "pump_kd": (1, 0, 1), "restart": (0, 0, 0),
-    "respin": (1, 0, 0), "brake": (0, 0, 0), "turn": (0, 0, 0), "estimate": (0, 0, 0), "observer_angle": (0, 0, 0),
-    "observer_speed": (0, 0, 0), "lag_memory": (0, 0, 1),
+    "respin": (1, 0, 0), "brake": (0, 0, 0), "turn": (0, 0, 0), "box": (0, 0, 0), "estimate": (0, 0, 0),
+    "observer_angle": (0, 0, 0), "observer_speed": (0, 0, 0), "lag_memory": (0, 0, 1),
     "lag_gate": (1, 0, 0), "observer_accel": (0, 0, -1.5), "noise_memory": (0, 0, 1),
 }
 
@@ -152,9 +153,9 @@ class MPCController(Controller):
     task : Task
         The goal q*.
     torque_limit : array_like (m,)
-        The box of the plans [N m] (the robot's actuator ranges, one per motor); an infinite one is replaced by the
-        gravity torque the motor carries at worst, sum_{k >= a} b_k for the motor on joint a (the links beyond it
-        held level).
+        The box of the plans [N m] (the robot's actuator ranges, one per motor); an infinite one is replaced by
+        ``box`` (an option) times the gravity torque the motor carries at worst, sum_{k >= a} b_k for the motor on
+        joint a (the links beyond it held level).
     **options
         Any of :data:`DEFAULTS`, stated on :data:`REFERENCE`'s scale (the defaults' robot) and carried over to this
         one by dynamic similarity (:data:`SIMILARITY`; :attr:`scaled` the values used); those not given take
@@ -174,10 +175,10 @@ class MPCController(Controller):
         limit = np.array(np.broadcast_to(np.asarray(torque_limit, float), (nu,)))
         if np.any(np.isnan(limit)) or np.any(limit <= 0):
             raise PaaError(f"mpc plans within positive torque limits, got {limit.tolist()}")
-        # a motor without a range gets the gravity torque it carries at worst, sum_{k >= j} b_k (the links beyond it
-        # held level): the plans need a box
+        # a motor without a range gets ``box`` times the gravity torque it carries at worst, sum_{k >= j} b_k (the
+        # links beyond it held level): the plans need a box
         carried = np.cumsum(model.gravity_constants[::-1])[::-1][joints]
-        limit = np.where(np.isfinite(limit), limit, carried)
+        limit = np.where(np.isfinite(limit), limit, o["box"] * carried)
         knots = int(round(o["horizon"] / o["knot"]))
         if knots < 2 or o["period"] <= 0 or o["iterations"] < 1:
             raise PaaError("mpc needs a horizon of at least two knots, a positive period and at least one iteration")
@@ -243,8 +244,8 @@ class MPCController(Controller):
             " the goal", hands_over=True, compare=True, kernels=(mpc_kernel,),
             settings=("horizon", "knot", "period", "iterations", "cold_iterations", "w_angle", "w_speed",
                       "r", "r_rate", "terminal", "q_angle", "q_speed", "r_lqr", "rho_in", "rho_out", "pump", "pump_kp",
-                      "pump_kd", "restart", "respin", "brake", "turn", "estimate", "observer_angle", "observer_speed",
-                      "lag_memory", "lag_gate", "observer_accel", "noise_memory", "limit"),
+                      "pump_kd", "restart", "respin", "brake", "turn", "box", "estimate", "observer_angle",
+                      "observer_speed", "lag_memory", "lag_gate", "observer_accel", "noise_memory", "limit"),
             passive=None,
             checked=(("realaigym_acrobot", "stretched"), ("acrobot", "stretched"), ("realaigym_pendubot", "stretched")))
 def build_mpc(robot, task, gains=None, check=True, limit=None, **options):

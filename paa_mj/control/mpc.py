@@ -76,13 +76,14 @@ DEFAULTS = {
 #: Changes to :data:`DEFAULTS` per actuation pattern (:func:`pattern`), stated on :data:`REFERENCE`'s scale like every
 #: option and carried over by :data:`SIMILARITY` like them. "passive shoulder" (joint 1 without a motor: the acrobot,
 #: the gymnast, chain4) takes DEFAULTS as they are; "driven shoulder" (a motor at joint 1, which carries the whole
-#: chain: RealAIGym's pendubot) takes a shorter horizon and dearer torques, from ``scripts/mpc_search.py --robot
-#: realaigym_pendubot`` (docs/controllers.md): the 1 s horizon lets its plan swing back first (1.1-1.3 s up), a 0.5 s
-#: one swings it straight up (0.7 s from hanging, ~0.8 s after their global test's resets), and torques weighed
-#: 300 / 0.05 times as much keep that swing from spending more than it must.
+#: chain: RealAIGym's pendubot) takes a shorter horizon and a climb, from ``scripts/mpc_search.py --robot
+#: realaigym_pendubot`` (docs/controllers.md): a 0.5 s horizon swings it straight up (0.7 s from hanging, ~0.8 s after
+#: their global test's resets), while from hanging at rest the climb's 1.5 s plans, with dearer torques (r 30: 0.05 x
+#: 600) and speeds (w_speed 0.2: 0.05 x 4), swing it back first, slower (1.3 s) and cheaper (their torque cost 2.5
+#: against 4.0); the LQR takes over nearer the goal (rho_in 0.3: a smaller step at the hand-over).
 PATTERN_DEFAULTS = {
     "passive shoulder": {},
-    "driven shoulder": {"horizon": 0.5, "w_speed": 0.2, "r": 300.0, "r_rate": 0.3, "rho_in": 0.3},
+    "driven shoulder": {"horizon": 0.5, "rho_in": 0.3, "climb_horizon": 1.5, "climb_w_speed": 4.0, "climb_r": 600.0},
 }
 
 

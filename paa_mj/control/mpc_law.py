@@ -228,7 +228,7 @@ def replan(params, model, x, t, memory):
     minima). A plan whose rollout is not finite (RK4 knots on a chain spun past them) is never kept: where none is
     finite the kept plan is dropped and the law brakes (M_BRAKE) until the next solve, which starts afresh. A solve from
     a fast state plans with RK4 sub-steps (:func:`_fast`). A plan started afresh takes its knots by
-    :func:`climb_knots` (a climb's solves with its torque weights, :func:`_climb_weights`); the kept plan's solves keep
+    :func:`climb_knots` (a climb's solves with its weights, :func:`_climb_weights`); the kept plan's solves keep
     its knots."""
     nu = int(params[H_NU])
     kept = plan_views(params, memory)[3].shape[0]

@@ -413,7 +413,8 @@ def test_a_climb_is_planned_from_far_below_the_goals_energy():
     base = {"horizon": 0.5, "w_speed": 0.2, "r": 300.0, "r_rate": 0.3}
     c = MPCController(robot.analytic, task, robot.torque_limits, **base, climb_horizon=1.0, climb_w_speed=0.5,
                       climb_r=0.1, climb_r_rate=2.0)
-    long = MPCController(robot.analytic, task, robot.torque_limits, horizon=1.0, w_speed=0.1, r=30.0, r_rate=0.6)
+    long = MPCController(robot.analytic, task, robot.torque_limits, horizon=1.0, w_speed=0.1, r=30.0, r_rate=0.6,
+                         climb_horizon=0.0)
     hanging = np.array([np.pi, 0.0, 0.0, 0.0])
     memory, reference = c.memory0.copy(), long.memory0.copy()
     mpc_law.replan(c.params, mk.unpack(c.params), hanging, 0.0, memory)

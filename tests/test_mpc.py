@@ -417,3 +417,44 @@ def test_a_motor_without_a_range_plans_within_box_times_its_gravity_torque(acrob
     acro, task = acrobot
     for box in (1.0, 4.0):
         assert make_controller("mpc", acro, task=task, box=box).limit.tolist() == [6.0]
+
+
+@pytest.mark.slow  # replan called from Python compiles the solver again (~20 CPU-s); quick form: the pendubot board's
+# performance run (tests/test_realaigym_board_rows.py), whose swing-up is the climb's
+def test_a_climb_is_planned_from_far_below_the_goals_energy():
+    """With a climb horizon, a plan started afresh from hanging at rest (far below the goal's energy) is solved over
+    the climb's knots with the climb's weights: the plan a controller of that horizon and those weights makes (to
+    rounding: 300 x 0.1 is not 30 in floating point);
+    the solves that follow it keep its knots; from near the goal's energy a plan takes the horizon's knots."""
+    from paa_mj.control import mpc_law
+
+    robot = load_robot("realaigym_pendubot")
+    task = Task.named("stretched", robot)
+    base = {"horizon": 0.5, "w_speed": 0.2, "r": 300.0, "r_rate": 0.3}
+    c = MPCController(robot.analytic, task, robot.torque_limits, **base, climb_horizon=1.0, climb_w_speed=0.5,
+                      climb_r=0.1, climb_r_rate=2.0)
+    long = MPCController(robot.analytic, task, robot.torque_limits, horizon=1.0, w_speed=0.1, r=30.0, r_rate=0.6,
+                         climb_horizon=0.0)
+    hanging = np.array([np.pi, 0.0, 0.0, 0.0])
+    memory, reference = c.memory0.copy(), long.memory0.copy()
+    mpc_law.replan(c.params, mk.unpack(c.params), hanging, 0.0, memory)
+    mpc_law.replan(long.params, mk.unpack(long.params), hanging, 0.0, reference)
+    U = mpc_law.plan_views(c.params, memory)[3]
+    assert memory[mpc_law.M_KNOTS] == U.shape[0] == 50
+    np.testing.assert_allclose(U, mpc_law.plan_views(long.params, reference)[3], rtol=1e-6, atol=1e-9)
+    X = mpc_law.plan_views(c.params, memory)[2]
+    mpc_law.replan(c.params, mk.unpack(c.params), X[1], 0.02, memory)  # on the plan: no fresh start
+    assert memory[mpc_law.M_KNOTS] == 50
+    near = c.memory0.copy()
+    mpc_law.replan(c.params, mk.unpack(c.params), np.array([0.3, -0.2, 0.0, 0.0]), 0.0, near)
+    assert near[mpc_law.M_KNOTS] == 25 == mpc_law.plan_views(c.params, near)[3].shape[0]
+
+
+def test_without_a_climb_the_memory_is_as_before(acrobot):
+    """No climb horizon (the passive shoulder's defaults): the memory keeps room for the horizon's knots only."""
+    from paa_mj.control import mpc_law
+
+    robot, task = acrobot
+    c = MPCController(robot.analytic, task, robot.torque_limits)
+    knots = int(c.params[mk.H_KNOTS])
+    assert c.params[mk.H_CLIMB_KNOTS] == 0 and c.memory0.size == mpc_law.memory_size(2, 1, knots)

@@ -65,6 +65,11 @@ DEFAULTS = {
     "lag_gate": 0.03,      # N m, the residual beyond which a step does not score the latencies
     "observer_accel": 0.2,  # rad/s^1.5, the model's error in each joint's acceleration as white noise (its intensity)
     "noise_memory": 0.5,   # s, memory of the angles' noise statistics (0: the angles are trusted as measured)
+    "climb_horizon": 0.0,  # s, the horizon of a plan started afresh far below the goal's energy (0: the horizon's)
+    "climb_deficit": 0.8,  # share of the energy gap from hanging at rest to the goal beyond which a plan climbs
+    "climb_w_speed": 1.0,  # factor on w_speed in a climb's plans
+    "climb_r": 1.0,        # factor on r in a climb's plans
+    "climb_r_rate": 1.0,   # factor on r_rate in a climb's plans
 }
 
 # REFERENCE: the robot the defaults were searched on; every option is stated on its scale (:func:`similarity`).
@@ -72,13 +77,14 @@ DEFAULTS = {
 #: Changes to :data:`DEFAULTS` per actuation pattern (:func:`pattern`), stated on :data:`REFERENCE`'s scale like every
 #: option and carried over by :data:`SIMILARITY` like them. "passive shoulder" (joint 1 without a motor: the acrobot,
 #: the gymnast, chain4) takes DEFAULTS as they are; "driven shoulder" (a motor at joint 1, which carries the whole
-#: chain: RealAIGym's pendubot) takes a shorter horizon and dearer torques, from ``scripts/mpc_search.py --robot
-#: realaigym_pendubot`` (docs/controllers.md): the 1 s horizon lets its plan swing back first (1.1-1.3 s up), a 0.5 s
-#: one swings it straight up (0.7 s from hanging, ~0.8 s after their global test's resets), and torques weighed
-#: 300 / 0.05 times as much keep that swing from spending more than it must.
+#: chain: RealAIGym's pendubot) takes a shorter horizon and a climb, from ``scripts/mpc_search.py --robot
+#: realaigym_pendubot`` (docs/controllers.md): a 0.5 s horizon swings it straight up (0.7 s from hanging, ~0.8 s after
+#: their global test's resets), while from hanging at rest the climb's 1.5 s plans, with dearer torques (r 30: 0.05 x
+#: 600) and speeds (w_speed 0.2: 0.05 x 4), swing it back first, slower (1.3 s) and cheaper (their torque cost 2.5
+#: against 4.0); the LQR takes over nearer the goal (rho_in 0.3: a smaller step at the hand-over).
 PATTERN_DEFAULTS = {
     "passive shoulder": {},
-    "driven shoulder": {"horizon": 0.5, "w_speed": 0.2, "r": 300.0, "r_rate": 0.3, "rho_in": 0.3},
+    "driven shoulder": {"horizon": 0.5, "rho_in": 0.3, "climb_horizon": 1.5, "climb_w_speed": 4.0, "climb_r": 600.0},
 }
 
 
@@ -108,7 +114,8 @@ SIMILARITY = {
     "rho_out": (0, 0, 0), "pump": (0, 0, 1), "pump_kp": (1, 0, 0), "pump_kd": (1, 0, 1), "restart": (0, 0, 0),
     "respin": (1, 0, 0), "brake": (0, 0, 0), "turn": (0, 0, 0), "box": (0, 0, 0), "estimate": (0, 0, 0),
     "observer_angle": (0, 0, 0), "observer_speed": (0, 0, 0), "lag_memory": (0, 0, 1),
-    "lag_gate": (1, 0, 0), "observer_accel": (0, 0, -1.5), "noise_memory": (0, 0, 1),
+    "lag_gate": (1, 0, 0), "observer_accel": (0, 0, -1.5), "noise_memory": (0, 0, 1), "climb_horizon": (0, 0, 1),
+    "climb_deficit": (0, 0, 0), "climb_w_speed": (0, 0, 0), "climb_r": (0, 0, 0), "climb_r_rate": (0, 0, 0),
 }
 
 
@@ -135,6 +142,14 @@ def goal_lqr(model: AnalyticModel, task: Task, q_angle, q_speed, r_lqr):
     R = np.diag(np.broadcast_to(np.asarray(r_lqr, float), (model.n_motors,)))
     S = solve_continuous_are(A, B, Q, R)
     return S, np.linalg.solve(R, B.T @ S)
+
+
+def climb_energy(model: AnalyticModel, task: Task, deficit) -> float:
+    """E* - deficit (E* - E_rest) [J]: the energy below which a plan started afresh climbs
+    (:func:`~paa_mj.control.mpc_law.climb_knots`), E* the goal's, E_rest = -sum_k b_k the chain's least (hanging at
+    rest)."""
+    goal = task.goal_energy(model)
+    return goal - deficit * (goal + float(np.sum(np.abs(model.gravity_constants))))
 
 
 @kernel
@@ -180,8 +195,10 @@ class MPCController(Controller):
         carried = np.cumsum(model.gravity_constants[::-1])[::-1][joints]
         limit = np.where(np.isfinite(limit), limit, o["box"] * carried)
         knots = int(round(o["horizon"] / o["knot"]))
-        if knots < 2 or o["period"] <= 0 or o["iterations"] < 1:
-            raise PaaError("mpc needs a horizon of at least two knots, a positive period and at least one iteration")
+        climb = int(round(o["climb_horizon"] / o["knot"]))
+        if knots < 2 or o["period"] <= 0 or o["iterations"] < 1 or climb == 1 or climb < 0:
+            raise PaaError("mpc needs a horizon of at least two knots (a climb_horizon of none or at least two), a "
+                           "positive period and at least one iteration")
         self.model, self.task, self.options, self.scaled, self.limit = model, task, given, o, limit
         self.S, self.K = goal_lqr(model, task, o["q_angle"], o["q_speed"], o["r_lqr"])
         p = model.params
@@ -195,13 +212,16 @@ class MPCController(Controller):
             o["estimate"], o["observer_angle"], o["observer_speed"], o["lag_memory"], o["lag_gate"]]
         header[[mpc_law.H_RESPIN, mpc_law.H_BRAKE, mpc_law.H_FAST]] = [o["respin"], o["brake"], o["turn"]]
         header[[me.H_OBS_ACCEL, me.H_NOISE_MEMORY]] = [o["observer_accel"], o["noise_memory"]]
+        header[[mk.H_CLIMB_KNOTS, mpc_law.H_CLIMB_ENERGY, mpc_law.H_CLIMB_SPEED, mpc_law.H_CLIMB_R,
+                mpc_law.H_CLIMB_RATE]] = [climb, climb_energy(model, task, o["climb_deficit"]), o["climb_w_speed"],
+                                          o["climb_r"], o["climb_r_rate"]]
         self.params = np.concatenate([
             header, task.goal, limit, model.inertia_constants.reshape(-1), model.gravity_constants,
             np.broadcast_to(p.damping, (n,)), np.broadcast_to(p.armature, (n,)), chain.drive_map(n, joints),
             np.full(n, o["w_angle"]), np.full(n, o["w_speed"]), np.full(nu, o["r"]), np.full(nu, o["r_rate"]),
             self.S.reshape(-1), self.K.reshape(-1), self._regularisation_unit()]).astype(float)
         assert self.params.size == mk.offsets(n, nu)[-1]
-        self.memory0 = np.zeros(mpc_law.memory_size(n, nu, knots))
+        self.memory0 = np.zeros(mpc_law.memory_size(n, nu, max(knots, climb)))
         self._memory = {}
         self.mode = np.int8(0)
         self.bind(model, task)
@@ -245,7 +265,8 @@ class MPCController(Controller):
             settings=("horizon", "knot", "period", "iterations", "cold_iterations", "w_angle", "w_speed",
                       "r", "r_rate", "terminal", "q_angle", "q_speed", "r_lqr", "rho_in", "rho_out", "pump", "pump_kp",
                       "pump_kd", "restart", "respin", "brake", "turn", "box", "estimate", "observer_angle",
-                      "observer_speed", "lag_memory", "lag_gate", "observer_accel", "noise_memory", "limit"),
+                      "observer_speed", "lag_memory", "lag_gate", "observer_accel", "noise_memory", "climb_horizon",
+                      "climb_deficit", "climb_w_speed", "climb_r", "climb_r_rate", "limit"),
             passive=None,
             checked=(("realaigym_acrobot", "stretched"), ("acrobot", "stretched"), ("realaigym_pendubot", "stretched")))
 def build_mpc(robot, task, gains=None, check=True, limit=None, **options):

@@ -43,14 +43,15 @@ from numba import njit
 
 from ..model import chain
 from ..model.states import wrap
-from .mpc_kernels import H_KNOTS, H_NU, acceleration, scratch, step
+from .mpc_kernels import H_NU, acceleration, plan_knots, scratch, step
 from . import mpc_kernels as mk
 
 #: Latencies the estimator scores, in control calls (0 .. LAGS - 1: up to 46 ms at RealAIGym's 2 ms).
 LAGS = 24
 #: A gap between calls [s] beyond which the estimate starts afresh.
 GAP = 0.05
-# parameters of the estimator in the parameter vector's header (mpc_kernels.H_NU: 23, mpc_law's H_*: 15, 22, 24)
+# parameters of the estimator in the parameter vector's header (mpc_kernels.H_NU: 23, H_CLIMB_KNOTS: 20; mpc_law's H_*:
+# 15, 22, 24, 27..30)
 H_ESTIMATE, H_OBS_ANGLE, H_OBS_SPEED, H_LAG_MEMORY, H_LAG_GATE = 16, 17, 18, 19, 21
 H_OBS_ACCEL, H_NOISE_MEMORY = 25, 26
 # the estimator's header in the memory
@@ -70,7 +71,7 @@ def estimator_views(params, memory, n, nu):
     """The estimator's part of the memory: header, estimate (2n), angles at k - 1 and k - 2 (n each), commanded
     torques (LAGS + 1, nu; row 0 the last), scores (LAGS), the angles' noise statistics (3, n: the last residual r,
     the running means of r^2 and of r_k r_{k-1}, :func:`_angle_noise`)."""
-    a = mk.memory_size(n, nu, int(params[H_KNOTS]))
+    a = mk.memory_size(n, nu, plan_knots(params))
     head = chain.vector_view(memory, a, E_HEADER)
     a += E_HEADER
     xhat = chain.vector_view(memory, a, 2 * n)

@@ -41,12 +41,14 @@ FD_EPS = 1e-6
 # header of the parameter vector
 (H_N, H_KNOTS, H_STEP, H_PERIOD, H_ITERS, H_RHO_IN, H_RHO_OUT, H_TERM, H_PUMP, H_RESTART, H_ITERS_COLD, H_PUMP_KP,
  H_PUMP_KD, H_E_GOAL, H_TURN) = range(15)
-H_NU = 23  # the number of motors m (mpc_law.H_* take 15..22, 24..26)
-HEADER = 27
+H_NU = 23  # the number of motors m (mpc_law.H_* take 15, 22, 24, 27..30; mpc_estimator's 16..19, 21, 25, 26)
+# the knots of the climb's plans, started afresh far below the goal's energy (mpc_law.climb_knots; 0: none)
+H_CLIMB_KNOTS = 20
+HEADER = 31
 
 # header of the memory vector
 M_T0, M_MODE, M_NEXT, M_VALID, M_UPREV, M_COST, M_SOLVES = range(7)
-MEMORY_HEADER = 10  # mpc_law.M_* take 8, 9
+MEMORY_HEADER = 10  # mpc_law.M_* take 7, 8, 9
 
 
 @njit(cache=True)
@@ -80,6 +82,13 @@ def memory_size(n, nu, knots):
     (nu each), the plan's states (N + 1) nx, torques N nu and feedback gains N nu (nx + nu)."""
     nx = 2 * n
     return MEMORY_HEADER + 2 * nu + (knots + 1) * nx + knots * nu + knots * nu * (nx + nu)
+
+
+@njit(cache=True)
+def plan_knots(params):
+    """The knots the memory keeps room for: the most a plan has (the ordinary horizon's, or the climb's,
+    :data:`H_CLIMB_KNOTS`)."""
+    return max(int(params[H_KNOTS]), int(params[H_CLIMB_KNOTS]))
 
 
 @njit(cache=True)

@@ -11,10 +11,10 @@ from numba import njit
 
 from ..model import chain
 from ..model.states import wrap
-from .mpc_kernels import (H_E_GOAL, H_ITERS, H_ITERS_COLD, H_KNOTS, H_N, H_NU, H_PERIOD, H_PUMP, H_PUMP_KD, H_PUMP_KP,
-                          H_RESTART, H_RHO_IN, H_RHO_OUT, H_STEP, H_TURN, M_COST, M_MODE, M_NEXT, M_SOLVES, M_T0,
-                          M_VALID, MEMORY_HEADER, _clamp, _forward, energy, ilqr, lqr_cost, lqr_torque,
-                          scratch, step, substeps, unpack)
+from .mpc_kernels import (H_CLIMB_KNOTS, H_E_GOAL, H_ITERS, H_ITERS_COLD, H_KNOTS, H_N, H_NU, H_PERIOD, H_PUMP,
+                          H_PUMP_KD, H_PUMP_KP, H_RESTART, H_RHO_IN, H_RHO_OUT, H_STEP, H_TURN, M_COST, M_MODE, M_NEXT,
+                          M_SOLVES, M_T0, M_VALID, MEMORY_HEADER, _clamp, _forward, energy, ilqr, lqr_cost,
+                          lqr_torque, offsets, plan_knots, scratch, step, substeps, unpack)
 from . import mpc_kernels as mk
 from . import mpc_estimator
 from .mpc_estimator import E_VALID, H_ESTIMATE, estimate, estimator_views, remember_torque
@@ -26,8 +26,13 @@ H_BRAKE = 24
 # the turn per knot [rad] of a link at a solve's state beyond which that solve's knots take RK4 sub-steps of at most
 # that turn (mpc_kernels.H_TURN in its copy of the parameters; 0: never)
 H_FAST = 15
+# the climb's plans (mpc_kernels.H_CLIMB_KNOTS knots, :func:`climb_knots`): the energy [J] below which a plan started
+# afresh is one, and the factors on the weights w_speed, r and r_rate its solves take
+H_CLIMB_ENERGY, H_CLIMB_R, H_CLIMB_RATE, H_CLIMB_SPEED = 27, 28, 29, 30
 # the memory's slots of the time of the last fresh solve, and of the flag "no finite plan: brake until the next solve"
 M_COLD, M_BRAKE = MEMORY_HEADER - 1, MEMORY_HEADER - 2
+# the memory's slot of the kept plan's knots (0: the horizon's, H_KNOTS)
+M_KNOTS = MEMORY_HEADER - 3
 
 
 @njit(cache=True)
@@ -79,21 +84,55 @@ def lqr_guess(params, model, x0, U, X):
 @njit(cache=True)
 def plan_views(params, memory):
     """The plan kept in the memory: last torque (nu), the torque applied when the plan was made (nu), X (N + 1, nx),
-    U (N, nu), K (N, nu, nx + nu)."""
+    U (N, nu), K (N, nu, nx + nu), N its knots (M_KNOTS: the horizon's, or the climb's)."""
+    knots = int(memory[M_KNOTS])
+    return _plan_block(params, memory, knots if knots > 0 else int(params[H_KNOTS]))
+
+
+@njit(cache=True)
+def _plan_block(params, memory, knots):
+    """:func:`plan_views` for a plan of ``knots`` knots, in the memory's room for the longest
+    (:func:`~paa_mj.control.mpc_kernels.plan_knots`)."""
     n, nu = int(params[H_N]), int(params[H_NU])
     nx = 2 * n
-    knots = int(params[H_KNOTS])
+    room = plan_knots(params)
     a = MEMORY_HEADER
     uprev = chain.vector_view(memory, a, nu)
     a += nu
     ustart = chain.vector_view(memory, a, nu)
     a += nu
     X = chain.matrix_view(memory, a, knots + 1, nx)
-    a += (knots + 1) * nx
+    a += (room + 1) * nx
     U = chain.matrix_view(memory, a, knots, nu)
-    a += knots * nu
+    a += room * nu
     K = np.ascontiguousarray(memory[a:a + knots * nu * (nx + nu)]).reshape((knots, nu, nx + nu))
     return uprev, ustart, X, U, K
+
+
+@njit(cache=True)
+def climb_knots(params, model, x):
+    """The knots of a plan started afresh from x: the climb's (H_CLIMB_KNOTS) where x's energy is below
+    H_CLIMB_ENERGY (a chain far below the goal's energy, at rest near hanging: there a longer plan finds the slower,
+    cheaper swing that first swings back), else the horizon's (H_KNOTS); 0 climb knots: never."""
+    climb = int(params[H_CLIMB_KNOTS])
+    if climb > 0 and energy(model, x) < params[H_CLIMB_ENERGY]:
+        return climb
+    return int(params[H_KNOTS])
+
+
+@njit(cache=True)
+def _climb_weights(params):
+    """The parameters a climb's solves plan with: the weights w_speed, r and r_rate times H_CLIMB_SPEED, H_CLIMB_R and
+    H_CLIMB_RATE."""
+    n, nu = int(params[H_N]), int(params[H_NU])
+    o = offsets(n, nu)
+    climb = params.copy()
+    for i in range(n):
+        climb[o[8] + i] *= params[H_CLIMB_SPEED]
+    for j in range(nu):
+        climb[o[9] + j] *= params[H_CLIMB_R]
+        climb[o[10] + j] *= params[H_CLIMB_RATE]
+    return climb
 
 
 @njit(cache=True)
@@ -164,7 +203,7 @@ def _shifted_solve(params, model, x, t, memory, Ug, Xg, Kg, iterations):
     for k in range(knots):
         for j in range(nu):
             Us[k, j] = _plan_torque(U, s + k + 0.5, j, ustart[j])
-        Kg[k] = K[min(max(int(s + k + 0.5), 0), knots - 1)]
+        Kg[k] = K[min(max(int(s + k + 0.5), 0), K.shape[0] - 1)]
     _forward(params, model, x, uprev, Xs, Us, np.zeros((knots, nu)), Kg, 0.0, Xg, Ug, scratch(n))
     return ilqr(params, model, x, uprev, Ug, Xg, Kg, iterations)
 
@@ -188,16 +227,22 @@ def replan(params, model, x, t, memory):
     spinning chain, from the braking guess: the cheapest after iLQR is kept; from zero torque iLQR finds spinning
     minima). A plan whose rollout is not finite (RK4 knots on a chain spun past them) is never kept: where none is
     finite the kept plan is dropped and the law brakes (M_BRAKE) until the next solve, which starts afresh. A solve from
-    a fast state plans with RK4 sub-steps (:func:`_fast`)."""
+    a fast state plans with RK4 sub-steps (:func:`_fast`). A plan started afresh takes its knots by
+    :func:`climb_knots` (a climb's solves with its weights, :func:`_climb_weights`); the kept plan's solves keep
+    its knots."""
     nu = int(params[H_NU])
-    knots = int(params[H_KNOTS])
-    uprev, ustart, X, U, K = plan_views(params, memory)
+    kept = plan_views(params, memory)[3].shape[0]
+    valid = memory[M_VALID] != 0.0
+    restart = not valid or _far(params, model, x, t, memory)
+    knots = climb_knots(params, model, x) if restart else kept
+    if knots != int(params[H_KNOTS]):
+        params = _climb_weights(params)
+        model = unpack(params)
+    uprev, ustart, X, U, K = _plan_block(params, memory, knots)
     params = _fast(params, x)
     Ug = np.empty((knots, nu))
     Xg = np.empty((knots + 1, x.size))
     Kg = np.empty((knots, nu, x.size + nu))
-    valid = memory[M_VALID] != 0.0
-    restart = not valid or _far(params, model, x, t, memory)
     best = math.inf
     if valid:
         best = _shifted_solve(params, model, x, t, memory, Ug, Xg, Kg,
@@ -225,6 +270,7 @@ def replan(params, model, x, t, memory):
                 X[:, :] = Xg
                 K[:, :, :] = Kg
     ustart[:] = uprev
+    memory[M_KNOTS] = knots
     memory[M_T0] = t
     memory[M_NEXT] = t + params[H_PERIOD]
     memory[M_BRAKE] = 1.0 if best == math.inf else 0.0

@@ -316,8 +316,7 @@ PFL = "examples/realaigym/pfl_controller.py"
 BOARD_CONTROLLERS = {"acrobot": ("vcl", "vc", "lqr", f"{PFL}:LQRTheirs_C11", "trajopt", "trajopt-effort", "spong",
                                  f"{PFL}:PFLCollocatedLQR_C11", "mpc"),
                      "family": ("vcl", "vcl-roa", "vc", "lqr", "mpc"),
-                     # mpc's chain4 row: its robustness v2 (about 25 CPU-minutes) was left for a later stop
-                     "chain4": ("vcl", "vcl-roa", "vc", "lqr"),
+                     "chain4": ("vcl", "vcl-roa", "vc", "lqr", "mpc"),
                      "pendubot": ("lqr", "trajopt", "trajopt-effort", "fantoni", "mpc")}
 
 

@@ -6,7 +6,8 @@ from .claims import robot, stated, task
 
 BOARDS = {"realaigym_board_acrobot": ("realaigym_acrobot", "stretched"),
           "realaigym_board_pendubot": ("realaigym_pendubot", "stretched"),
-          "realaigym_board_gymnast": ("gymnast", "folded")}
+          "realaigym_board_gymnast": ("gymnast", "folded"),
+          "realaigym_board_chain4": ("chain4", "stretched")}
 #: The boards with the robot-scaled score v2 beside theirs (column 4).
 SCALED = ("realaigym_board_gymnast", "realaigym_board_chain4")
 

@@ -458,3 +458,14 @@ def test_without_a_climb_the_memory_is_as_before(acrobot):
     c = MPCController(robot.analytic, task, robot.torque_limits)
     knots = int(c.params[mk.H_KNOTS])
     assert c.params[mk.H_CLIMB_KNOTS] == 0 and c.memory0.size == mpc_law.memory_size(2, 1, knots)
+
+
+def test_a_climb_as_long_as_the_horizon_is_refused(acrobot):
+    """A kept plan is told to be a climb by its length: a climb horizon equal to the horizon is refused in one line
+    (it would run with the balance's weights and say nothing)."""
+    from paa_mj.errors import PaaError
+
+    robot, task = acrobot
+    with pytest.raises(PaaError, match="climb_horizon must differ from its horizon"):
+        MPCController(robot.analytic, task, robot.torque_limits, horizon=0.5, climb_horizon=0.5)
+    MPCController(robot.analytic, task, robot.torque_limits, horizon=0.5, climb_horizon=0.0)

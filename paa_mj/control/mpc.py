@@ -199,6 +199,11 @@ class MPCController(Controller):
         if knots < 2 or o["period"] <= 0 or o["iterations"] < 1 or climb == 1 or climb < 0:
             raise PaaError("mpc needs a horizon of at least two knots (a climb_horizon of none or at least two), a "
                            "positive period and at least one iteration")
+        if climb == knots:
+            # a kept plan tells a climb from a balance by its length (mpc_law.replan): equal lengths would drop the
+            # climb's weights without a word
+            raise PaaError(f"mpc's climb_horizon must differ from its horizon ({o['horizon']:g} s, {knots} knots) or be "
+                           "0 (no climb): a climb is told apart from a balance by its length")
         self.model, self.task, self.options, self.scaled, self.limit = model, task, given, o, limit
         self.S, self.K = goal_lqr(model, task, o["q_angle"], o["q_speed"], o["r_lqr"])
         p = model.params

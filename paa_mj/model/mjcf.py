@@ -164,6 +164,40 @@ def _motors(names, actuated, torque_limits):
     return "".join(line + "\n" for line in lines)
 
 
+def _check_arguments(params: RobotParams, name, title, torque_limits, timestep):
+    """Refuse, in one line, what :func:`mjcf_from_params` cannot write as a model MuJoCo and every command read."""
+    params.validate()
+    for what, text in (("name", str(name)), ("title", str(title))):
+        if not text.isprintable():
+            raise PaaError(f"the model's {what} {text!r} has control characters (a new line, a tab...): give one line")
+    if not (np.isfinite(timestep) and 0 < timestep <= MAX_TIMESTEP):
+        raise PaaError(f"timestep = {timestep:g} s must lie in (0, {MAX_TIMESTEP:g}]")
+    if torque_limits is not None:
+        limits = np.asarray(torque_limits, float)
+        if limits.size not in (1, params.n_motors) or np.any(np.isnan(limits)) or np.any(limits <= 0):
+            raise PaaError(f"torque limits must be one positive number or one per motor ({params.n_motors}),"
+                           f" got {limits.reshape(-1).tolist()}")
+
+
+def _described(params: RobotParams, names) -> tuple[str, str]:
+    """The header comment's two lines: what the robot is, and which joints carry motors."""
+    n, motors = params.n_links, params.n_motors
+    if not params.passive_first:
+        def listed(joints):
+            return f"joint{'s' if len(joints) > 1 else ''} " + ", ".join(f"{j + 1} ({names[1][j]})" for j in joints)
+
+        passive = params.passive
+        return (f"Planar {n}-link chain hanging from a bar (see docs/model.md of paa_mj).",
+                f"{listed(passive).capitalize()} {'are' if len(passive) > 1 else 'is'} passive; {listed(params.actuated)}"
+                f" carr{'y motors' if motors > 1 else 'ies a motor'}{' (a pendubot)' if params.actuated == (0,) else ''}.")
+    if n == 3:
+        return ("Three-link gymnast on a high bar (Liu & Xin 2015; see docs/model.md of paa_mj).",
+                "Joint 1 (hands on the bar) is passive; joints 2 (shoulders) and 3 (hips) carry motors.")
+    return (f"Planar {n}-link chain hanging from a bar (the gymnast's family; see docs/model.md of paa_mj).",
+            f"Joint 1 ({names[1][0]}, on the bar) is passive; joint{'s 2..' if n > 2 else ' '}{n}"
+            f" ({', '.join(names[1][1:])}) carr{'y motors' if n > 2 else 'ies a motor'}.")
+
+
 def mjcf_from_params(params: RobotParams, name: str = "gymnast", title: str = "", gains=None, torque_limits=None,
                      timestep=0.001) -> str:
     """Return the MJCF text of the chain with the given parameters (the gymnast for three links).
@@ -185,19 +219,8 @@ def mjcf_from_params(params: RobotParams, name: str = "gymnast", title: str = ""
     timestep : float
         The physics time step [s].
     """
-    params.validate()
-    n, motors = params.n_links, params.n_motors
-    for what, text in (("name", str(name)), ("title", str(title))):
-        if not text.isprintable():
-            raise PaaError(f"the model's {what} {text!r} has control characters (a new line, a tab...): give one line")
-    if not (np.isfinite(timestep) and 0 < timestep <= MAX_TIMESTEP):
-        raise PaaError(f"timestep = {timestep:g} s must lie in (0, {MAX_TIMESTEP:g}]")
-    if torque_limits is not None:
-        limits = np.asarray(torque_limits, float)
-        if limits.size not in (1, motors) or np.any(np.isnan(limits)) or np.any(limits <= 0):
-            raise PaaError(f"torque limits must be one positive number or one per motor ({motors}),"
-                           f" got {limits.reshape(-1).tolist()}")
-    names = chain_names(n)
+    _check_arguments(params, name, title, torque_limits, timestep)
+    names = chain_names(params.n_links)
     total = float(np.sum(params.l))
     # sizes rounded to decimals of the robot's own scale: a chain of millimetres gets a bar of some micrometres, not
     # one rounded to 0 (MuJoCo refuses a size of 0); one of 10 cm or more keeps the decimals of the metre
@@ -213,21 +236,7 @@ def mjcf_from_params(params: RobotParams, name: str = "gymnast", title: str = ""
               for key, unit in (("m", "kg"), ("l", "m"), ("lc", "m"), ("J", "kg m^2"))]
     values += [f"    {key} = {' '.join(_num(x) for x in getattr(params, key))}  {unit}\n"
                for key, unit in (("damping", "N m s/rad"), ("armature", "kg m^2")) if np.any(getattr(params, key))]
-    if not params.passive_first:
-        what = f"Planar {n}-link chain hanging from a bar (see docs/model.md of paa_mj)."
-        def listed(joints):
-            return f"joint{'s' if len(joints) > 1 else ''} " + ", ".join(f"{j + 1} ({names[1][j]})" for j in joints)
-
-        passive = params.passive
-        joints = (f"{listed(passive).capitalize()} {'are' if len(passive) > 1 else 'is'} passive; {listed(params.actuated)}"
-                  f" carr{'y motors' if motors > 1 else 'ies a motor'}{' (a pendubot)' if params.actuated == (0,) else ''}.")
-    elif n == 3:
-        what = "Three-link gymnast on a high bar (Liu & Xin 2015; see docs/model.md of paa_mj)."
-        joints = "Joint 1 (hands on the bar) is passive; joints 2 (shoulders) and 3 (hips) carry motors."
-    else:
-        what = f"Planar {n}-link chain hanging from a bar (the gymnast's family; see docs/model.md of paa_mj)."
-        joints = f"Joint 1 ({names[1][0]}, on the bar) is passive; joint{'s 2..' if n > 2 else ' '}{n}" \
-                 f" ({', '.join(names[1][1:])}) carr{'y motors' if n > 2 else 'ies a motor'}."
+    what, joints = _described(params, names)
     materials = "".join(f'    <material name="{geom}" rgba="{_COLOURS.get(geom, _PALETTE[i % len(_PALETTE)])}"/>\n'
                         for i, geom in enumerate(names[2]))
     subs = dict(

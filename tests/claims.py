@@ -447,6 +447,26 @@ def _leaderboard_roa_switch():
     return tables(leaderboard("--quick", "--controllers", "vcl,vcl-roa"))
 
 
+@claim("controllers_table")
+def _controllers_table():
+    """The built-in controllers as their records declare them: what each is, and the chains and goals it runs on."""
+    from paa_mj.control.registry import RECORDS
+
+    def runs_on(r):
+        links = "any chain" if r.links is None else f"{r.links} links"
+        if r.passive is None:
+            joints = ", any actuation"
+        elif tuple(r.passive) == (1,):
+            joints = ", joint 1 passive" if r.links is not None else " of the family (joint 1 passive)"
+        else:
+            joints = f", joint{'s' if len(r.passive) > 1 else ''} {', '.join(map(str, r.passive))} passive"
+        return f"{links}{joints}; {' or '.join(r.goals)}"
+
+    rows = ["| name | what | runs on |", "|---|---|---|"]
+    rows += [f"| `{name}` | {r.description} | {runs_on(r)} |" for name, r in RECORDS.items()]
+    return block("\n".join(rows))
+
+
 @claim("gain_search_table", full=True)
 def _gain_search_table():
     from paa_mj.control.gains import FAMILY_RULE

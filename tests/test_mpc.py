@@ -469,3 +469,15 @@ def test_a_climb_as_long_as_the_horizon_is_refused(acrobot):
     with pytest.raises(PaaError, match="climb_horizon must differ from its horizon"):
         MPCController(robot.analytic, task, robot.torque_limits, horizon=0.5, climb_horizon=0.5)
     MPCController(robot.analytic, task, robot.torque_limits, horizon=0.5, climb_horizon=0.0)
+
+
+def test_the_analytic_engine_refuses_it_in_one_line(acrobot):
+    """Its calls are tied to time steps (a plan solved every period, kept between calls): an adaptive ODE solver,
+    which calls a law at trial times back and forth, would integrate a law it never runs (it did: the gymnast stayed
+    hanging), so the analytic engine refuses it and names why."""
+    from paa_mj.errors import PaaError
+    from paa_mj.sim.analytic.engine import simulate_analytic
+
+    robot, task = acrobot
+    with pytest.raises(PaaError, match="mpc solves its plan every 20 ms and keeps it between calls"):
+        simulate_analytic(robot, make_controller("mpc", robot, task=task), t_final=0.1, task=task)

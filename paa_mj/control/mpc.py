@@ -229,6 +229,8 @@ class MPCController(Controller):
         self.memory0 = np.zeros(mpc_law.memory_size(n, nu, max(knots, climb)))
         self._memory = {}
         self.mode = np.int8(0)
+        # what a continuous-time integrator cannot honour (the analytic engine refuses it with this phrase)
+        self.sampled_data = f"solves its plan every {o['period'] * 1e3:g} ms and keeps it between calls"
         self.bind(model, task)
 
     def _regularisation_unit(self):

@@ -115,11 +115,15 @@ def exact_field(robot: Robot, law, limits=None, on_nonfinite=None):
 
 
 def _check_continuous(law):
-    """Refuse a law held over a period (a sampled-data controller states its ``period``) in one line."""
+    """Refuse a sampled-data law in one line: one that states its ``period`` (each torque held that long) or, in
+    ``sampled_data``, what else ties its calls to time steps (a plan solved every period and kept between calls)."""
+    sampled = getattr(law, "sampled_data", None)
     period = getattr(law, "period", None)
-    if isinstance(period, (int, float, np.integer, np.floating)) and period > 0:
-        raise PaaError(f"the analytic engine integrates laws continuous in time, and {controller_name(law)} holds"
-                       f" each torque for {float(period) * 1e3:g} ms (a sampled-data controller); use --engine cpu")
+    if not sampled and isinstance(period, (int, float, np.integer, np.floating)) and period > 0:
+        sampled = f"holds each torque for {float(period) * 1e3:g} ms"
+    if sampled:
+        raise PaaError(f"the analytic engine integrates laws continuous in time, and {controller_name(law)}"
+                       f" {sampled} (a sampled-data controller); use --engine cpu")
 
 
 def _phases(controller):

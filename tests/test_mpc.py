@@ -481,3 +481,23 @@ def test_the_analytic_engine_refuses_it_in_one_line(acrobot):
     robot, task = acrobot
     with pytest.raises(PaaError, match="mpc solves its plan every 20 ms and keeps it between calls"):
         simulate_analytic(robot, make_controller("mpc", robot, task=task), t_final=0.1, task=task)
+
+
+@pytest.mark.parametrize("hold", [0.01, 0.02, 0.05])
+def test_a_loop_slower_than_half_a_knot_gets_the_knots_torque(acrobot, hold):
+    """Called once every half knot or slower (a 10 ms Gymnasium step, --dt 0.02), the ramp from the applied torque to
+    the plan's cannot show: called once a period it held the torque it started with (zero) for ever. From its third
+    call on (two intervals seen) such a loop gets the plan's knot torque, held as the plan was solved; a fast loop
+    (1 ms) keeps the ramp."""
+    from paa_mj.control import mpc_law
+
+    robot, task = acrobot
+    c = MPCController(robot.analytic, task, robot.torque_limits)
+    x = np.array(task.start, float)
+    taus = [float(np.ravel(c.torque(x[:2], x[2:], k * hold))[0]) for k in range(3)]
+    memory = c._memory[1][0]
+    assert memory[mk.M_T0] == 2 * hold  # the third call solved again: at the plan's start, where x is the plan's
+    assert taus[2] != 0.0 and taus[2] == pytest.approx(mpc_law.plan_views(c.params, memory)[3][0, 0], abs=1e-12)
+    fast = MPCController(robot.analytic, task, robot.torque_limits)
+    ramp = [float(np.ravel(fast.torque(x[:2], x[2:], k * 0.001))[0]) for k in range(4)]
+    assert 0.0 < abs(ramp[1]) < abs(ramp[2]) < abs(ramp[3])  # from the applied torque (zero) towards the plan's

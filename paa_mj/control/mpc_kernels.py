@@ -47,8 +47,8 @@ H_CLIMB_KNOTS = 20
 HEADER = 31
 
 # header of the memory vector
-M_T0, M_MODE, M_NEXT, M_VALID, M_UPREV, M_COST, M_SOLVES = range(7)
-MEMORY_HEADER = 10  # mpc_law.M_* take 7, 8, 9
+M_T0, M_MODE, M_NEXT, M_VALID, M_CALL, M_COST, M_SOLVES = range(7)  # M_CALL: the time of the law's last call
+MEMORY_HEADER = 11  # mpc_law.M_* take 7..10
 
 
 @njit(cache=True)

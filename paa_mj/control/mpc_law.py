@@ -12,9 +12,9 @@ from numba import njit
 from ..model import chain
 from ..model.states import wrap
 from .mpc_kernels import (H_CLIMB_KNOTS, H_E_GOAL, H_ITERS, H_ITERS_COLD, H_KNOTS, H_N, H_NU, H_PERIOD, H_PUMP,
-                          H_PUMP_KD, H_PUMP_KP, H_RESTART, H_RHO_IN, H_RHO_OUT, H_STEP, H_TURN, M_COST, M_MODE, M_NEXT,
-                          M_SOLVES, M_T0, M_VALID, MEMORY_HEADER, _clamp, _forward, energy, ilqr, lqr_cost,
-                          lqr_torque, offsets, plan_knots, scratch, step, substeps, unpack)
+                          H_PUMP_KD, H_PUMP_KP, H_RESTART, H_RHO_IN, H_RHO_OUT, H_STEP, H_TURN, M_CALL, M_COST, M_MODE,
+                          M_NEXT, M_SOLVES, M_T0, M_VALID, MEMORY_HEADER, _clamp, _forward, energy, ilqr,
+                          lqr_cost, lqr_torque, offsets, plan_knots, scratch, step, substeps, unpack)
 from . import mpc_kernels as mk
 from . import mpc_estimator
 from .mpc_estimator import E_VALID, H_ESTIMATE, estimate, estimator_views, remember_torque
@@ -33,6 +33,8 @@ H_CLIMB_ENERGY, H_CLIMB_R, H_CLIMB_RATE, H_CLIMB_SPEED = 27, 28, 29, 30
 M_COLD, M_BRAKE = MEMORY_HEADER - 1, MEMORY_HEADER - 2
 # the memory's slot of the kept plan's knots (0: the horizon's, H_KNOTS)
 M_KNOTS = MEMORY_HEADER - 3
+# the memory's slot of the interval between the law's last two calls [s] (mpc_kernels.M_CALL: the last call's time)
+M_HOLD = MEMORY_HEADER - 4
 
 
 @njit(cache=True)
@@ -303,6 +305,8 @@ def mpc_torque(params, y, t, memory, tau):
             memory[M_VALID] = 0.0
             tau[:] = 0.0
     remember_torque(params, memory, tau, y.size // 2)
+    memory[M_HOLD] = t - memory[M_CALL]
+    memory[M_CALL] = t
     return mode
 
 
@@ -349,8 +353,12 @@ def _law(params, x, t, memory, tau):
     i = min(max(int(s), 0), U.shape[0] - 1)
     ref = np.empty(nx)
     _plan_state(X, s, ref)
+    # a loop that calls fewer than two times a knot (its last two intervals) holds each torque too long for the
+    # ramp from the applied torque to show (called once a period, it would hold that torque for ever): it gets the
+    # knot's torque, held over the knot as the plan was solved
+    coarse = min(t - memory[M_CALL], memory[M_HOLD]) >= 0.5 * h
     for r in range(nu):
-        v = _plan_torque(U, s, r, ustart[r])
+        v = U[i, r] if coarse else _plan_torque(U, s, r, ustart[r])
         for j in range(nx):
             d = wrap(x[j] - ref[j]) if j < n else x[j] - ref[j]
             v += K[i, r, j] * d

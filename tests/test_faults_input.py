@@ -353,7 +353,11 @@ def test_a_folder_reached_through_a_symbolic_link_is_written_and_keeps_other_fil
     ["atlas", "--grid", "2", "--scheduler", "inline"],
     ["simulate", "--t-final", "0.05"],
 ], ids=["basin", "robustness", "atlas", "simulate"])
-def test_a_study_does_not_overwrite_a_summary_it_did_not_write(command, tmp_path, run):
+def test_a_study_does_not_overwrite_a_summary_it_did_not_write(command, tmp_path, run, monkeypatch):
+    if command[0] == "atlas":  # its ten maps (5 CPU-s of drawing, checked in test_atlas.py) are not what is checked
+        from paa_mj.outputs import plots
+
+        monkeypatch.setattr(plots, "atlas_theory_figure", lambda summary, arrays: plots.new_figure()[0])
     out = tmp_path / "mine"
     out.mkdir()
     (out / "summary.json").write_text('{"my": "notes"}')

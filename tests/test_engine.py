@@ -40,8 +40,12 @@ def random_starts():
 
 @pytest.mark.parametrize("retire", [False, True])
 def test_batch_equals_single_rollouts_bit_for_bit(gymnast, random_starts, retire):
-    batch = simulate_batch(gymnast, random_starts, 20.0, record=True, retire=retire, nthread=2)
-    for i, x0 in enumerate(random_starts):
+    # three of the six starts (half the CPU): one switches and balances (retired at 19.3 s), one switches and never
+    # balances (runs to the end), one balances early (retired at 16.7 s)
+    starts = random_starts[[2, 4, 5]]
+    batch = simulate_batch(gymnast, starts, 20.0, record=True, retire=retire, nthread=2)
+    assert np.all(np.isfinite(batch.switch_time)) and not batch.balanced.all() and batch.balanced.any()
+    for i, x0 in enumerate(starts):
         single = simulate_mujoco(gymnast, "vcl", x0, 20.0, sample_dt=0.01, retire=retire)
         assert (single.switch_time or np.nan) == pytest.approx(batch.switch_time[i], nan_ok=True)
         assert single.balanced() == batch.balanced[i]

@@ -33,11 +33,11 @@ def test_a_short_collocation_solve_satisfies_the_equations_of_motion(gymnast):
 
 
 def test_min_time_is_faster_and_min_effort_is_cheaper(gymnast):
-    fast = solve_kip(gymnast.analytic, [470.0, 217.0], "min-time", duration=2.0, intervals=40)
-    cheap = solve_kip(gymnast.analytic, [470.0, 217.0], "min-effort", duration=3.0, intervals=40)
+    fast = solve_kip(gymnast.analytic, [470.0, 217.0], "min-time", duration=2.0, intervals=20)
+    cheap = solve_kip(gymnast.analytic, [470.0, 217.0], "min-effort", duration=3.0, intervals=20)
     assert fast.duration < cheap.duration and cheap.effort() < fast.effort()
     assert max(fast.defects(gymnast.analytic), cheap.defects(gymnast.analytic)) < 1e-6
-    again = solve_kip(gymnast.analytic, [470.0, 217.0], "min-time", duration=2.0, intervals=40)
+    again = solve_kip(gymnast.analytic, [470.0, 217.0], "min-time", duration=2.0, intervals=20)
     np.testing.assert_array_equal(again.u, fast.u)  # from the cache
 
 

@@ -122,6 +122,16 @@ def _basin_arrays(out):
         return {k: z[k].copy() for k in z.files}
 
 
+@pytest.fixture
+def one_panel_basin_figure(monkeypatch):
+    """A one-panel stand-in for the basin's figure: these tests check chunks and arrays over several runs of a
+    study, not its drawing (about 0.6 CPU-s a run; drawn and checked in test_engine.py and test_distributed.py)."""
+    from paa_mj.outputs import plots
+
+    monkeypatch.setattr(plots, "basin_figure", lambda summary, arrays: plots.new_figure()[0])
+
+
+@pytest.mark.usefixtures("one_panel_basin_figure")
 def test_a_changed_controller_file_is_not_resumed_from_old_chunks(tmp_path, capsys):
     """Studies are keyed by the controller's source, not its path."""
     path = tmp_path / "pd.py"
@@ -144,6 +154,7 @@ def test_a_changed_controller_file_is_not_resumed_from_old_chunks(tmp_path, caps
     assert "--fresh: removed the kept chunks of an earlier" in capsys.readouterr().err
 
 
+@pytest.mark.usefixtures("one_panel_basin_figure")
 def test_kept_chunks_that_do_not_fit_are_computed_again(tmp_path, capsys):
     from paa_mj.io import write_npz
 

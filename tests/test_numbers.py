@@ -122,18 +122,9 @@ def _basin_arrays(out):
         return {k: z[k].copy() for k in z.files}
 
 
-@pytest.fixture
-def one_panel_basin_figure(monkeypatch):
-    """A one-panel stand-in for the basin's figure: these tests check chunks and arrays over several runs of a
-    study, not its drawing (about 0.6 CPU-s a run; drawn and checked in test_engine.py and test_distributed.py)."""
-    from paa_mj.outputs import plots
-
-    monkeypatch.setattr(plots, "basin_figure", lambda summary, arrays: plots.new_figure()[0])
-
-
-@pytest.mark.usefixtures("one_panel_basin_figure")
-def test_a_changed_controller_file_is_not_resumed_from_old_chunks(tmp_path, capsys):
+def test_a_changed_controller_file_is_not_resumed_from_old_chunks(tmp_path, capsys, one_panel_figures):
     """Studies are keyed by the controller's source, not its path."""
+    one_panel_figures("basin_figure")  # four runs of a study: its chunks (the figure: test_engine, test_distributed)
     path = tmp_path / "pd.py"
     args = ["basin", "--controller", f"{path}:PD", "--grid", "2", "--t-final", "0.5", "--scheduler", "inline",
             "--chunk", "2"]
@@ -154,9 +145,10 @@ def test_a_changed_controller_file_is_not_resumed_from_old_chunks(tmp_path, caps
     assert "--fresh: removed the kept chunks of an earlier" in capsys.readouterr().err
 
 
-@pytest.mark.usefixtures("one_panel_basin_figure")
-def test_kept_chunks_that_do_not_fit_are_computed_again(tmp_path, capsys):
+def test_kept_chunks_that_do_not_fit_are_computed_again(tmp_path, capsys, one_panel_figures):
     from paa_mj.io import write_npz
+
+    one_panel_figures("basin_figure")  # two runs of a study: its chunks (the figure: test_engine, test_distributed)
 
     args = ["basin", "--grid", "2", "--t-final", "0.5", "--scheduler", "inline", "--chunk", "2",
             "--out", str(tmp_path)]

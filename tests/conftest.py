@@ -59,6 +59,20 @@ def figures_at_test_resolution():
         yield
 
 
+@pytest.fixture
+def one_panel_figures(monkeypatch):
+    """``one_panel_figures("basin_figure", ...)``: those figures of :mod:`paa_mj.outputs.plots` drawn as one empty
+    panel, for a test of a study's runs, folders or chunks rather than of its drawing (about 0.6 CPU-s a figure,
+    5 for the atlas's maps); each figure is drawn and checked in full by a test of its own."""
+    from paa_mj.outputs import plots
+
+    def stand_in(*names):
+        for name in names:
+            monkeypatch.setattr(plots, name, lambda *args, **kwargs: plots.new_figure()[0])
+
+    return stand_in
+
+
 @pytest.fixture(scope="session")
 def gymnast():
     return load_robot("gymnast")

@@ -34,7 +34,8 @@ def test_realaigym_protocols_do_not_share_a_folder(run, tmp_path):
     assert again.returncode == 0 and "removed" not in again.stderr
 
 
-def test_a_study_in_another_study_s_folder_is_refused_unless_fresh(run, tmp_path):
+def test_a_study_in_another_study_s_folder_is_refused_unless_fresh(run, tmp_path, one_panel_figures):
+    one_panel_figures("basin_figure", "robustness_figure")  # the folder's files are checked, not their drawing
     out = tmp_path / "s"
     basin = ["basin", "--grid", "2", "--t-final", "0.05", "--scheduler", "inline", "--out", out]
     assert run(*basin).returncode == 0

@@ -353,7 +353,9 @@ def test_a_folder_reached_through_a_symbolic_link_is_written_and_keeps_other_fil
     ["atlas", "--grid", "2", "--scheduler", "inline"],
     ["simulate", "--t-final", "0.05"],
 ], ids=["basin", "robustness", "atlas", "simulate"])
-def test_a_study_does_not_overwrite_a_summary_it_did_not_write(command, tmp_path, run):
+def test_a_study_does_not_overwrite_a_summary_it_did_not_write(command, tmp_path, run, one_panel_figures):
+    # what each writes beside summary.json is checked, not its drawing (the atlas's ten maps, 5 CPU-s: test_atlas)
+    one_panel_figures("atlas_theory_figure", "basin_figure", "robustness_figure")
     out = tmp_path / "mine"
     out.mkdir()
     (out / "summary.json").write_text('{"my": "notes"}')

@@ -102,7 +102,8 @@ class Kick(_Zero):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["mine.py"]
 
 
-def test_a_folder_of_another_commands_results_is_refused(tmp_path, run):
+def test_a_folder_of_another_commands_results_is_refused(tmp_path, run, one_panel_figures):
+    one_panel_figures("basin_figure")  # the folder's owner is checked, not the figure (test_engine, test_distributed)
     out = tmp_path / "study"
     assert run("basin", "--grid", "2", "--t-final", "0.05", "--scheduler", "inline", "--out", out).returncode == 0
     before = {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()}

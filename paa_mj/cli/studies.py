@@ -55,7 +55,7 @@ def check_engine_args(args) -> dict:
     if args.engine == "warp":
         from ..sim.warp.device import device_name, load_warp
 
-        wp, _ = load_warp()
+        wp, _ = load_warp(mujoco=False)  # MuJoCo Warp checked installed, imported by the engine that runs it
         device_name(wp, args.device)
     return {"engine": args.engine, "device": args.device}
 

@@ -163,7 +163,7 @@ def run(batch: Rollouts, packed, name, *, device=None, advanced=None):
     from ..sim.warp.engine import device_law
 
     triple = device_law(packed, name, instead="--engine cpu")
-    wp, _ = load_warp()
+    wp, _ = load_warp(mujoco=False)
     device = device_name(wp, device)
     arrays = _inputs(batch, packed.params, packed.memory)
     steps = len(batch.T) - 1

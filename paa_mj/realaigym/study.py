@@ -471,7 +471,7 @@ def device_of(engine, device):
         return "cpu"
     from ..sim.warp.device import device_name, load_warp
 
-    return device_name(load_warp()[0], device)
+    return device_name(load_warp(mujoco=False)[0], device)
 
 
 def board(robot: Robot, specs: dict, task, seed=777, progress=False) -> list[dict]:

@@ -303,14 +303,25 @@ def choose_method(method, n_links):
 
 
 def _sos_part(am, task, K, S, Q, R, rho_torque):
-    """(rho, rho_sos, rho_upper, certificate) of the sos method."""
-    terms = sos.taylor_field(am, task, K, sos.TAYLOR_DEGREE)
-    upper = sos.sampled_bound(terms, S)
-    top = angle_level(S, am.n_links) if upper is None else min(upper, angle_level(S, am.n_links))
+    """(rho, rho_sos, rho_upper, certificate) of the sos method.
+
+    (rho_sos, rho_upper) depend on the loop (K, S, Q, R) alone, not on the torque limit or the step: they are kept
+    on disk by that content (:func:`~paa_mj.provenance.kept`), so a region of attraction, a switch level and the
+    same loop under another torque limit share one sums-of-squares program (about 6 CPU-s for the gymnast)."""
     lower = np.linalg.cholesky(S)
     decrease = np.linalg.solve(lower, np.linalg.solve(lower, Q + K.T @ R @ K).T)
     epsilon = sos.EPSILON_FRACTION * float(np.linalg.eigvalsh(0.5 * (decrease + decrease.T))[0])
-    rho_sos, _ = sos.sos_level(S, terms, epsilon, top)
+
+    def compute():
+        terms = sos.taylor_field(am, task, K, sos.TAYLOR_DEGREE)
+        upper = sos.sampled_bound(terms, S)
+        top = angle_level(S, am.n_links) if upper is None else min(upper, angle_level(S, am.n_links))
+        return sos.sos_level(S, terms, epsilon, top)[0], upper
+
+    rho_sos, upper = kept("sos_level", compute, encode=lambda r: {"rho_sos": r[0], "upper": r[1]},
+                          decode=lambda d: (float(d["rho_sos"]), None if d["upper"] is None else float(d["upper"])),
+                          **_definition(am, task, Q, R, None, 0.0, "sos", K=np.asarray(K, float),
+                                        S=np.asarray(S, float), degree=sos.TAYLOR_DEGREE))
     rho = rho_sos if rho_torque is None else min(rho_sos, rho_torque)
     certificate = (f"dV/dt <= -{epsilon:.3g} |L^T x|^2 < 0 on 0 < x^T S x <= rho (S = L L^T) for the degree-"
                    f"{sos.TAYLOR_DEGREE} Taylor model of the unsaturated loop about the goal, by sums of squares"

@@ -1,6 +1,8 @@
 """MuJoCo Warp, loaded once, quietly: the optional GPU dependency (``pip install "paa_mj[gpu]"``).
 
-:func:`load_warp` imports ``warp`` and ``mujoco_warp`` or refuses in one line that says how to install them;
+:func:`load_warp` imports ``warp`` and ``mujoco_warp`` (only where the MuJoCo physics runs on the device: about
+5 CPU-s of kernel definitions, which RealAIGym's own simulator on Warp does not use) or refuses in one line that
+says how to install them;
 it keeps Warp's compiled kernels under the package's cache folder (``$PAA_MJ_CACHE/warp``, or ``$WARP_CACHE_PATH``
 where set) and silences Warp's greeting and the CUDA driver's absence on a machine without a GPU.
 :func:`device_name` picks the device: the one asked for, else ``$PAA_MJ_WARP_DEVICE``, else Warp's preferred
@@ -47,10 +49,15 @@ def _quiet_stderr():
         os.close(saved)
 
 
-def load_warp():
-    """``(warp, mujoco_warp)``, initialised, or a one-line :class:`PaaError` naming the install command."""
+def load_warp(mujoco=True):
+    """``(warp, mujoco_warp)``, initialised, or a one-line :class:`PaaError` naming the install command.
+
+    ``mujoco=False``: ``mujoco_warp`` is only checked to be installed, not imported, and None stands in its place
+    (what needs Warp alone: RealAIGym's simulator, the check of a command's ``--engine warp``)."""
+    if "wp" in _LOADED and (not mujoco or "mjw" in _LOADED):
+        return _LOADED["wp"], _LOADED.get("mjw")
     if "wp" in _LOADED:
-        return _LOADED["wp"], _LOADED["mjw"]
+        return _LOADED["wp"], _load_mujoco_warp()
     try:
         import warp as wp
     except ImportError as err:
@@ -67,12 +74,25 @@ def load_warp():
             wp.init()
     except Exception as err:  # noqa: BLE001 - any failure of the native runtime, one line
         raise PaaError(f"NVIDIA Warp did not start: {type(err).__name__}: {' '.join(str(err).split())}") from None
+    if not mujoco:
+        import importlib.util
+
+        if importlib.util.find_spec("mujoco_warp") is None:
+            raise PaaError(f"the warp engine needs MuJoCo Warp, not installed here (No module named 'mujoco_warp'):"
+                           f" {INSTALL}")
+        _LOADED.update(wp=wp)
+        return wp, None
+    _LOADED.update(wp=wp)
+    return wp, _load_mujoco_warp()
+
+
+def _load_mujoco_warp():
     try:
         import mujoco_warp as mjw
     except ImportError as err:
         raise PaaError(f"the warp engine needs MuJoCo Warp, not installed here ({err}): {INSTALL}") from None
-    _LOADED.update(wp=wp, mjw=mjw)
-    return wp, mjw
+    _LOADED.update(mjw=mjw)
+    return mjw
 
 
 def device_name(wp, device=None) -> str:

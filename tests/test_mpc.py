@@ -501,3 +501,53 @@ def test_a_loop_slower_than_half_a_knot_gets_the_knots_torque(acrobot, hold):
     fast = MPCController(robot.analytic, task, robot.torque_limits)
     ramp = [float(np.ravel(fast.torque(x[:2], x[2:], k * 0.001))[0]) for k in range(4)]
     assert 0.0 < abs(ramp[1]) < abs(ramp[2]) < abs(ramp[3])  # from the applied torque (zero) towards the plan's
+
+
+def _restart_after_first_plan(c, x_far, calls=200):
+    """The compiled law of ``c`` from hanging at t = 0 (its first plan), then at ``x_far`` from the next solve's time
+    on, call after call every 2 ms until no restart is in progress: the memory, and the calls the restart took."""
+    from paa_mj.control import mpc_law
+
+    form = c.compiled()
+    memory, tau = form.memory.copy(), np.empty(1)
+    form.kernel(np.array([-np.pi, 0.0, 0.0, 0.0]), 0.0, form.params, memory, tau)
+    assert memory[mk.M_SOLVES] == 1.0
+    for k in range(calls):
+        form.kernel(x_far.copy(), 0.02 + 0.002 * k, form.params, memory, tau)
+        assert np.all(np.isfinite(tau))
+        if mpc_law.restart_views(form.params, memory)[0][mpc_law.R_STAGE] == 0.0:
+            return memory, k + 1
+    raise AssertionError("the restart never ended")
+
+
+def test_a_restart_spread_over_calls_makes_the_plan_of_one_call(acrobot):
+    """With ``spread`` 2 a restart (the state far from the plan) after the first plan takes many calls of at most 2
+    iLQR iterations each (iLQR resumed, mpc_kernels.ilqr_steps), and ends with the plan that one call makes."""
+    from paa_mj.control import mpc_law
+
+    robot, task = acrobot
+    x_far = np.array([2.0, -1.0, 3.0, 5.0])
+    plans = {}
+    for spread in (0, 2):
+        c = MPCController(robot.analytic, task, robot.torque_limits, estimate=0.0, spread=spread)
+        memory, calls = _restart_after_first_plan(c, x_far)
+        assert memory[mk.M_SOLVES] == 2.0 and memory[mk.M_VALID] == 1.0
+        assert (calls == 1) == (spread == 0) and (spread == 0 or calls >= DEFAULTS["cold_iterations"] / spread)
+        plans[spread] = mpc_law.plan_views(c.params, memory)[3].copy(), memory[mk.M_COST], memory[mk.M_T0]
+    np.testing.assert_allclose(plans[2][0], plans[0][0], rtol=1e-9, atol=1e-9)
+    assert plans[2][1:] == pytest.approx(plans[0][1:], rel=1e-9)
+
+
+def test_a_chain_spun_past_spin_cap_is_braked_not_planned_for(acrobot):
+    """Their acrobot's elbow at 300 rad/s (12 sub-steps a knot, past ``spin_cap`` 8): the law brakes (each motor's
+    power at most zero) without a solve; with no cap it solves."""
+    from paa_mj.control import mpc_law
+
+    robot, task = acrobot
+    x = np.array([0.5, 1.0, 10.0, 300.0])
+    for cap, solves in ((DEFAULTS["spin_cap"], 0.0), (0.0, 1.0)):
+        form = MPCController(robot.analytic, task, robot.torque_limits, spin_cap=cap).compiled()
+        memory, tau = form.memory.copy(), np.empty(1)
+        form.kernel(x.copy(), 0.0, form.params, memory, tau)
+        assert memory[mk.M_SOLVES] == solves and np.isfinite(tau[0])
+        assert solves or (memory[mpc_law.M_BRAKE] == 1.0 and tau[0] * x[3] < 0.0)

@@ -70,6 +70,8 @@ DEFAULTS = {
     "climb_w_speed": 1.0,  # factor on w_speed in a climb's plans
     "climb_r": 1.0,        # factor on r in a climb's plans
     "climb_r_rate": 1.0,   # factor on r_rate in a climb's plans
+    "spread": 0.0,         # iLQR iterations a call gives a restart, spread over calls (0: a restart in one call)
+    "spin_cap": 8.0,       # RK4 sub-steps per knot beyond which a spinning chain is braked, not planned for (0: never)
 }
 
 # REFERENCE: the robot the defaults were searched on; every option is stated on its scale (:func:`similarity`).
@@ -116,6 +118,7 @@ SIMILARITY = {
     "observer_angle": (0, 0, 0), "observer_speed": (0, 0, 0), "lag_memory": (0, 0, 1),
     "lag_gate": (1, 0, 0), "observer_accel": (0, 0, -1.5), "noise_memory": (0, 0, 1), "climb_horizon": (0, 0, 1),
     "climb_deficit": (0, 0, 0), "climb_w_speed": (0, 0, 0), "climb_r": (0, 0, 0), "climb_r_rate": (0, 0, 0),
+    "spread": (0, 0, 0), "spin_cap": (0, 0, 0),
 }
 
 
@@ -216,6 +219,7 @@ class MPCController(Controller):
         header[[me.H_ESTIMATE, me.H_OBS_ANGLE, me.H_OBS_SPEED, me.H_LAG_MEMORY, me.H_LAG_GATE]] = [
             o["estimate"], o["observer_angle"], o["observer_speed"], o["lag_memory"], o["lag_gate"]]
         header[[mpc_law.H_RESPIN, mpc_law.H_BRAKE, mpc_law.H_FAST]] = [o["respin"], o["brake"], o["turn"]]
+        header[[mpc_law.H_SPREAD, mpc_law.H_SPIN_CAP]] = [round(o["spread"]), o["spin_cap"]]
         header[[me.H_OBS_ACCEL, me.H_NOISE_MEMORY]] = [o["observer_accel"], o["noise_memory"]]
         header[[mk.H_CLIMB_KNOTS, mpc_law.H_CLIMB_ENERGY, mpc_law.H_CLIMB_SPEED, mpc_law.H_CLIMB_R,
                 mpc_law.H_CLIMB_RATE]] = [climb, climb_energy(model, task, o["climb_deficit"]), o["climb_w_speed"],
@@ -273,7 +277,7 @@ class MPCController(Controller):
                       "r", "r_rate", "terminal", "q_angle", "q_speed", "r_lqr", "rho_in", "rho_out", "pump", "pump_kp",
                       "pump_kd", "restart", "respin", "brake", "turn", "box", "estimate", "observer_angle",
                       "observer_speed", "lag_memory", "lag_gate", "observer_accel", "noise_memory", "climb_horizon",
-                      "climb_deficit", "climb_w_speed", "climb_r", "climb_r_rate", "limit"),
+                      "climb_deficit", "climb_w_speed", "climb_r", "climb_r_rate", "spread", "spin_cap", "limit"),
             passive=None,
             checked=(("realaigym_acrobot", "stretched"), ("acrobot", "stretched"), ("realaigym_pendubot", "stretched")))
 def build_mpc(robot, task, gains=None, check=True, limit=None, **options):

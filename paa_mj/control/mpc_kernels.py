@@ -41,10 +41,10 @@ FD_EPS = 1e-6
 # header of the parameter vector
 (H_N, H_KNOTS, H_STEP, H_PERIOD, H_ITERS, H_RHO_IN, H_RHO_OUT, H_TERM, H_PUMP, H_RESTART, H_ITERS_COLD, H_PUMP_KP,
  H_PUMP_KD, H_E_GOAL, H_TURN) = range(15)
-H_NU = 23  # the number of motors m (mpc_law.H_* take 15, 22, 24, 27..30; mpc_estimator's 16..19, 21, 25, 26)
+H_NU = 23  # the number of motors m (mpc_law.H_* take 15, 22, 24, 27..32; mpc_estimator's 16..19, 21, 25, 26)
 # the knots of the climb's plans, started afresh far below the goal's energy (mpc_law.climb_knots; 0: none)
 H_CLIMB_KNOTS = 20
-HEADER = 31
+HEADER = 33
 
 # header of the memory vector
 M_T0, M_MODE, M_NEXT, M_VALID, M_CALL, M_COST, M_SOLVES = range(7)  # M_CALL: the time of the law's last call
@@ -549,6 +549,14 @@ def _forward(params, model, x0, uprev0, Xbar, Ubar, kff, Kfb, alpha, X, U, ws):
 def ilqr(params, model, x0, uprev0, U, X, Kfb, iterations):
     """Improve the plan U (N, nu) from x0 by at most ``iterations`` iLQR iterations in place; X (N + 1, nx) its
     states, Kfb (N, nu, nx + nu) its feedback gains (on x and the previous torque). Returns the plan's cost."""
+    return ilqr_steps(params, model, x0, uprev0, U, X, Kfb, iterations, np.array([1e-6, 0.0]))
+
+
+@njit(cache=True)
+def ilqr_steps(params, model, x0, uprev0, U, X, Kfb, iterations, state):
+    """:func:`ilqr` resumable: ``state`` = [mu, stopped] carries the regularisation and whether it has stopped
+    (converged or given up) from one call to the next, so that iterations split over calls (a restart spread over
+    control calls, :func:`paa_mj.control.mpc_law.restart_steps`) make the plan one call would."""
     nx = x0.size
     n = nx // 2
     nu = U.shape[1]
@@ -567,7 +575,10 @@ def ilqr(params, model, x0, uprev0, U, X, Kfb, iterations):
     base, probe, xp = np.empty(nx), np.empty(nx), np.empty(nx)
     upr = np.empty(nu)
     cost = rollout(params, model, x0, uprev0, U, X, ws)
-    mu = 1e-6
+    mu = state[0]
+    if state[1] != 0.0:
+        return cost
+    state[1] = 1.0  # unless the loop runs out of iterations
     for it in range(iterations):
         for k in range(knots):
             _linearise(params, X[k], U[k], h, FX[k], FU[k], base, probe, xp, upr, ws)
@@ -602,6 +613,9 @@ def ilqr(params, model, x0, uprev0, U, X, Kfb, iterations):
         mu = max(mu / 10.0, 1e-8)
         if improvement < 1e-7 * (1.0 + abs(cost)):
             break
+    else:
+        state[1] = 0.0
+    state[0] = mu
     return cost
 
 

@@ -13,7 +13,7 @@ from ..model import chain
 from ..model.states import wrap
 from .mpc_kernels import (H_CLIMB_KNOTS, H_E_GOAL, H_ITERS, H_ITERS_COLD, H_KNOTS, H_N, H_NU, H_PERIOD, H_PUMP,
                           H_PUMP_KD, H_PUMP_KP, H_RESTART, H_RHO_IN, H_RHO_OUT, H_STEP, H_TURN, M_CALL, M_COST, M_MODE,
-                          M_NEXT, M_SOLVES, M_T0, M_VALID, MEMORY_HEADER, _clamp, _forward, energy, ilqr,
+                          M_NEXT, M_SOLVES, M_T0, M_VALID, MEMORY_HEADER, _clamp, _forward, energy, ilqr, ilqr_steps,
                           lqr_cost, lqr_torque, offsets, plan_knots, scratch, step, substeps, unpack)
 from . import mpc_kernels as mk
 from . import mpc_estimator
@@ -35,13 +35,56 @@ M_COLD, M_BRAKE = MEMORY_HEADER - 1, MEMORY_HEADER - 2
 M_KNOTS = MEMORY_HEADER - 3
 # the memory's slot of the interval between the law's last two calls [s] (mpc_kernels.M_CALL: the last call's time)
 M_HOLD = MEMORY_HEADER - 4
+# the iLQR iterations a control call gives a restart once the law has made a plan (0: a restart is solved in one call):
+# a restart is then spread over calls (:func:`restart_steps`)
+H_SPREAD = 31
+# the RK4 sub-steps per knot (mpc_kernels.substeps at H_FAST's turn) beyond which a spinning chain is braked, not
+# planned for, until it is slower (0: always planned for)
+H_SPIN_CAP = 32
+# the spread restart's header in its block of the memory (:func:`restart_views`): its stage (0: none; 1 the kept
+# plan shifted, 2 the energy-pumping guess, 3 the LQR's, 4 the braking one), whether the stage's guess is made, its
+# iterations done, iLQR's regularisation and stop flag, the best cost so far, its start time and knots
+R_STAGE, R_INIT, R_ITERS, R_MU, R_STOP, R_BEST, R_T0, R_KNOTS = range(8)
+R_HEADER = 8
 
 
 @njit(cache=True)
 def memory_size(n, nu, knots):
     """The law's memory: the plan's (:func:`paa_mj.control.mpc_kernels.memory_size`), then the estimator's
-    (:func:`paa_mj.control.mpc_estimator.memory_size`)."""
-    return mk.memory_size(n, nu, knots) + mpc_estimator.memory_size(n, nu)
+    (:func:`paa_mj.control.mpc_estimator.memory_size`), then the spread restart's (:func:`restart_views`)."""
+    nx = 2 * n
+    plan = (knots + 1) * nx + knots * nu + knots * nu * (nx + nu)
+    return mk.memory_size(n, nu, knots) + mpc_estimator.memory_size(n, nu) + R_HEADER + nx + nu + 2 * plan
+
+
+@njit(cache=True)
+def restart_views(params, memory):
+    """The spread restart's block of the memory: header (R_*), the state and previous torque it solves from (nx, nu),
+    the plan being solved (X, U, K) and the best plan so far (X, U, K), each of the restart's knots (R_KNOTS) in room
+    for the longest plan."""
+    n, nu = int(params[H_N]), int(params[H_NU])
+    nx = 2 * n
+    room = plan_knots(params)
+    a = mk.memory_size(n, nu, room) + mpc_estimator.memory_size(n, nu)
+    head = chain.vector_view(memory, a, R_HEADER)
+    a += R_HEADER
+    knots = max(int(head[R_KNOTS]), 1)
+    x0 = chain.vector_view(memory, a, nx)
+    a += nx
+    u0 = chain.vector_view(memory, a, nu)
+    a += nu
+    Xc = chain.matrix_view(memory, a, knots + 1, nx)
+    a += (room + 1) * nx
+    Uc = chain.matrix_view(memory, a, knots, nu)
+    a += room * nu
+    Kc = np.ascontiguousarray(memory[a:a + knots * nu * (nx + nu)]).reshape((knots, nu, nx + nu))
+    a += room * nu * (nx + nu)
+    Xb = chain.matrix_view(memory, a, knots + 1, nx)
+    a += (room + 1) * nx
+    Ub = chain.matrix_view(memory, a, knots, nu)
+    a += room * nu
+    Kb = np.ascontiguousarray(memory[a:a + knots * nu * (nx + nu)]).reshape((knots, nu, nx + nu))
+    return head, x0, u0, Xc, Uc, Kc, Xb, Ub, Kb
 
 
 @njit(cache=True)
@@ -194,6 +237,14 @@ def _far(params, model, x, t, memory):
 def _shifted_solve(params, model, x, t, memory, Ug, Xg, Kg, iterations):
     """iLQR from the kept plan shifted to t and followed from x with its own feedback (an open-loop shift of a swing
     diverges), into Ug, Xg, Kg; returns its cost (inf where it runs away)."""
+    _shifted_guess(params, model, x, t, memory, Ug, Xg, Kg)
+    uprev = plan_views(params, memory)[0]
+    return ilqr(params, model, x, uprev, Ug, Xg, Kg, iterations)
+
+
+@njit(cache=True)
+def _shifted_guess(params, model, x, t, memory, Ug, Xg, Kg):
+    """:func:`_shifted_solve`'s first guess, into Ug, Xg, Kg."""
     n = x.size // 2
     knots, nu = Ug.shape
     uprev, ustart, X, U, K = plan_views(params, memory)
@@ -207,7 +258,6 @@ def _shifted_solve(params, model, x, t, memory, Ug, Xg, Kg, iterations):
             Us[k, j] = _plan_torque(U, s + k + 0.5, j, ustart[j])
         Kg[k] = K[min(max(int(s + k + 0.5), 0), K.shape[0] - 1)]
     _forward(params, model, x, uprev, Xs, Us, np.zeros((knots, nu)), Kg, 0.0, Xg, Ug, scratch(n))
-    return ilqr(params, model, x, uprev, Ug, Xg, Kg, iterations)
 
 
 @njit(cache=True, inline="always")
@@ -236,6 +286,10 @@ def replan(params, model, x, t, memory):
     kept = plan_views(params, memory)[3].shape[0]
     valid = memory[M_VALID] != 0.0
     restart = not valid or _far(params, model, x, t, memory)
+    spread = int(params[H_SPREAD]) if memory[M_SOLVES] > 0.0 else 0
+    if restart and spread > 0:
+        _begin_restart(params, model, x, t, memory, 1 if valid else 2, spread)
+        return
     knots = climb_knots(params, model, x) if restart else kept
     if knots != int(params[H_KNOTS]):
         params = _climb_weights(params)
@@ -253,6 +307,10 @@ def replan(params, model, x, t, memory):
             U[:, :] = Ug
             X[:, :] = Xg
             K[:, :, :] = Kg
+        elif spread > 0:  # the kept plan ran away: it is dropped, and a restart from the guesses spread
+            memory[M_VALID] = 0.0
+            _begin_restart(params, model, x, t, memory, 2, max(spread - int(params[H_ITERS]), 0))
+            return
     if restart or best == math.inf:
         memory[M_COLD] = t
         spinning = energy(model, x) - params[H_E_GOAL] > params[H_RESPIN]
@@ -281,6 +339,102 @@ def replan(params, model, x, t, memory):
     memory[M_SOLVES] += 1.0
 
 
+@njit(cache=True)
+def _begin_restart(params, model, x, t, memory, stage, budget):
+    """Start a restart spread over calls from x at t (stage 1: from the kept plan shifted, then the guesses; 2: the
+    guesses only) and give it ``budget`` iterations now (:func:`restart_steps`)."""
+    uprev = plan_views(params, memory)[0]
+    head = restart_views(params, memory)[0]
+    head[R_KNOTS] = climb_knots(params, model, x)
+    head[R_STAGE] = stage
+    head[R_INIT] = 0.0
+    head[R_BEST] = math.inf
+    head[R_T0] = t
+    views = restart_views(params, memory)
+    views[1][:] = x
+    views[2][:] = uprev
+    memory[M_COLD] = t
+    restart_steps(params, t, memory, budget)
+
+
+@njit(cache=True)
+def restart_steps(params, t, memory, budget):
+    """Carry the restart in progress on by at most ``budget`` iLQR iterations at time t: :func:`replan`'s restart
+    (from x0 at t0: the kept plan shifted, the energy-pumping guess, the LQR's and, on a spinning chain, the braking
+    one, each improved by cold_iterations, the cheapest kept), one stage after another, iLQR resumed where the last
+    call left it (:func:`~paa_mj.control.mpc_kernels.ilqr_steps`: the plans one call would make); when the last stage
+    is done, the best plan becomes the kept one (made at t0, followed from t)."""
+    head, x0, u0, Xc, Uc, Kc, Xb, Ub, Kb = restart_views(params, memory)
+    knots = int(head[R_KNOTS])
+    if knots != int(params[H_KNOTS]):
+        params = _climb_weights(params)
+    model = unpack(params)
+    params = _fast(params, x0)
+    iters = int(params[H_ITERS_COLD])
+    state = np.empty(2)
+    while head[R_STAGE] > 0.0 and (budget > 0 or head[R_INIT] == 0.0):
+        stage = int(head[R_STAGE])
+        if head[R_INIT] == 0.0:
+            if stage == 1:
+                _shifted_guess(params, model, x0, head[R_T0], memory, Uc, Xc, Kc)
+            elif stage == 2:
+                pump_guess(params, model, x0, Uc, Xc, params[H_PUMP], params[H_PUMP_KP], params[H_PUMP_KD])
+            elif stage == 3:
+                lqr_guess(params, model, x0, Uc, Xc)
+            elif stage == 4 and params[H_BRAKE] > 0.0 and energy(model, x0) - params[H_E_GOAL] > params[H_RESPIN]:
+                pump_guess(params, model, x0, Uc, Xc, 0.0, 0.0, params[H_BRAKE] * params[H_PUMP_KD])
+            else:
+                _adopt(params, t, memory)
+                return
+            head[R_INIT], head[R_ITERS], head[R_MU], head[R_STOP] = 1.0, 0.0, 1e-6, 0.0
+            if budget <= 0:
+                return
+        step_iters = min(budget, iters - int(head[R_ITERS]))
+        state[0], state[1] = head[R_MU], head[R_STOP]
+        cost = ilqr_steps(params, model, x0, u0, Uc, Xc, Kc, step_iters, state)
+        head[R_MU], head[R_STOP] = state[0], state[1]
+        head[R_ITERS] += step_iters
+        budget -= step_iters
+        if head[R_STOP] != 0.0 or head[R_ITERS] >= iters:
+            if cost < head[R_BEST]:
+                head[R_BEST] = cost
+                Xb[:, :] = Xc
+                Ub[:, :] = Uc
+                Kb[:, :, :] = Kc
+                _keep(params, memory)
+            head[R_STAGE] = stage + 1.0
+            head[R_INIT] = 0.0
+
+
+@njit(cache=True)
+def _adopt(params, t, memory):
+    """The spread restart's best plan (none finite: the brake until the next solve) becomes the kept plan, made at its
+    start t0; the next solve one period after t."""
+    _keep(params, memory)
+    restart_views(params, memory)[0][R_STAGE] = 0.0
+    memory[M_NEXT] = t + params[H_PERIOD]
+    memory[M_SOLVES] += 1.0
+
+
+@njit(cache=True)
+def _keep(params, memory):
+    """The spread restart's best plan so far becomes the kept plan (none finite: the brake)."""
+    head, x0, u0, Xc, Uc, Kc, Xb, Ub, Kb = restart_views(params, memory)
+    knots = int(head[R_KNOTS])
+    best = head[R_BEST]
+    uprev, ustart, X, U, K = _plan_block(params, memory, knots)
+    if best < math.inf:
+        X[:, :] = Xb
+        U[:, :] = Ub
+        K[:, :, :] = Kb
+    ustart[:] = u0
+    memory[M_KNOTS] = knots
+    memory[M_T0] = head[R_T0]
+    memory[M_BRAKE] = 1.0 if best == math.inf else 0.0
+    memory[M_VALID] = 0.0 if best == math.inf else 1.0
+    memory[M_COST] = best
+
+
 @njit(cache=True, inline="always")
 def mpc_torque(params, y, t, memory, tau):
     """The controller's law at one measured state y (nx) and time t into ``tau`` (nu); returns its mode (1: the
@@ -298,6 +452,7 @@ def mpc_torque(params, y, t, memory, tau):
         memory[M_VALID] = 0.0
         memory[M_BRAKE] = 0.0
         memory[M_MODE] = 0.0
+        restart_views(params, memory)[0][R_STAGE] = 0.0
         estimator_views(params, memory, y.size // 2, tau.size)[0][E_VALID] = 0.0
         x[:] = y  # the measurement, in the estimate's array: _law (and the solver) compiled for one layout only
         mode = _law(params, x, t, memory, tau)
@@ -308,6 +463,32 @@ def mpc_torque(params, y, t, memory, tau):
     memory[M_HOLD] = t - memory[M_CALL]
     memory[M_CALL] = t
     return mode
+
+
+@njit(cache=True)
+def _too_fast(params, x):
+    """Whether x spins a link so fast that a plan's knots would take more than H_SPIN_CAP RK4 sub-steps of H_FAST rad
+    (a chain spun beyond what the motors can brake in a horizon, where every solve would cost tens of them)."""
+    cap = params[H_SPIN_CAP]
+    if cap <= 0.0 or params[H_FAST] <= 0.0:
+        return False
+    n = x.size // 2
+    rate = 0.0
+    fastest = 0.0
+    for i in range(n):
+        rate += x[n + i]
+        fastest = max(fastest, abs(rate), abs(x[n + i]))
+    return fastest * params[H_STEP] > cap * params[H_FAST]
+
+
+@njit(cache=True)
+def _interim(params, model, x, tau):
+    """The torque while a spread restart proceeds without a plan to follow: the LQR's where its cost-to-go is below
+    twice rho_out (the chain just left its region), else the energy-pumping guess's law."""
+    if lqr_cost(model, x) < 2.0 * params[H_RHO_OUT]:
+        lqr_torque(model, x, tau)
+    else:
+        pump_torque(params, model, x, params[H_PUMP], params[H_PUMP_KP], params[H_PUMP_KD], tau)
 
 
 @njit(cache=True)
@@ -336,15 +517,29 @@ def _law(params, x, t, memory, tau):
     elif mode == 0.0 and cost < params[H_RHO_IN]:
         mode = 1.0
     memory[M_MODE] = mode
+    restarting = restart_views(params, memory)[0]
     if mode == 1.0:
         lqr_torque(model, x, tau)
         for j in range(nu):
             uprev[j] = tau[j]
         memory[M_VALID] = 0.0
         memory[M_BRAKE] = 0.0
+        restarting[R_STAGE] = 0.0
         return 1
-    if (memory[M_VALID] == 0.0 and memory[M_BRAKE] == 0.0) or t >= memory[M_NEXT] - 1e-9:
+    if (restarting[R_STAGE] > 0.0 or (memory[M_VALID] == 0.0 and memory[M_BRAKE] == 0.0)
+            or t >= memory[M_NEXT] - 1e-9) and _too_fast(params, x):
+        restarting[R_STAGE] = 0.0
+        memory[M_VALID] = 0.0
+        memory[M_BRAKE] = 1.0
+        memory[M_NEXT] = t + params[H_PERIOD]
+    elif restarting[R_STAGE] > 0.0:
+        restart_steps(params, t, memory, int(params[H_SPREAD]))
+    elif (memory[M_VALID] == 0.0 and memory[M_BRAKE] == 0.0) or t >= memory[M_NEXT] - 1e-9:
         replan(params, model, x, t, memory)
+    if restarting[R_STAGE] > 0.0 and memory[M_VALID] == 0.0:
+        _interim(params, model, x, tau)
+        uprev[:] = tau
+        return 0
     if memory[M_BRAKE] != 0.0:
         pump_torque(params, model, x, 0.0, 0.0, max(params[H_BRAKE], 1.0) * params[H_PUMP_KD], tau)
         uprev[:] = tau

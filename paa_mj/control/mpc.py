@@ -96,7 +96,7 @@ PATTERN_DEFAULTS = {
 #: goal's energy (hanging at rest) the climb keeps the longer plans, whose kip is the faster there. A driven shoulder
 #: without a range is not searched: none.
 NO_RANGE_DEFAULTS = {
-    "passive shoulder": {"horizon": 0.8, "climb_horizon": 1.0},
+    "passive shoulder": {"horizon": 0.7, "climb_horizon": 1.0},
     "driven shoulder": {},
 }
 

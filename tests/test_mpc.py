@@ -419,6 +419,47 @@ def test_a_motor_without_a_range_plans_within_box_times_its_gravity_torque(acrob
         assert make_controller("mpc", acro, task=task, box=box).limit.tolist() == [6.0]
 
 
+def test_motors_without_a_range_plan_afresh_over_a_shorter_horizon_and_climb_from_hanging(acrobot):
+    """chain4's and the gymnast's motors have no range: they take NO_RANGE_DEFAULTS (a shorter horizon, the longer
+    one as the climb's), so that a plan started afresh from a spun chain near the goal's energy (a reset of their global
+    test) has the shorter horizon's knots, and one from hanging at rest the climb's; a motor with a range (their
+    acrobot's, or chain4 under a finite limit) keeps the pattern's defaults."""
+    from paa_mj.control import mpc_law
+    from paa_mj.control.mpc import NO_RANGE_DEFAULTS
+
+    changes = NO_RANGE_DEFAULTS["passive shoulder"]
+    assert changes["horizon"] < changes["climb_horizon"] == DEFAULTS["horizon"]
+    for name, goal in (("chain4", "stretched"), ("gymnast", "folded")):
+        robot = load_robot(name)
+        c = make_controller("mpc", robot, task=goal)
+        assert c.options == {**DEFAULTS, **changes}
+        knots = round(changes["horizon"] / DEFAULTS["knot"]), round(changes["climb_horizon"] / DEFAULTS["knot"])
+        assert (c.params[mk.H_KNOTS], c.params[mk.H_CLIMB_KNOTS]) == knots
+        n = robot.params.n_links
+        hanging, spun = np.zeros(2 * n), np.zeros(2 * n)
+        hanging[0] = -np.pi
+        spun[:n] = c.task.goal
+        spun[n:] = 3.0  # every joint turning at 3 rad/s at the goal's pose: above the goal's energy
+        for x, expected in ((hanging, knots[1]), (spun, knots[0])):
+            c.reset()
+            c.law(x[:n], x[n:], 0.0)
+            assert c._memory[1][0][mpc_law.M_KNOTS] == expected
+    chain4 = load_robot("chain4")
+    capped = MPCController(chain4.analytic, Task.named("stretched", chain4), [600.0, 200.0, 40.0])
+    robot, task = acrobot
+    assert capped.options == DEFAULTS == MPCController(robot.analytic, task, robot.torque_limits).options
+
+
+@pytest.mark.slow  # one global v3 run of chain4 (~20 CPU-s); quick form: the test above (its plans' horizons)
+def test_chain4_is_up_more_than_40_s_of_their_global_test():
+    """chain4 at the stretched goal, their global v3 on their seed: up more than 40 s of 60 (the horizon 1.0 s of the
+    pattern's defaults: 39.47 s)."""
+    robot = load_robot("chain4")
+    task = Task.named("stretched", robot)
+    summary, _ = rg.global_v3(robot, make_controller("mpc", robot, task=task), task, seed=777)
+    assert summary["diverged"] is None and summary["time_up"] > 40.0
+
+
 @pytest.mark.slow  # replan called from Python compiles the solver again (~20 CPU-s); quick form: the pendubot board's
 # performance run (tests/test_realaigym_board_rows.py), whose swing-up is the climb's
 def test_a_climb_is_planned_from_far_below_the_goals_energy():

@@ -90,16 +90,31 @@ PATTERN_DEFAULTS = {
 }
 
 
+#: Changes for a robot with a motor without a torque range in its MJCF (the family's gymnast and chain4: nothing bounds
+#: its torque but the plans' ``box``), per actuation pattern, after :data:`PATTERN_DEFAULTS`'s; from
+#: ``scripts/mpc_search.py --robot chain4`` and ``--robot gymnast --goal folded`` (docs/controllers.md). A passive
+#: shoulder's: plans started afresh from a reset of their global test (a chain spun to tens of rad/s with energy to
+#: spare) over a shorter horizon, which swing it up sooner (chain4: about 0.2 s a reset), while from far below the
+#: goal's energy (hanging at rest) the climb keeps the longer plans, whose kip is the faster there. A driven shoulder
+#: without a range is not searched: none.
+NO_RANGE_DEFAULTS = {
+    "passive shoulder": {"horizon": 0.7, "climb_horizon": 1.0},
+    "driven shoulder": {},
+}
+
+
 def pattern(model: AnalyticModel) -> str:
     """The robot's actuation pattern as :data:`PATTERN_DEFAULTS` names it: "driven shoulder" where joint 1 (the
     joint at the bar, carrying the whole chain) has a motor, "passive shoulder" otherwise."""
     return "driven shoulder" if 0 in tuple(model.actuated) else "passive shoulder"
 
 
-def defaults(model: AnalyticModel) -> dict:
-    """:data:`DEFAULTS` with the changes of the robot's actuation pattern (:data:`PATTERN_DEFAULTS`), on
+def defaults(model: AnalyticModel, torque_limit=None) -> dict:
+    """:data:`DEFAULTS` with the changes of the robot's actuation pattern (:data:`PATTERN_DEFAULTS`) and, where a motor
+    has no range (an infinite ``torque_limit`` [N m], one per motor), those of :data:`NO_RANGE_DEFAULTS`, on
     :data:`REFERENCE`'s scale."""
-    return {**DEFAULTS, **PATTERN_DEFAULTS[pattern(model)]}
+    free = torque_limit is not None and not np.all(np.isfinite(np.asarray(torque_limit, float)))
+    return {**DEFAULTS, **PATTERN_DEFAULTS[pattern(model)], **(NO_RANGE_DEFAULTS[pattern(model)] if free else {})}
 
 #: How each option carries over from :data:`REFERENCE` to another robot by dynamic similarity: (a, c, b) multiplies
 #: it by g^a g_j^c t^b (:func:`similarity`): g = G / G_ref the ratio of the robots' gravity torque scales, g_j that of
@@ -177,7 +192,7 @@ class MPCController(Controller):
     **options
         Any of :data:`DEFAULTS`, stated on :data:`REFERENCE`'s scale (the defaults' robot) and carried over to this
         one by dynamic similarity (:data:`SIMILARITY`; :attr:`scaled` the values used); those not given take
-        :func:`defaults` (the robot's actuation pattern's).
+        :func:`defaults` (the robot's actuation pattern's, and its motors' ranges').
     """
 
     name = "mpc"
@@ -186,7 +201,7 @@ class MPCController(Controller):
         unknown = sorted(set(options) - set(DEFAULTS))
         if unknown:
             raise PaaError(f"mpc has no option(s) {', '.join(unknown)}; its options: {', '.join(DEFAULTS)}")
-        given = {**defaults(model), **{k: float(v) for k, v in options.items()}}
+        given = {**defaults(model, torque_limit), **{k: float(v) for k, v in options.items()}}
         o = scaled_options(given, model)
         n, nu = model.n_links, model.n_motors
         joints = list(model.actuated)

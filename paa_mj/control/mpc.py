@@ -94,7 +94,7 @@ PATTERN_DEFAULTS = {
 #: its torque but the plans' ``box``), per actuation pattern, after :data:`PATTERN_DEFAULTS`'s; from
 #: ``scripts/mpc_search.py --robot chain4`` and ``--robot gymnast --goal folded`` (docs/controllers.md). A passive
 #: shoulder's: plans started afresh from a reset of their global test (a chain spun to tens of rad/s with energy to
-#: spare) over a shorter horizon, which swing it up sooner (chain4: about 0.2 s a reset), while from far below the
+#: spare) over a shorter horizon, which swing it up sooner, while from far below the
 #: goal's energy (hanging at rest) the climb keeps the longer plans, whose kip is the faster there. A driven shoulder
 #: without a range is not searched: none.
 NO_RANGE_DEFAULTS = {

@@ -311,6 +311,9 @@ def test_its_torque_stays_finite_on_a_chain_spun_past_its_plans():
         assert np.all(np.isfinite(tau)) and np.all(np.abs(tau) <= c.limit + 1e-9)
 
 
+# ~16 CPU-s (two 5 s runs of the law called from Python, which compiles the estimator's views again for its
+# layouts); its quick forms: test_the_estimator_filters_their_velocity_noise and the board rows' robustness runs
+@pytest.mark.slow
 def test_the_estimator_holds_the_top_under_noise_on_the_angles_too():
     """Gaussian noise of 0.01 rad on each angle and 0.01 rad/s on each speed at every 1 ms step (compare's and
     robustness' ``noise``), RealAIGym's acrobot from hanging for 5 s on MuJoCo: the angles' noise the estimator finds

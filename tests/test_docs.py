@@ -127,3 +127,17 @@ def test_a_wheel_builds_without_deprecation_and_runs_from_elsewhere(tmp_path):
     assert check.returncode == 0, check.stderr[-2000:]
     assert check.stdout.splitlines()[0].startswith(str(target))  # the installed copy, not the checkout
     assert "robot gymnast" in check.stdout and float(check.stdout.split("max_rel_err_qacc")[1].split()[0]) < 1e-9
+
+
+def test_the_citation_and_the_changelog_name_this_version():
+    """CITATION.cff's version and the CHANGELOG's newest entry are the package's (CITATION.cff had stayed two
+    versions behind)."""
+    import re
+
+    from paa_mj import __version__
+
+    root = Path(__file__).resolve().parents[1]
+    citation = re.search(r'^version: "([^"]+)"', (root / "CITATION.cff").read_text(), re.M)
+    newest = re.search(r"^## (\S+)", (root / "CHANGELOG.md").read_text(), re.M)
+    assert citation and citation.group(1) == __version__
+    assert newest and newest.group(1) == __version__

@@ -189,13 +189,20 @@ def substeps(p, x, h):
     turn = p[H_TURN]
     if turn <= 0.0:
         return 1
+    return max(1, int(math.ceil(fastest_rate(x) * h / turn)))
+
+
+@njit(cache=True)
+def fastest_rate(x):
+    """The fastest turn rate [rad/s] in the state x = [q, qd]: of a joint (its relative rate qd_i) or of a link (its
+    absolute rate, the sum of the rates up to it)."""
     n = x.size // 2
     rate = 0.0
     fastest = 0.0
     for i in range(n):
         rate += x[n + i]
         fastest = max(fastest, abs(rate), abs(x[n + i]))
-    return max(1, int(math.ceil(fastest * h / turn)))
+    return fastest
 
 
 @njit(cache=True)

@@ -472,13 +472,7 @@ def _too_fast(params, x):
     cap = params[H_SPIN_CAP]
     if cap <= 0.0 or params[H_FAST] <= 0.0:
         return False
-    n = x.size // 2
-    rate = 0.0
-    fastest = 0.0
-    for i in range(n):
-        rate += x[n + i]
-        fastest = max(fastest, abs(rate), abs(x[n + i]))
-    return fastest * params[H_STEP] > cap * params[H_FAST]
+    return mk.fastest_rate(x) * params[H_STEP] > cap * params[H_FAST]
 
 
 @njit(cache=True)

@@ -80,8 +80,15 @@ def offsets(n, nu):
 def memory_size(n, nu, knots):
     """Numbers of the memory for n links and nu motors: header, the last torque and the torque when the plan was made
     (nu each), the plan's states (N + 1) nx, torques N nu and feedback gains N nu (nx + nu)."""
+    return MEMORY_HEADER + 2 * nu + plan_size(n, nu, knots)
+
+
+@njit(cache=True)
+def plan_size(n, nu, knots):
+    """Numbers of one plan of ``knots`` knots for n links and nu motors: its states (N + 1) nx, torques N nu and
+    feedback gains N nu (nx + nu)."""
     nx = 2 * n
-    return MEMORY_HEADER + 2 * nu + (knots + 1) * nx + knots * nu + knots * nu * (nx + nu)
+    return (knots + 1) * nx + knots * nu + knots * nu * (nx + nu)
 
 
 @njit(cache=True)

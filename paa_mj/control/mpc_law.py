@@ -52,9 +52,8 @@ R_HEADER = 8
 def memory_size(n, nu, knots):
     """The law's memory: the plan's (:func:`paa_mj.control.mpc_kernels.memory_size`), then the estimator's
     (:func:`paa_mj.control.mpc_estimator.memory_size`), then the spread restart's (:func:`restart_views`)."""
-    nx = 2 * n
-    plan = (knots + 1) * nx + knots * nu + knots * nu * (nx + nu)
-    return mk.memory_size(n, nu, knots) + mpc_estimator.memory_size(n, nu) + R_HEADER + nx + nu + 2 * plan
+    return (mk.memory_size(n, nu, knots) + mpc_estimator.memory_size(n, nu) + R_HEADER + 2 * n + nu
+            + 2 * mk.plan_size(n, nu, knots))
 
 
 @njit(cache=True)
@@ -73,18 +72,21 @@ def restart_views(params, memory):
     a += nx
     u0 = chain.vector_view(memory, a, nu)
     a += nu
-    Xc = chain.matrix_view(memory, a, knots + 1, nx)
-    a += (room + 1) * nx
-    Uc = chain.matrix_view(memory, a, knots, nu)
-    a += room * nu
-    Kc = np.ascontiguousarray(memory[a:a + knots * nu * (nx + nu)]).reshape((knots, nu, nx + nu))
-    a += room * nu * (nx + nu)
-    Xb = chain.matrix_view(memory, a, knots + 1, nx)
-    a += (room + 1) * nx
-    Ub = chain.matrix_view(memory, a, knots, nu)
-    a += room * nu
-    Kb = np.ascontiguousarray(memory[a:a + knots * nu * (nx + nu)]).reshape((knots, nu, nx + nu))
+    Xc, Uc, Kc = _plan_at(memory, a, knots, room, nx, nu)
+    Xb, Ub, Kb = _plan_at(memory, a + mk.plan_size(n, nu, room), knots, room, nx, nu)
     return head, x0, u0, Xc, Uc, Kc, Xb, Ub, Kb
+
+
+@njit(cache=True)
+def _plan_at(memory, a, knots, room, nx, nu):
+    """The views X (N + 1, nx), U (N, nu), K (N, nu, nx + nu) of a plan of ``knots`` knots stored from memory[a] in
+    room for ``room`` knots (:func:`~paa_mj.control.mpc_kernels.plan_size`)."""
+    X = chain.matrix_view(memory, a, knots + 1, nx)
+    a += (room + 1) * nx
+    U = chain.matrix_view(memory, a, knots, nu)
+    a += room * nu
+    K = np.ascontiguousarray(memory[a:a + knots * nu * (nx + nu)]).reshape((knots, nu, nx + nu))
+    return X, U, K
 
 
 @njit(cache=True)
@@ -127,6 +129,22 @@ def lqr_guess(params, model, x0, U, X):
 
 
 @njit(cache=True)
+def _fresh_guess(params, model, x, guess, U, X):
+    """Fresh first guess number ``guess`` from x into U, X, in the order a restart tries them: 0 the energy-pumping
+    guess, 1 the clamped LQR's, 2 on a spinning chain (E - E* > respin) the braking guess; returns False where there
+    is no such guess."""
+    if guess == 0:
+        pump_guess(params, model, x, U, X, params[H_PUMP], params[H_PUMP_KP], params[H_PUMP_KD])
+    elif guess == 1:
+        lqr_guess(params, model, x, U, X)
+    elif guess == 2 and params[H_BRAKE] > 0.0 and energy(model, x) - params[H_E_GOAL] > params[H_RESPIN]:
+        pump_guess(params, model, x, U, X, 0.0, 0.0, params[H_BRAKE] * params[H_PUMP_KD])
+    else:
+        return False
+    return True
+
+
+@njit(cache=True)
 def plan_views(params, memory):
     """The plan kept in the memory: last torque (nu), the torque applied when the plan was made (nu), X (N + 1, nx),
     U (N, nu), K (N, nu, nx + nu), N its knots (M_KNOTS: the horizon's, or the climb's)."""
@@ -145,12 +163,7 @@ def _plan_block(params, memory, knots):
     uprev = chain.vector_view(memory, a, nu)
     a += nu
     ustart = chain.vector_view(memory, a, nu)
-    a += nu
-    X = chain.matrix_view(memory, a, knots + 1, nx)
-    a += (room + 1) * nx
-    U = chain.matrix_view(memory, a, knots, nu)
-    a += room * nu
-    K = np.ascontiguousarray(memory[a:a + knots * nu * (nx + nu)]).reshape((knots, nu, nx + nu))
+    X, U, K = _plan_at(memory, a + nu, knots, room, nx, nu)
     return uprev, ustart, X, U, K
 
 
@@ -313,15 +326,8 @@ def replan(params, model, x, t, memory):
             return
     if restart or best == math.inf:
         memory[M_COLD] = t
-        spinning = energy(model, x) - params[H_E_GOAL] > params[H_RESPIN]
         for guess in range(3):
-            if guess == 0:
-                pump_guess(params, model, x, Ug, Xg, params[H_PUMP], params[H_PUMP_KP], params[H_PUMP_KD])
-            elif guess == 1:
-                lqr_guess(params, model, x, Ug, Xg)
-            elif params[H_BRAKE] > 0.0 and spinning:
-                pump_guess(params, model, x, Ug, Xg, 0.0, 0.0, params[H_BRAKE] * params[H_PUMP_KD])
-            else:
+            if not _fresh_guess(params, model, x, guess, Ug, Xg):
                 break
             cost = ilqr(params, model, x, uprev, Ug, Xg, Kg, int(params[H_ITERS_COLD]))
             if cost < best:
@@ -329,13 +335,8 @@ def replan(params, model, x, t, memory):
                 U[:, :] = Ug
                 X[:, :] = Xg
                 K[:, :, :] = Kg
-    ustart[:] = uprev
-    memory[M_KNOTS] = knots
-    memory[M_T0] = t
+    _kept(memory, ustart, uprev, knots, t, best)
     memory[M_NEXT] = t + params[H_PERIOD]
-    memory[M_BRAKE] = 1.0 if best == math.inf else 0.0
-    memory[M_VALID] = 0.0 if best == math.inf else 1.0
-    memory[M_COST] = best
     memory[M_SOLVES] += 1.0
 
 
@@ -377,13 +378,7 @@ def restart_steps(params, t, memory, budget):
         if head[R_INIT] == 0.0:
             if stage == 1:
                 _shifted_guess(params, model, x0, head[R_T0], memory, Uc, Xc, Kc)
-            elif stage == 2:
-                pump_guess(params, model, x0, Uc, Xc, params[H_PUMP], params[H_PUMP_KP], params[H_PUMP_KD])
-            elif stage == 3:
-                lqr_guess(params, model, x0, Uc, Xc)
-            elif stage == 4 and params[H_BRAKE] > 0.0 and energy(model, x0) - params[H_E_GOAL] > params[H_RESPIN]:
-                pump_guess(params, model, x0, Uc, Xc, 0.0, 0.0, params[H_BRAKE] * params[H_PUMP_KD])
-            else:
+            elif not _fresh_guess(params, model, x0, stage - 2, Uc, Xc):
                 _adopt(params, t, memory)
                 return
             head[R_INIT], head[R_ITERS], head[R_MU], head[R_STOP] = 1.0, 0.0, 1e-6, 0.0
@@ -427,9 +422,16 @@ def _keep(params, memory):
         X[:, :] = Xb
         U[:, :] = Ub
         K[:, :, :] = Kb
+    _kept(memory, ustart, u0, knots, head[R_T0], best)
+
+
+@njit(cache=True)
+def _kept(memory, ustart, u0, knots, t0, best):
+    """The plan of ``knots`` knots just written into the plan's block (cost ``best``; none finite: inf, and the law
+    brakes until the next solve) is the kept one, made at t0 with the torque u0 applied."""
     ustart[:] = u0
     memory[M_KNOTS] = knots
-    memory[M_T0] = head[R_T0]
+    memory[M_T0] = t0
     memory[M_BRAKE] = 1.0 if best == math.inf else 0.0
     memory[M_VALID] = 0.0 if best == math.inf else 1.0
     memory[M_COST] = best

@@ -82,7 +82,7 @@ def test_every_kind_of_run_follows_the_cpu(gymnast, gymnast_vcl):
 @pytest.mark.slow  # MuJoCo Warp compiled for Warp's CPU device (16 CPU-s)
 def test_robustness_on_fewer_levels_is_the_cpu_s(gymnast, gymnast_vcl, monkeypatch, tmp_path):
     """The whole protocol on 2 levels, 1 repetition and 1 pulse run, 0.6 s runs: the same summary on both
-    engines, and the device's chunks kept apart from the CPU's."""
+    engines (each in its own folder: a folder holds one study), and a rerun on the device finds its chunks."""
     monkeypatch.setattr(rg, "LEVELS", 2)
     monkeypatch.setattr(rg, "REPETITIONS", 1)
     monkeypatch.setattr(rg, "PERTURBATION_RUNS", 1)
@@ -92,7 +92,7 @@ def test_robustness_on_fewer_levels_is_the_cpu_s(gymnast, gymnast_vcl, monkeypat
     x0 = np.r_[0.2, -np.pi + 0.3, -0.2, 0.5, -0.4, 0.3]
     summaries = {engine: rg.run_protocol("robustness-v2", gymnast, spec, task, x0, seed=3, progress=False,
                                          engine=engine, device="cpu" if engine == "warp" else None,
-                                         out_dir=tmp_path)[0] for engine in ("cpu", "warp")}
+                                         out_dir=tmp_path / engine)[0] for engine in ("cpu", "warp")}
     assert summaries["warp"].pop("engine") == "warp" and summaries["cpu"].pop("engine") == "cpu"
     summaries["warp"].pop("device"), summaries["cpu"].pop("device")
     result = summaries["cpu"]["result"]
@@ -100,7 +100,7 @@ def test_robustness_on_fewer_levels_is_the_cpu_s(gymnast, gymnast_vcl, monkeypat
     assert json.dumps(summaries["warp"], sort_keys=True) == json.dumps(summaries["cpu"], sort_keys=True)
     # a rerun finds every chunk kept and runs nothing
     again = rg.run_protocol("robustness-v2", gymnast, spec, task, x0, seed=3, progress=False, engine="warp",
-                            device="cpu", out_dir=tmp_path)[0]
+                            device="cpu", out_dir=tmp_path / "warp")[0]
     assert again["result"] == summaries["warp"]["result"]
 
 

@@ -141,3 +141,23 @@ def test_a_kernel_of_fixed_signature_compiles_at_first_use_once_for_threads_raci
     assert len(module.total.signatures) == 1
     with pytest.raises(TypeError):
         module.total(np.arange(3))  # int64: no second signature compiled
+
+
+def test_a_command_says_once_that_it_compiles_and_nothing_when_it_compiles_nothing(capsys):
+    """The line of a fresh install comes with the first compilation, once; a command that compiles nothing (a
+    refusal, or kernels loaded from the cache) says nothing of it."""
+    from numba import njit
+
+    from paa_mj.cli import _said_when_compiling
+
+    with _said_when_compiling():
+        pass
+    assert capsys.readouterr().err == ""
+    with _said_when_compiling():
+        njit(lambda x: x + 1)(1)
+        njit(lambda x: x + 2)(1)
+    lines = capsys.readouterr().err.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("paa-mj: compiling the kernels this command needs")
+    with _said_when_compiling():
+        pass
+    assert capsys.readouterr().err == ""

@@ -93,15 +93,33 @@ def _load_libraries():
         raise PaaError(f"cannot load MuJoCo or numba: {type(err).__name__}: {' '.join(str(err).split())}") from None
 
 
-def _first_use() -> str | None:
-    """A line saying that this run compiles the kernels it needs, where none is kept yet (a fresh install)."""
+@contextlib.contextmanager
+def _said_when_compiling():
+    """One line on stderr when the block first compiles a kernel (a fresh install or update: numba's cache had none
+    of it), none when it only loads them or needs none (a refusal stays one line)."""
+    from numba.core import event
+
+    from ..progress import stage
     from ..provenance import numba_cache_folder
 
-    folder = numba_cache_folder()
-    if next(folder.rglob("*.nbi"), None) is not None:
-        return None
-    return (f"paa-mj: no compiled kernels kept in {folder} yet: this command compiles those it needs first (once"
-            " per install or update; paa-mj compile compiles them all beforehand)")
+    class FirstCompilation(event.Listener):
+        said = False
+
+        def on_start(self, event_):
+            if not self.said:
+                self.said = True
+                stage(f"paa-mj: compiling the kernels this command needs, kept in {numba_cache_folder()} for later runs"
+                      " (once per install or update; paa-mj compile compiles them all beforehand)")
+
+        def on_end(self, event_):
+            pass
+
+    listener = FirstCompilation()
+    event.register("numba:compile", listener)
+    try:
+        yield
+    finally:
+        event.unregister("numba:compile", listener)
 
 
 def _drop_stdout():
@@ -140,10 +158,8 @@ def main(argv=None):
 
             with json_only_on_stdout() if quiet else contextlib.nullcontext(), watchdog(f"paa-mj {args.command}"), \
                     search_budget(getattr(args, "kd_budget", None)):
-                first = None if quiet else _first_use()
-                if first:
-                    stage(first)
-                code = args.func(args)
+                with contextlib.nullcontext() if quiet else _said_when_compiling():
+                    code = args.func(args)
             sys.stdout.flush()  # a write that fails (a full disk) fails here, where it is reported
             return code
     except SimulationDiverged as err:

@@ -30,6 +30,48 @@ GAINS2 = dict(kD=31.0, kP=90.0, kV=90.0)
 SHARED_FIXTURE_MODULES = ("tests/test_reproduce.py", "tests/test_atlas.py", "tests/test_distributed.py")
 
 
+@pytest.hookimpl(tryfirst=True)  # before ``-m`` deselects by the marks
+def pytest_collection_modifyitems(config, items):
+    """The checks :mod:`tests.tiers` lists run under ``slow``; an entry that names no test is refused (when the whole
+    suite is collected), so that a renamed test cannot slip back into the quick suite unseen."""
+    from pathlib import Path
+
+    from tests.tiers import SLOW, matches, reason
+
+    for item in items:
+        why = reason(item.nodeid)
+        if why is not None:
+            item.add_marker(pytest.mark.slow(reason=why))
+    files = {item.nodeid.split("::", 1)[0] for item in items}
+    if all(f"tests/{path.name}" in files for path in Path(__file__).parent.glob("test_*.py")):
+        stale = [entry for entry in SLOW if not any(matches(entry, item.nodeid) for item in items)]
+        if stale:
+            raise pytest.UsageError(f"tests/tiers.py names no test: {', '.join(stale)}")
+
+
+#: The model-predictive controller's solver, which the quick suite never compiles (tests/tiers.py): module, kernels.
+MPC_SOLVER = {"paa_mj.control.mpc": ("mpc_kernel",), "paa_mj.control.mpc_law": ("replan",),
+              "paa_mj.control.mpc_kernels": ("ilqr",)}
+_solver_reported = []
+
+
+@pytest.fixture(autouse=True)
+def quick_tests_leave_the_mpc_solver_alone(request):
+    """In the quick suite (``slow`` deselected), a test that loads mpc's solver fails, naming tests/tiers.py: on a
+    fresh install the solver's compilation alone is a fifth of the quick suite's budget."""
+    yield
+    markexpr = request.config.option.markexpr or ""
+    if "not slow" not in markexpr or _solver_reported:
+        return
+    import sys
+
+    loaded = [f"{module}.{name}" for module, names in MPC_SOLVER.items() if module in sys.modules
+              for name in names if getattr(sys.modules[module], name).signatures]
+    if loaded:
+        _solver_reported.append(request.node.nodeid)
+        pytest.fail(f"this quick test loads {', '.join(loaded)} (mpc's solver): list it in tests/tiers.py (slow)")
+
+
 @pytest.hookimpl(optionalhook=True)
 def pytest_xdist_make_scheduler(config, log):
     """``-n N`` as usual (one test at a time to a free worker), but each module above whole to one worker.

@@ -22,6 +22,7 @@ from paa_mj.sim.analytic.engine import simulate_analytic
 from paa_mj.sim.compiled.engine import evaluate
 from paa_mj.sim.rollout import simulate_mujoco
 from paa_mj.task import Task
+from tests import tiers
 
 #: A run this long [s]: a few dozen steps of each engine.
 T_RUN = 0.03
@@ -84,22 +85,16 @@ def test_the_command_line_s_view_of_the_records_is_the_registry_s():
 
 
 def test_every_controller_is_enrolled_somewhere():
+    """Every controller has cases; the quick suite runs every one's but those that solve plans as they build or run
+    (trajectory optimisation, mpc's solver), whose cases run under ``slow`` (tests/tiers.py says why)."""
     assert {case[0] for case in APPLIES} == set(RECORDS)
-    assert {case.values[0] for case in QUICK_CASES if not case.marks} == set(RECORDS)  # each in the quick suite
+    slow = {name for name, robot, goal in APPLIES
+            if tiers.reason(f"tests/test_registered_controllers.py::test_builds_binds_and_runs_on_both_engines"
+                            f"[{name}-{robot}-{goal}]")}
+    assert slow == {"mpc", "trajopt", "trajopt-effort"}
 
 
-def _quick_or_slow(cases):
-    """Each case, under ``slow`` where it is a planner's (a ``checked`` list: its short run solves its plans, 3
-    CPU-s each for ``mpc``) on a robot after the first its record lists: that first stays in the quick suite."""
-    firsts = {name: RECORDS[name].checked[0] for name, _, _ in cases if RECORDS[name].checked}
-    return [pytest.param(*case, marks=pytest.mark.slow) if firsts.get(case[0], case[1:]) != case[1:]
-            else pytest.param(*case) for case in cases]
-
-
-QUICK_CASES = _quick_or_slow(APPLIES)
-
-
-@pytest.mark.parametrize("name, robot, goal", QUICK_CASES)
+@pytest.mark.parametrize("name, robot, goal", APPLIES)
 def test_builds_binds_and_runs_on_both_engines(name, robot, goal):
     """Built for the robot and task, bound to both; a short run from the task's start on the compiled MuJoCo engine
     and on the analytic one (or as much of each as it kept where it stopped, in one line) stays finite, and both

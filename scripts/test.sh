@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The test command: set up (venv, the package with the extras the tests use) and run the quick test suite.
-#   bash scripts/test.sh              the quick suite (about 5 CPU-minutes from a fresh clone, set-up included)
+#   bash scripts/test.sh              the quick suite, in one process (README states its CPU time)
 #   bash scripts/test.sh -m slow      the long checks (tests/tiers.py says why each is long); .ci/run runs both
 #   bash scripts/test.sh -m claims    the full form of every number the README and the docs state
 # Other arguments go to pytest (a file, -k, -x, -n 4 for four workers ...).

@@ -1,0 +1,79 @@
+"""Held-out edges of issue 47's kinds, found by an adversarial pass after they were closed: a folder is a study's by
+what its files hold, not by their names; a robot at the edge of the plausible parameters is refused before any run by
+the studies that perturb it (robustness's model error, the leaderboard's sweep, the atlas's range)."""
+import json
+from types import SimpleNamespace
+
+import pytest
+
+from paa_mj.errors import PaaError
+from paa_mj.model.params import RobotParams
+
+
+def _one_line(result, fragment):
+    assert result.returncode == 2 and "Traceback" not in result.stderr, result.stderr
+    lines = [line for line in result.stderr.strip().splitlines() if "compiled kernels" not in line]
+    assert len(lines) == 1 and fragment in lines[0], result.stderr
+
+
+def test_a_user_s_files_named_like_a_study_s_are_nobody_s(tmp_path):
+    from paa_mj.cli.folders import folder_owner, output_lock
+
+    out = tmp_path / "mine"
+    out.mkdir()
+    (out / "report.md").write_text("# my own report\n")  # reproduce's names, not its files
+    (out / "results.json").write_text('{"mine": 1}')
+    assert folder_owner(out) is None
+    with output_lock(str(out), "basin", fresh=True):  # --fresh removes another study's files only
+        pass
+    assert (out / "report.md").read_text() == "# my own report\n" and (out / "results.json").exists()
+
+    other = tmp_path / "other"
+    other.mkdir()
+    (other / "realaigym.json").write_text('{"a": 1}')
+    for fresh in (False, True):
+        with pytest.raises(PaaError, match="holds realaigym.json, not the results of a 'paa-mj realaigym'"):
+            with output_lock(str(other), "realaigym", "realaigym --protocol performance-v2", fresh=fresh):
+                pass
+    assert (other / "realaigym.json").read_text() == '{"a": 1}'
+
+    theirs = tmp_path / "theirs"  # a folder of an older version (no manifest): still known by what it holds
+    theirs.mkdir()
+    (theirs / "realaigym.json").write_text(json.dumps({"protocol": "global-v3", "robot": "r", "controller": "c"}))
+    assert folder_owner(theirs) == ("realaigym", "realaigym --protocol global-v3")
+    (other / "realaigym.json").unlink()
+    (other / "report.md").write_text("# Liu & Xin (2015) reproduced in MuJoCo\n\n...")  # what reproduce writes
+    assert folder_owner(other) == ("reproduce", "reproduce")
+
+
+def test_model_error_beyond_the_plausible_parameters_is_refused_before_any_run():
+    from paa_mj.studies.robustness import check_model_error
+
+    heavy = SimpleNamespace(params=RobotParams.uniform_rods([1e6] * 3, [1.0] * 3))  # make-model's largest masses
+    check_model_error(heavy, [0.0], "lower it")
+    with pytest.raises(PaaError, match=r"a model error of 10 % makes the controller's model non-physical: m1 = 1.1e\+06"
+                                       r" lies outside the plausible range .*; lower it$"):
+        check_model_error(heavy, [2.0, 10.0, 5.0], "lower it")
+    short = SimpleNamespace(params=RobotParams.uniform_rods([1.0] * 3, [1e-4] * 3))
+    with pytest.raises(PaaError, match="l1 = 9.8e-05"):
+        check_model_error(short, [2.0], "lower it")
+
+
+@pytest.fixture(scope="module")
+def heavy_xml(tmp_path_factory):
+    from paa_mj.model.mjcf import mjcf_from_params
+
+    params = RobotParams.uniform_rods([1e6] * 3, [1.0] * 3)
+    path = tmp_path_factory.mktemp("heavy") / "heavy.xml"
+    path.write_text(mjcf_from_params(params, name="heavy", gains={"kD": 1e14, "kP": 3e14, "kV": 5e13}))
+    return path
+
+
+def test_the_studies_that_perturb_a_robot_at_the_edge_refuse_it_up_front(run, heavy_xml):
+    _one_line(run("robustness", "--robot", heavy_xml, "--trials", "1", "--t-final", "0.05", "--scheduler", "inline"),
+              "makes the controller's model non-physical: m1 = 1.1e+06 lies outside the plausible range"
+              " [1e-06, 1e+06]; lower --model-error, or leave model_error out of --factors")
+    _one_line(run("compare", "--robot", heavy_xml, "--quick", "--no-video", "--scheduler", "inline"),
+              "the leaderboard's model-error sweep cannot run on this robot")
+    _one_line(run("atlas", "--robot", heavy_xml, "--grid", "2", "--scheduler", "inline"),
+              "the atlas's factors 0.25 to 4 on l1, m1 make a robot of the family non-physical: m1 = 4e+06")

@@ -77,3 +77,27 @@ def test_the_studies_that_perturb_a_robot_at_the_edge_refuse_it_up_front(run, he
               "the leaderboard's model-error sweep cannot run on this robot")
     _one_line(run("atlas", "--robot", heavy_xml, "--grid", "2", "--scheduler", "inline"),
               "the atlas's factors 0.25 to 4 on l1, m1 make a robot of the family non-physical: m1 = 4e+06")
+
+
+NAN_CONTROLLER = '''
+import numpy as np
+
+
+class NaNAfter:
+    def __init__(self, robot):
+        pass
+
+    def torque(self, q, qd, t):
+        return np.full_like(q[..., 1:], np.nan if np.max(t) > 0.02 else 0.0)
+'''
+
+
+def test_every_study_says_its_diverged_runs_as_realaigym_does(run, tmp_path):
+    path = tmp_path / "nan_after.py"
+    path.write_text(NAN_CONTROLLER)
+    said = "4 of 4 runs diverged (non-finite, or joint speeds above the engines' limit), each counted a failure"
+    for study in (["basin", "--grid", "2"], ["robustness", "--trials", "1", "--factors", "noise"]):
+        result = run(*study, "--controller", f"{path}:NaNAfter", "--t-final", "0.05", "--scheduler", "inline")
+        assert result.returncode == 0 and f"paa-mj: {said}" in result.stderr.splitlines(), result.stderr
+    quiet = run("basin", "--grid", "2", "--t-final", "0.05", "--scheduler", "inline")
+    assert quiet.returncode == 0 and "diverged" not in quiet.stderr

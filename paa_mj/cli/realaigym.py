@@ -4,8 +4,8 @@ from __future__ import annotations
 from ..errors import PaaError, SimulationDiverged
 from .studies import check_engine_args
 from .folders import output_lock
-from .common import (check_fresh, controller_parent, engine_option, finish, folder, finite, initial_state, note,
-                     print_json, robot_parent, seed, spec_from_args)
+from .common import (check_fresh, controller_parent, diverged_note, engine_option, finish, folder, finite,
+                     initial_state, note, print_json, robot_parent, seed, spec_from_args)
 
 
 def cmd_realaigym(args):
@@ -50,8 +50,7 @@ def cmd_realaigym(args):
                               gains=spec.name in GAIN_CONTROLLERS, engine="protocol")
         raise SimulationDiverged(f"simulation {words}" + (f" (kept in {args.out})" if args.out else ""))
     if code == 0 and summary["result"].get("diverged_runs"):  # a study's runs: counted, each a failure
-        note(f"{summary['result']['diverged_runs']} of {summary['result']['runs']} runs diverged (non-finite, or joint"
-             f" speeds above the engines' limit), each counted a failure")
+        diverged_note(summary["result"]["diverged_runs"], summary["result"]["runs"])
     return code
 
 

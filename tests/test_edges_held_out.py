@@ -101,3 +101,20 @@ def test_every_study_says_its_diverged_runs_as_realaigym_does(run, tmp_path):
         assert result.returncode == 0 and f"paa-mj: {said}" in result.stderr.splitlines(), result.stderr
     quiet = run("basin", "--grid", "2", "--t-final", "0.05", "--scheduler", "inline")
     assert quiet.returncode == 0 and "diverged" not in quiet.stderr
+
+
+def test_every_sized_sample_count_is_sized_before_any_work(run):
+    from paa_mj.cli.roa import _check_size
+    from paa_mj.limits import check_seconds
+    from paa_mj.studies.peer_dynamics import dynamics
+
+    with pytest.raises(PaaError, match=r"GiB of the dynamics' random states .*; lower --samples$"):
+        dynamics(samples=10**9)  # peers --samples: refused before Drake is asked for anything
+    with pytest.raises(PaaError, match=r"GiB of the MuJoCo check's states .*; lower --check$"):
+        _check_size(10**9, 3, 1e-3)  # roa --check: before the region, which takes minutes, is computed
+    with pytest.raises(PaaError, match=r"physics steps for the MuJoCo check of 10000000 states of at least 10 s"):
+        _check_size(10**7, 3, 1e-3)
+    _check_size(50, 3, 1e-3)
+    with pytest.raises(PaaError, match=r"would need about 1\.2e\+02 days for this here \(the limit is 1 days\); lower x$"):
+        check_seconds(1e7, "this", "x")
+    _one_line(run("roa", "--check", "1000000000"), "of the MuJoCo check's states")

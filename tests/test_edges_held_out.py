@@ -118,3 +118,20 @@ def test_every_sized_sample_count_is_sized_before_any_work(run):
     with pytest.raises(PaaError, match=r"would need about 1\.2e\+02 days for this here \(the limit is 1 days\); lower x$"):
         check_seconds(1e7, "this", "x")
     _one_line(run("roa", "--check", "1000000000"), "of the MuJoCo check's states")
+
+
+def test_the_merged_acrobot_s_search_is_kept_by_content(tmp_path, monkeypatch):
+    import paa_mj.theory.merged as merged
+    from paa_mj.model.dynamics import AnalyticModel
+
+    monkeypatch.setenv("PAA_MJ_CACHE", str(tmp_path))
+    am = AnalyticModel.from_params(RobotParams.uniform_rods([1.0, 0.8, 0.6, 0.5], [1.0, 0.9, 0.8, 0.7]))
+    first = merged.merged_acrobot(am)
+    assert len(list((tmp_path / "merged_acrobot").glob("*.json"))) == 1
+    searched = []
+    real = merged._merged_acrobot
+    monkeypatch.setattr(merged, "_merged_acrobot", lambda *a: searched.append(a) or real(*a))
+    assert merged.merged_acrobot(am) == first and not searched  # kept: theory on a ten-link chain saved 5 CPU-s
+    assert merged.merged_acrobot(am, budget_cpu_s=1.0) == first and len(searched) == 1  # another budget: searched
+    assert merged.merged_acrobot(am, budget_cpu_s=0.0).controllable is None and len(searched) == 2  # never kept
+    assert len(list((tmp_path / "merged_acrobot").glob("*.json"))) == 2

@@ -135,3 +135,20 @@ def test_the_merged_acrobot_s_search_is_kept_by_content(tmp_path, monkeypatch):
     assert merged.merged_acrobot(am, budget_cpu_s=1.0) == first and len(searched) == 1  # another budget: searched
     assert merged.merged_acrobot(am, budget_cpu_s=0.0).controllable is None and len(searched) == 2  # never kept
     assert len(list((tmp_path / "merged_acrobot").glob("*.json"))) == 2
+
+
+@pytest.mark.parametrize("protocol", ["performance-v2", "global-v3"])
+def test_a_protocol_s_one_run_interrupted_is_not_run_as_in_every_study(run, monkeypatch, tmp_path, protocol):
+    import paa_mj.realaigym.study as study
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(study, protocol.replace("-", "_"), interrupted)
+    result = run("realaigym", "--protocol", protocol, "--controller", "passive", "--json", "--out", tmp_path / "o")
+    assert result.returncode == 130, result.stderr
+    summary = json.loads(result.stdout)  # --json prints its summary, as robustness-v2's and every study's
+    assert summary["interrupted"] and (summary["runs"], summary["not_run"], summary["completed_fraction"]) == (1, 1, 0.0)
+    assert summary["success"] is None and "time_up" not in summary["result"]
+    assert result.stderr.strip().splitlines()[-1] == "paa-mj: interrupted: 0 % of the runs done (1 not run: null in the JSON)"
+    assert not (tmp_path / "o" / "realaigym.json").exists()

@@ -39,7 +39,8 @@ def cmd_realaigym(args):
     else:
         _print(summary, args.out)
     code = finish(summary["interrupted"], f"{100 * summary['completed_fraction']:.0f} % of the runs done"
-                  f" ({summary['not_run']} not run: null in the JSON)", args.out)
+                  f" ({summary['not_run']} not run: null in the JSON)",
+                  args.out if args.protocol == "robustness-v2" else None)  # the others' one run keeps nothing
     diverged = summary["result"].get("diverged")
     if code == 0 and diverged:  # one run, diverged: said and exited as simulate says it (what it computed is kept)
         from ..control.catalog import GAIN_CONTROLLERS, HANDS_OVER
@@ -56,6 +57,8 @@ def cmd_realaigym(args):
 
 def _print(summary, out):
     result = summary["result"]
+    if summary["interrupted"] and summary["protocol"] != "robustness-v2":  # its one run not run: nothing to print
+        return
     head = f"{summary['protocol']} on {summary['robot']}, {summary['controller']} ({summary['goal']} goal)"
     if summary["protocol"] == "performance-v2":
         c = result["criteria"]

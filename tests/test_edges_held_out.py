@@ -152,3 +152,12 @@ def test_a_protocol_s_one_run_interrupted_is_not_run_as_in_every_study(run, monk
     assert summary["success"] is None and "time_up" not in summary["result"]
     assert result.stderr.strip().splitlines()[-1] == "paa-mj: interrupted: 0 % of the runs done (1 not run: null in the JSON)"
     assert not (tmp_path / "o" / "realaigym.json").exists()
+
+
+def test_a_diverged_protocol_run_s_criteria_read_as_numbers_in_the_text_line():
+    from paa_mj.cli.realaigym import _num
+
+    assert _num(15.1912, 2) == "15.19" and _num(0.4601, 3) == "0.460"  # a run's usual line: unchanged
+    assert _num(4.1547e138, 2) == "4.155e+138"  # a diverged run's energy (139 digits with :.2f)
+    assert _num(float("nan"), 3) == "none" and _num(None, 3) == "none"  # null in the JSON
+    assert _num(float("inf"), 3) == "inf"

@@ -55,6 +55,14 @@ def cmd_realaigym(args):
     return code
 
 
+def _num(value, decimals):
+    """A criterion for the text line: fixed decimals, 4 significant digits from a million on (a diverged run's
+    costs run to 1e138), "none" where the JSON has null (a diverged run's undefined scores)."""
+    if value is None or value != value:
+        return "none"
+    return f"{value:.{decimals}f}" if abs(value) < 1e6 else f"{value:.4g}"
+
+
 def _print(summary, out):
     result = summary["result"]
     if summary["interrupted"] and summary["protocol"] != "robustness-v2":  # its one run not run: nothing to print
@@ -62,11 +70,11 @@ def _print(summary, out):
     head = f"{summary['protocol']} on {summary['robot']}, {summary['controller']} ({summary['goal']} goal)"
     if summary["protocol"] == "performance-v2":
         c = result["criteria"]
-        print(f"{head}: success {int(c['success'])}, swing-up {c['swingup_time']:.3f} s, energy {c['energy']:.2f} J,"
-              f" torque cost {c['tau_cost']:.2f}, smoothness {c['tau_smoothness']:.4f}, velocity cost"
-              f" {c['velocity_cost']:.2f}; RealAI score v2 {result['score']:.3f}"
-              + ("" if result["score_robot_scaled"] == result["score"] else
-                 f" (robot-scaled {result['score_robot_scaled']:.3f})"))
+        print(f"{head}: success {int(c['success'])}, swing-up {_num(c['swingup_time'], 3)} s, energy"
+              f" {_num(c['energy'], 2)} J, torque cost {_num(c['tau_cost'], 2)}, smoothness"
+              f" {_num(c['tau_smoothness'], 4)}, velocity cost {_num(c['velocity_cost'], 2)}; RealAI score v2"
+              f" {_num(result['score'], 3)}" + ("" if result["score_robot_scaled"] == result["score"] else
+                                                 f" (robot-scaled {_num(result['score_robot_scaled'], 3)})"))
     elif summary["protocol"] == "global-v3":
         print(f"{head}, seed {summary['seed']}: up {result['time_up']:.3f} s of 60, score {result['score']:.3f}")
     elif "scores" in result:

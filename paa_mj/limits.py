@@ -90,6 +90,19 @@ def check_steps(steps: float, what: str, lower: str, cores: int | None = None, l
               f" {lower} to shorten it")
 
 
+def check_seconds(seconds: float, what: str, lower: str):
+    """Refuse work other than physics steps (:func:`check_steps`) estimated at more than :data:`MAX_SECONDS` of wall
+    time, ``seconds``, in one line naming ``lower``, the options that shorten it; announce it past
+    :data:`ANNOUNCE_SECONDS`."""
+    if not math.isfinite(seconds) or seconds > MAX_SECONDS:
+        raise PaaError(f"would need about {duration(seconds)} for {what} here (the limit is"
+                       f" {MAX_SECONDS / 86400:g} days); lower {lower}")
+    if seconds > ANNOUNCE_SECONDS:
+        from .progress import stage
+
+        stage(f"paa-mj: {what}: about {duration(seconds)} here (an estimate); lower {lower} to shorten it")
+
+
 #: Largest gain of (40) accepted for the paper's robots [J kg m^2 and kin]: 1e8 times the paper's gains (66).
 MAX_GAIN = 1e12
 #: Largest gain accepted for any robot, as a multiple of its own gain scale (:func:`gain_scale`): the family rule's

@@ -398,6 +398,14 @@ def note(message):
     print(f"paa-mj: {message}", file=sys.stderr)
 
 
+def diverged_note(diverged, runs, what="runs"):
+    """The one way a study says how many of its finished ``runs`` diverged (``simulate`` and a protocol's single run
+    exit 3 instead): one line on stderr, nothing where none did."""
+    if diverged:
+        note(f"{diverged} of {runs} {what} diverged (non-finite, or joint speeds above the engines' limit), each counted"
+             " a failure")
+
+
 def interrupt_code() -> int:
     """130 after Ctrl-C, 143 after SIGTERM."""
     return EXIT_SIGTERM if _received["signal"] == signal.SIGTERM else EXIT_SIGINT

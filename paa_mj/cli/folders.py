@@ -3,7 +3,9 @@ another study's results are never overwritten or removed without ``--fresh``."""
 from __future__ import annotations
 
 import contextlib
+import json
 import os
+import zipfile
 
 from ..errors import PaaError
 from .common import note
@@ -37,16 +39,14 @@ MANIFEST = ".paa-mj-study.json"
 def folder_owner(out):
     """``(command, study)`` that owns the folder ``out``: its manifest's, else the command whose result file it holds
     (a folder of a command that keeps no manifest, or of an older version), else None."""
-    import json
-
     try:
         with open(os.path.join(out, MANIFEST)) as fh:
             owner = json.load(fh)
         return str(owner["command"]), str(owner["study"])
     except (OSError, ValueError, KeyError, TypeError):
         pass
-    for command, name in RESULT_FILES.items():
-        if os.path.exists(os.path.join(out, name)):
+    for command, name in RESULT_FILES.items():  # a file of that name that is not the command's is nobody's
+        if _holds_own_result(command, os.path.join(out, name)):
             return command, _legacy_study(command, os.path.join(out, name))
     return None
 
@@ -54,8 +54,6 @@ def folder_owner(out):
 def _legacy_study(command, path):
     if command != "realaigym":
         return command
-    import json
-
     try:
         with open(path) as fh:
             return f"realaigym --protocol {json.load(fh)['protocol']}"
@@ -115,16 +113,31 @@ def _remove_results(out, owner):
     note(f"--fresh: removed the results of 'paa-mj {study}' from {out} ({', '.join(names)})")
 
 
+#: What each command's result file holds, by which a file of that name is known to be the command's (a folder
+#: without a manifest, of an older version or of a command that keeps none): the arrays of an NPZ, the keys of a JSON
+#: object, the first line of a text. A user's ``report.md`` or ``results.json`` is nobody's: never replaced, never
+#: removed by another study's ``--fresh``.
+RESULT_SIGNS = {"simulate": ("npz", {"t", "q", "qd", "tau", "meta"}), "basin": ("npz", {"x0", "success"}),
+                "robustness": ("npz", {"x0", "success"}), "atlas": ("npz", {"factors_1", "factors_2", "E_r"}),
+                "compare": ("json", {"robot", "controllers"}), "peers": ("json", {"paa_mj", "drake"}),
+                "realaigym": ("json", {"protocol", "robot", "controller"}),
+                "reproduce": ("text", "# Liu & Xin (2015) reproduced")}
+
+
 def _holds_own_result(command, path):
-    """Whether ``path`` is ``command``'s result file; a trajectory.npz must be one that simulate writes."""
+    """Whether ``path`` is ``command``'s result file, by what it holds (:data:`RESULT_SIGNS`), not by its name."""
     if not os.path.isfile(path):
         return False
-    if command != "simulate":
-        return True
-    import zipfile
-
+    kind, sign = RESULT_SIGNS[command]
     try:
-        with zipfile.ZipFile(path) as archive:
-            return {"t.npy", "q.npy", "qd.npy", "tau.npy", "meta.npy"} <= set(archive.namelist())
-    except (OSError, zipfile.BadZipFile):
+        if kind == "npz":
+            with zipfile.ZipFile(path) as archive:
+                return {f"{name}.npy" for name in sign} <= set(archive.namelist())
+        if kind == "json":
+            with open(path) as fh:
+                data = json.load(fh)
+            return isinstance(data, dict) and sign <= set(data)
+        with open(path, encoding="utf-8") as fh:
+            return fh.readline().startswith(sign)
+    except (OSError, ValueError, zipfile.BadZipFile):
         return False

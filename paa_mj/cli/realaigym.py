@@ -4,8 +4,8 @@ from __future__ import annotations
 from ..errors import PaaError, SimulationDiverged
 from .studies import check_engine_args
 from .folders import output_lock
-from .common import (check_fresh, controller_parent, engine_option, finish, folder, finite, initial_state, note,
-                     print_json, robot_parent, seed, spec_from_args)
+from .common import (check_fresh, controller_parent, diverged_note, engine_option, finish, folder, finite,
+                     initial_state, note, print_json, robot_parent, seed, spec_from_args)
 
 
 def cmd_realaigym(args):
@@ -39,7 +39,8 @@ def cmd_realaigym(args):
     else:
         _print(summary, args.out)
     code = finish(summary["interrupted"], f"{100 * summary['completed_fraction']:.0f} % of the runs done"
-                  f" ({summary['not_run']} not run: null in the JSON)", args.out)
+                  f" ({summary['not_run']} not run: null in the JSON)",
+                  args.out if args.protocol == "robustness-v2" else None)  # the others' one run keeps nothing
     diverged = summary["result"].get("diverged")
     if code == 0 and diverged:  # one run, diverged: said and exited as simulate says it (what it computed is kept)
         from ..control.catalog import GAIN_CONTROLLERS, HANDS_OVER
@@ -50,21 +51,30 @@ def cmd_realaigym(args):
                               gains=spec.name in GAIN_CONTROLLERS, engine="protocol")
         raise SimulationDiverged(f"simulation {words}" + (f" (kept in {args.out})" if args.out else ""))
     if code == 0 and summary["result"].get("diverged_runs"):  # a study's runs: counted, each a failure
-        note(f"{summary['result']['diverged_runs']} of {summary['result']['runs']} runs diverged (non-finite, or joint"
-             f" speeds above the engines' limit), each counted a failure")
+        diverged_note(summary["result"]["diverged_runs"], summary["result"]["runs"])
     return code
+
+
+def _num(value, decimals):
+    """A criterion for the text line: fixed decimals, 4 significant digits from a million on (a diverged run's
+    costs run to 1e138), "none" where the JSON has null (a diverged run's undefined scores)."""
+    if value is None or value != value:
+        return "none"
+    return f"{value:.{decimals}f}" if abs(value) < 1e6 else f"{value:.4g}"
 
 
 def _print(summary, out):
     result = summary["result"]
+    if summary["interrupted"] and summary["protocol"] != "robustness-v2":  # its one run not run: nothing to print
+        return
     head = f"{summary['protocol']} on {summary['robot']}, {summary['controller']} ({summary['goal']} goal)"
     if summary["protocol"] == "performance-v2":
         c = result["criteria"]
-        print(f"{head}: success {int(c['success'])}, swing-up {c['swingup_time']:.3f} s, energy {c['energy']:.2f} J,"
-              f" torque cost {c['tau_cost']:.2f}, smoothness {c['tau_smoothness']:.4f}, velocity cost"
-              f" {c['velocity_cost']:.2f}; RealAI score v2 {result['score']:.3f}"
-              + ("" if result["score_robot_scaled"] == result["score"] else
-                 f" (robot-scaled {result['score_robot_scaled']:.3f})"))
+        print(f"{head}: success {int(c['success'])}, swing-up {_num(c['swingup_time'], 3)} s, energy"
+              f" {_num(c['energy'], 2)} J, torque cost {_num(c['tau_cost'], 2)}, smoothness"
+              f" {_num(c['tau_smoothness'], 4)}, velocity cost {_num(c['velocity_cost'], 2)}; RealAI score v2"
+              f" {_num(result['score'], 3)}" + ("" if result["score_robot_scaled"] == result["score"] else
+                                                 f" (robot-scaled {_num(result['score_robot_scaled'], 3)})"))
     elif summary["protocol"] == "global-v3":
         print(f"{head}, seed {summary['seed']}: up {result['time_up']:.3f} s of 60, score {result['score']:.3f}")
     elif "scores" in result:

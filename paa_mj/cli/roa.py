@@ -11,6 +11,8 @@ from .common import file_path, goal_parent, note, positive, positive_int, print_
 #: States sampled in the set and simulated in MuJoCo by default, and trajectories drawn from its edge.
 CHECK_STATES = 50
 PLOTTED = 6
+#: The shortest run of each state of the MuJoCo check [s] (twice the LQR's settling time where that is longer).
+CHECK_SECONDS = 10.0
 
 
 def _torque_limits(robot, given):
@@ -19,6 +21,16 @@ def _torque_limits(robot, given):
 
     limits = robot.capped_torque_limits(given)
     return limits if np.any(np.isfinite(limits)) else None
+
+
+def _check_size(states, n, dt):
+    """The MuJoCo check's ``states`` (--check) sized before the region is computed: memory and time of that many
+    rollouts of at least :data:`CHECK_SECONDS` (one line where it is more than this machine gives)."""
+    from ..limits import check_memory, check_steps
+
+    check_memory(states * 2 * n * 8.0 * 4, "the MuJoCo check's states", "--check")
+    check_steps(states * CHECK_SECONDS / dt, f"the MuJoCo check of {states} states of at least {CHECK_SECONDS:g} s",
+                "--check", links=n, runs=states)
 
 
 def mujoco_check(robot, task, weights, roa, limits, errors, record=False):
@@ -38,8 +50,8 @@ def mujoco_check(robot, task, weights, roa, limits, errors, record=False):
     from ..control.lqr import LQRController
 
     K = LQRController.for_model(robot.analytic, task, weights).K
-    t_final = max(10.0, 2.0 * settling_time(robot.analytic, task, K))
-    t_final = t_final if math.isfinite(t_final) else 10.0
+    t_final = max(CHECK_SECONDS, 2.0 * settling_time(robot.analytic, task, K))
+    t_final = t_final if math.isfinite(t_final) else CHECK_SECONDS
     limits = None if limits is None else np.broadcast_to(limits, (len(x0), robot.params.n_motors)).copy()
     result = simulate_batch(robot, x0, t_final, task=task, controller=spec, torque_limit=limits, record=record,
                             sample_dt=0.01, retire=not record, nthread=1)
@@ -72,6 +84,7 @@ def cmd_roa(args):
     if args.samples is not None and (args.method == "sos" or choose_method(args.method, n) == "sos"):
         raise PaaError("--samples applies to --method sampling, not to sos")
     sampled = {} if args.samples is None else {"samples": args.samples}
+    _check_size(args.check, n, dt)
     roa = region_of_attraction(robot.analytic, task, K, S, Q, R, u_max=limits, dt=dt, method=args.method,
                                seed=args.seed, progress=not args.json, **sampled)
     rng = np.random.default_rng(args.seed)

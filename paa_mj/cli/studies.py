@@ -3,9 +3,9 @@ from __future__ import annotations
 
 from ..errors import PaaError
 from .folders import output_lock
-from .common import (check_fresh, controller_parent, engine_option, finish, goal_parent, non_negative, note, output_parent,
-                     positive, positive_int, print_json, robot_parent, seed, spec_from_args, study_parent, task_from_args,
-                     whole_number, TASK_HORIZON)
+from .common import (check_fresh, controller_parent, diverged_note, engine_option, finish, goal_parent, non_negative,
+                     note, output_parent, positive, positive_int, print_json, robot_parent, seed, spec_from_args,
+                     study_parent, task_from_args, whole_number, TASK_HORIZON)
 
 
 def _finish_study(summary, args, what):
@@ -33,6 +33,8 @@ def _study(args, command, run, write):
             write(args.out, summary, arrays)
     if args.json:
         print_json(summary)
+    done = arrays["completed"]
+    diverged_note(int((arrays["diverged"] & done).sum()), int(done.sum()))
     return summary
 
 
@@ -173,6 +175,8 @@ def cmd_atlas(args):
               f" robots, {summary['goal']} goal" + (f"; wrote {args.out}/atlas_theory.png, atlas.json, atlas.npz" if args.out else ""))
         for line in summary["findings"]:
             print(f"  {line}")
+    if "outcome" in arrays:  # --simulate: each robot's kip from the task's start
+        diverged_note(summary["counts"]["diverged"], int((arrays["outcome"] >= 0).sum()), "kips")
     return finish(summary["interrupted"], f"the atlas is incomplete ({summary['not_run']} of {summary['runs']}"
                   " robots not run)", args.out)
 

@@ -423,10 +423,13 @@ def run_protocol(protocol_name: str, robot: Robot, spec, task, x0=None, seed=777
     controller = spec.for_task(task).build(robot)
     n = robot.params.n_links
     x0 = hanging(n) if x0 is None else np.asarray(x0, float)
-    if protocol_name == "performance-v2":
-        result, arrays = performance_v2(robot, controller, task, x0, engine, device)
-    elif protocol_name == "global-v3":
-        result, arrays = global_v3(robot, controller, task, x0, seed, engine, device)
+    if protocol_name in ("performance-v2", "global-v3"):
+        try:
+            result, arrays = (performance_v2(robot, controller, task, x0, engine, device)
+                              if protocol_name == "performance-v2" else
+                              global_v3(robot, controller, task, x0, seed, engine, device))
+        except KeyboardInterrupt:  # its one run not run, said as every study says a run it did not finish
+            result, arrays = {"interrupted": True, **runs_done([False])}, {}
     else:
         definition = {"robot": robot.xml, "controller": spec.short_name, "source": spec.source_digest(),
                       "recipe": repr(spec), "goal": task.name}
@@ -450,7 +453,7 @@ def protocol_success(protocol_name, robot, task, result) -> dict:
     up = (f"the tip above 0.9 of its height at the goal ({threshold:.4g} m)" if threshold is not None else
           "every angle within the task's switch angle of the goal")
     if protocol_name == "performance-v2":
-        return {"success": result["criteria"]["success"],
+        return {"success": result["criteria"]["success"] if "criteria" in result else NOT_RUN,
                 "success_definition": f"their swing-up: {up} from some time before the end of the {T_FINAL:g} s to"
                                       " the end (the score is 0 without it)"}
     if protocol_name == "robustness-v2":

@@ -205,7 +205,12 @@ def atlas(robot: Robot, vary=("l1", "m1"), factor_range=DEFAULT_RANGE, grid=32, 
                     f"{n * (starts + 1)} kips of {t_final:g} s", "--grid, --starts or --t-final",
                     links=robot.params.n_links, runs=n * (starts + 1))
     f1, f2 = grid_factors(*factor_range, grid), grid_factors(*factor_range, grid)
-    family = [scale(scale(robot.params, vary[0], a), vary[1], b) for a in f1 for b in f2]
+    try:
+        family = [scale(scale(robot.params, vary[0], a), vary[1], b) for a in f1 for b in f2]
+    except PaaError as err:  # a robot at the edge of the plausible parameters: said before any work, with the remedy
+        raise PaaError(f"the atlas's factors {factor_range[0]:g} to {factor_range[1]:g} on {', '.join(vary)} make a"
+                       f" robot of the family non-physical: {str(err).removeprefix('non-physical parameters: ')};"
+                       " narrow --range") from None
     key = {"study": "atlas", "robot": robot.xml, "vary": list(vary), "range": list(factor_range), "grid": grid,
            **task_definition(task)}
     theory_chunk = chunk or THEORY_CHUNK

@@ -48,7 +48,7 @@ from ..sim.compiled.step import STATUS_TEXT
 from ..sim.verdict import diverged_words, outcome_words
 from ..task import Task, as_task
 from .basin import basin
-from .robustness import MAX_TRIALS, robustness
+from .robustness import MAX_TRIALS, check_model_error, robustness
 from .runner import CHUNK
 from .store import runs_done
 from .settings import (BASIN_MAX_GRID, COMPARE_CONTROLLERS as DEFAULT_CONTROLLERS, COMPARE_FACTORS as FACTORS,
@@ -176,6 +176,8 @@ def compare(robot: Robot, controllers=DEFAULT_CONTROLLERS, torque_limit=None, tr
     task = as_task(task, robot)
     sizes = _sizes(quick, trials, t_final, grid, task)
     names = _names(controllers)
+    check_model_error(robot, sweep_levels("model_error", quick), "the leaderboard's model-error sweep cannot run on"
+                      " this robot: use paa-mj robustness with --factors that leave model_error out")
     if torque_limit is None:
         stage("compare: vcl's kip from the task's start, whose peak torques are the leaderboard's torque limit",
               progress)

@@ -38,6 +38,7 @@ from .drake import theta_from_x
 
 #: Named robots compared, and random chains (links of each).
 NAMED = ("gymnast", "example2", "acrobot", "chain4")
+QUICK_NAMED = ("acrobot", "gymnast")
 RANDOM_LINKS = (2, 3, 5)
 QUICK_RANDOM_LINKS = (3,)
 
@@ -261,15 +262,30 @@ def compare_acrobot_plant(samples=200, seed=0):
                                   "qdd": _rel(qdd, am.acceleration(q, qd, tau), 1)}}
 
 
+#: Memory [bytes] and one core's time [s] per random state of a robot's comparison (Drake's, MuJoCo's and the analytic
+#: quantities, Drake's in a loop over the states), the largest chain's: 1506 B (tracemalloc's peak, a random five-link
+#: chain, 20000 and 40000 states) and 0.19 to 0.21 ms (process time of compare_dynamics, 20000 states, each named
+#: robot and random chain of 2 to 5 links; 0.06 ms for Drake's AcrobotPlant).
+SAMPLE_BYTES = 1600.0
+SAMPLE_SECONDS = 2.2e-4
+
+
 def dynamics(samples=200, seed=0, quick=False, progress=False):
-    """Rows of :func:`compare_dynamics` for the named robots and random chains, then Drake's AcrobotPlant."""
+    """Rows of :func:`compare_dynamics` for the named robots and random chains, then Drake's AcrobotPlant; ``samples``
+    sized first (memory and time, one line where it is more than this machine gives)."""
+    from ..limits import check_memory, check_seconds
     from ..progress import stage
 
+    named, chains = (QUICK_NAMED, QUICK_RANDOM_LINKS) if quick else (NAMED, RANDOM_LINKS)
+    robots = len(named) + len(chains) + 1
+    check_memory(samples * SAMPLE_BYTES, "the dynamics' random states", "--samples")
+    check_seconds(robots * samples * SAMPLE_SECONDS, f"the dynamics of {robots} robots at {samples} states each",
+                  "--samples")
     rows = []
-    for name in (("acrobot", "gymnast") if quick else NAMED):
+    for name in named:
         stage(f"peers: dynamics of {name} (Drake's MultibodyPlant from the MJCF, MuJoCo, analytic)", progress)
         rows.append(compare_dynamics(robot_name=name, samples=samples, seed=seed))
-    for k, links in enumerate(QUICK_RANDOM_LINKS if quick else RANDOM_LINKS):
+    for k, links in enumerate(chains):
         stage(f"peers: dynamics of a random chain of {links} links", progress)
         rows.append(compare_dynamics(params=random_chain_params(links, seed + 1000 + k), samples=samples, seed=seed))
     stage("peers: Drake's AcrobotPlant against paa_mj's acrobot", progress)

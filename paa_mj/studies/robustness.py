@@ -156,6 +156,19 @@ def _chosen_levels(factors, levels, model_error) -> dict:
     return chosen
 
 
+def check_model_error(robot: Robot, percents, lower: str):
+    """Refuse, before any run, model-error levels ``percents`` [%] whose believed model (masses x (1 + e), lengths
+    x (1 - e)) lies outside the plausible parameters of :class:`~paa_mj.model.params.RobotParams` (a robot made at
+    the edge of that range, a 1e6-kg chain): one line naming the level and ``lower``, what to change."""
+    for percent in sorted(set(float(p) for p in percents), reverse=True):
+        e = percent / 100
+        try:
+            robot.params.scaled(1 + e, 1 - e)
+        except PaaError as err:
+            raise PaaError(f"a model error of {percent:g} % makes the controller's model non-physical:"
+                           f" {str(err).removeprefix('non-physical parameters: ')}; {lower}") from None
+
+
 def _rollouts(robot, spec, task, chosen, runs, base, base_limit, peak, seed):
     """Every (factor, level, run) rollout, and which (factor, level) each is."""
     links = robot.params.n_links
@@ -229,6 +242,9 @@ def robustness(robot: Robot, trials=64, t_final=None, seed=0, controller: Contro
     if start not in STARTS:
         raise PaaError(f"--start must be one of {', '.join(STARTS)}, got {start!r}")
     chosen = _chosen_levels(factors, levels, model_error)
+    if "model_error" in chosen:
+        check_model_error(robot, chosen["model_error"]["levels"],
+                          "lower --model-error, or leave model_error out of --factors")
     runs = {(factor, level_i): trials if is_random(factor, level, start) else 1
             for factor, fspec in chosen.items() for level_i, level in enumerate(fspec["levels"])}
     total = sum(runs.values())

@@ -243,7 +243,23 @@ def _postures(m, seed):
 
 def merged_acrobot(am: AnalyticModel, budget_cpu_s=BUDGET_CPU_S, seed=0) -> MergedAcrobot:
     """deltabar of (30) over every frozen posture of joints 3..n (module docstring): its extremes found, and
-    whether it keeps its sign, proved (a branch and bound) or disproved (a posture on each side of 0)."""
+    whether it keeps its sign, proved (a branch and bound) or disproved (a posture on each side of 0).
+
+    With a budget (up to ``budget_cpu_s`` CPU-s at ten links), the answer is kept on disk by content (the robot's
+    parameters, the budget and the seed: :func:`~paa_mj.provenance.kept`), as kD_min (41) is; without one (the
+    atlas's extremes, many robots at a few milliseconds each) it is computed."""
+    if budget_cpu_s <= 0.0 or am.n_links == 2:
+        return _merged_acrobot(am, budget_cpu_s, seed)
+    from dataclasses import asdict
+
+    from ..provenance import kept
+
+    return kept("merged_acrobot", lambda: _merged_acrobot(am, budget_cpu_s, seed), encode=asdict,
+                decode=lambda d: MergedAcrobot(**{**d, "argmin": tuple(d["argmin"]), "argmax": tuple(d["argmax"])}),
+                params=list(am.key()), budget_cpu_s=float(budget_cpu_s), seed=seed)
+
+
+def _merged_acrobot(am: AnalyticModel, budget_cpu_s, seed) -> MergedAcrobot:
     m = am.n_links - 2
     d = Deltabar(am)
     if m == 0:

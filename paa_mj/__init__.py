@@ -15,5 +15,5 @@ from .provenance import key_numba_cache_by_code
 
 key_numba_cache_by_code()
 
-__version__ = "0.16.0"
+__version__ = "0.17.0"
 __all__ = ["PaaError", "SimulationDiverged", "__version__"]

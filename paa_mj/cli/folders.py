@@ -115,13 +115,13 @@ def _remove_results(out, owner):
 
 #: What each command's result file holds, by which a file of that name is known to be the command's (a folder
 #: without a manifest, of an older version or of a command that keeps none): the arrays of an NPZ, the keys of a JSON
-#: object, the first line of a text. A user's ``report.md`` or ``results.json`` is nobody's: never replaced, never
+#: object, the report's title. A user's ``report.md`` or ``results.json`` is nobody's: never replaced, never
 #: removed by another study's ``--fresh``.
 RESULT_SIGNS = {"simulate": ("npz", {"t", "q", "qd", "tau", "meta"}), "basin": ("npz", {"x0", "success"}),
                 "robustness": ("npz", {"x0", "success"}), "atlas": ("npz", {"factors_1", "factors_2", "E_r"}),
                 "compare": ("json", {"robot", "controllers"}), "peers": ("json", {"paa_mj", "drake"}),
                 "realaigym": ("json", {"protocol", "robot", "controller"}),
-                "reproduce": ("text", "# Liu & Xin (2015) reproduced")}
+                "reproduce": ("title", None)}  # report.md's first line: paa_mj.outputs.report.REPORT_TITLE
 
 
 def _holds_own_result(command, path):
@@ -137,7 +137,9 @@ def _holds_own_result(command, path):
             with open(path) as fh:
                 data = json.load(fh)
             return isinstance(data, dict) and sign <= set(data)
+        from ..outputs.report import REPORT_TITLE
+
         with open(path, encoding="utf-8") as fh:
-            return fh.readline().startswith(sign)
+            return fh.readline().rstrip("\n") == REPORT_TITLE
     except (OSError, ValueError, zipfile.BadZipFile):
         return False

@@ -105,7 +105,8 @@ class Trajectory:
             final_state=self.final_state if len(self) else [], recent_speeds=self._recent_speeds(),
             saturated=self._saturation(),
             unstable=self._unstable_balance(), gains=bool(self.meta.get("gains")), engine=self.meta.get("engine"),
-            region=str(self.meta.get("switch") or "").startswith("region"))
+            region=str(self.meta.get("switch") or "").startswith("region"),
+            idle=bool(len(self)) and not np.any(self.tau))
 
     def _recent_speeds(self):
         """The largest joint speed [rad/s] of each sample of the run's last second (None before a second)."""

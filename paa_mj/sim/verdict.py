@@ -102,7 +102,7 @@ def _remedies(remedies) -> str:
 
 def outcome_words(*, status: str, success: bool, task, t_final: float, switch_time, t_region, hands_over: bool,
                   final_state, recent_speeds=None, balanced: bool = False, saturated: str = "", unstable: str = "", gains: bool = False,
-                  engine: str = "mujoco", region: bool = False, remedies: bool = True) -> str:
+                  engine: str = "mujoco", region: bool = False, remedies: bool = True, idle: bool = False) -> str:
     """What became of one run, in one sentence, and what to try where it did not succeed: every command's words.
 
     Parameters
@@ -128,6 +128,9 @@ def outcome_words(*, status: str, success: bool, task, t_final: float, switch_ti
         benchmark's fixed step), and a hand-over on region (68) (--switch roa may help).
     remedies : bool
         Say what to try (a command's outcome line), or only what happened (a leaderboard's column).
+    idle : bool
+        The controller exerted no torque over the run (every torque recorded is zero): the chain keeps its energy,
+        less its damping, so a longer run cannot take it to a goal it has not reached.
     """
     goal = task.name
     _try = _remedies if remedies else (lambda _: "")
@@ -153,7 +156,8 @@ def outcome_words(*, status: str, success: bool, task, t_final: float, switch_ti
     ending = f", {ending}" if ending else ""
     other_gains = ["other gains (paa-mj gain-search compares rules of gains)"] * gains
     elsewhere = ["another start (--x0)"] if "at rest" in ending or "stuck" in ending else []
-    longer = ["a longer --t-final"] * longer_helps
+    longer = ["a controller that exerts torque (this one exerted none)"] if idle else \
+        ["a longer --t-final"] * longer_helps
     entered = (f"never entered region (68) in {t_final:g} s" if t_region is None else
                f"entered region (68) at t = {t_region:.4f} s")
     if hands_over and switch_time is None:

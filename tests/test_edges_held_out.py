@@ -161,3 +161,14 @@ def test_a_diverged_protocol_run_s_criteria_read_as_numbers_in_the_text_line():
     assert _num(4.1547e138, 2) == "4.155e+138"  # a diverged run's energy (139 digits with :.2f)
     assert _num(float("nan"), 3) == "none" and _num(None, 3) == "none"  # null in the JSON
     assert _num(float("inf"), 3) == "inf"
+
+
+def test_the_python_cross_check_takes_the_seeds_check_takes():
+    """``cross_check(seed=...)`` takes the one range of every seed, as ``paa-mj check --seed`` does."""
+    from paa_mj.model import load_robot
+    from paa_mj.model.crosscheck import cross_check
+
+    model = load_robot("acrobot").model
+    assert cross_check(model, samples=4, seed=2**32 - 1).worst() < 1e-6
+    with pytest.raises(PaaError, match=r"seed must be a whole number in \[0, 2\^32\)"):
+        cross_check(model, samples=4, seed=2**40)

@@ -91,8 +91,9 @@ def engine_quantities(model: mujoco.MjModel, q, qd, tau):
 
 def cross_check(model: mujoco.MjModel, samples: int = 1000, seed: int = 0) -> CrossCheck:
     """Compare MuJoCo with the analytic model built from the same compiled ``model``."""
-    from ..limits import check_memory
+    from ..limits import check_memory, check_seed
 
+    seed = check_seed(seed)  # the one range of every seed, as check --seed takes it
     check_memory(samples * 400.0, "cross-check samples", "--samples")
     am = AnalyticModel.from_params(params_from_model(model))
     model = model.__copy__()

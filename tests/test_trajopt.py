@@ -87,6 +87,22 @@ def test_a_min_time_kip_at_the_time_bound_is_refused(gymnast, monkeypatch):
         solve_kip(gymnast.analytic, [470.0, 217.0], "min-time", duration=2.0, intervals=20, use_cache=False)
 
 
+def test_a_kip_not_found_within_its_budget_is_refused_in_one_line(gymnast, run):
+    """IPOPT's CPU time is bounded (``max_cpu_time``): a solve that spends it is refused, naming the budget and how to
+    give more; a budget that is not a positive number, and --plan-budget for a controller that plans nothing, too."""
+    with pytest.raises(PaaError, match=r"^the min-time kip was not found within its budget of 0\.001 CPU-s .*"
+                                       r"--plan-budget"):
+        solve_kip(gymnast.analytic, [470.0, 217.0], "min-time", duration=2.0, intervals=20, use_cache=False,
+                  budget_cpu_s=0.001)
+    for budget in (0.0, -1.0, float("nan"), (1.0, 2.0)):
+        with pytest.raises(PaaError, match="budget is one number of CPU-seconds > 0"):
+            solve_kip(gymnast.analytic, [470.0, 217.0], "min-time", intervals=20, use_cache=False,
+                      budget_cpu_s=budget)
+    refused = run("simulate", "--controller", "vcl", "--plan-budget", "5")
+    assert refused.returncode == 2 and refused.stderr.strip().splitlines() == [
+        "paa-mj: error: --plan-budget applies to the controllers trajopt, trajopt-effort, not to vcl"]
+
+
 def test_simulate_json_reports_the_plan(capsys, monkeypatch):
     """The plan of simulate's controller in its JSON; planned on 30 intervals instead of the default 100 (a third of
     the solve and of its Riccati sweep, 11 -> 4 CPU-s): what is reported is the same either way."""

@@ -274,6 +274,9 @@ def controller_parent():
                    + ") or your own class in a Python file")
     p.add_argument("--kip-duration", type=positive, metavar="T",
                    help="duration of the trajopt-effort kip [s] (default 3); the first guess of trajopt's")
+    p.add_argument("--plan-budget", type=positive, metavar="CPU_S",
+                   help="CPU-seconds the trajectory optimisation of trajopt and trajopt-effort may take (default 600);"
+                        " a plan not found within them is refused in one line")
     p.add_argument("--lqr-weights", type=positive, nargs=2, metavar=("Q", "R"),
                    help="weights of the balance LQR (67): Q = Q I on the state error, R = R I on the torques"
                         " (default the paper's 1e4 and 1; for vcl, vc, lqr, trajopt, trajopt-effort)")
@@ -348,8 +351,12 @@ def spec_from_args(args, robot, task, name=None):
                                            .tolist())))
         if getattr(args, "kip_duration", None) is not None:
             options.append(("duration", args.kip_duration))
-    elif getattr(args, "kip_duration", None) is not None:
-        raise PaaError(f"--kip-duration applies to the controllers {', '.join(PLANNERS)}, not to {name}")
+        if getattr(args, "plan_budget", None) is not None:
+            options.append(("budget", args.plan_budget))
+    else:
+        for option, given in (("--kip-duration", "kip_duration"), ("--plan-budget", "plan_budget")):
+            if getattr(args, given, None) is not None:
+                raise PaaError(f"{option} applies to the controllers {', '.join(PLANNERS)}, not to {name}")
     weights = getattr(args, "lqr_weights", None)
     if weights is not None:
         if name not in LQR_CONTROLLERS:

@@ -101,7 +101,7 @@ class ControllerRecord:
     @property
     def options(self) -> tuple:
         """The options it takes, by name (``limit`` for a planner's torque bound or the ROA's level)."""
-        names = (("limit", "duration", "intervals") if self.plans else ()) + (("lqr_weights",) if self.lqr else ()) \
+        names = (("limit", "duration", "intervals", "budget") if self.plans else ()) + (("lqr_weights",) if self.lqr else ()) \
             + (("switch",) if self.switches else ()) + (("limit",) if self.switches or self.roa else ()) \
             + tuple(self.settings)
         return tuple(dict.fromkeys(names))

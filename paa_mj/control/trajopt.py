@@ -41,6 +41,9 @@ OBJECTIVES = ("min-time", "min-effort")
 INTERVALS = 100
 #: The longest kip planned [s].
 MAX_DURATION = 120.0
+#: CPU-seconds IPOPT may take for one kip by default (its ``max_cpu_time``): a chain of many links would otherwise
+#: run on to its iteration cap, many minutes.
+BUDGET_CPU_S = 600.0
 #: Bounds on the time of a min-time kip [s].
 TIME_RANGE = (0.2, 20.0)
 CACHE_VERSION = 2  # 2: the time range bounds T itself (version 1 held T >= 1 s)
@@ -146,7 +149,8 @@ def _key(am, bound, objective, duration, intervals, x0, xN, start=None):
 
 
 def solve_kip(am: AnalyticModel, bound, objective="min-time", duration=None, intervals=INTERVALS, x0=None,
-              xN=None, use_cache=True, max_iter=3000, task: Task | None = None, start: Kip | None = None) -> Kip:
+              xN=None, use_cache=True, max_iter=3000, task: Task | None = None, start: Kip | None = None,
+              budget_cpu_s: float = BUDGET_CPU_S) -> Kip:
     """Solve (or load from the cache) the kip from ``x0`` to ``xN`` (default: from the task's start to its goal at
     rest; for the gymnast's folded task from (65) to UDD).
 
@@ -167,6 +171,9 @@ def solve_kip(am: AnalyticModel, bound, objective="min-time", duration=None, int
         controller is a perturbation of) that IPOPT starts from instead of the straight line from ``x0`` to
         ``xN``: a few times fewer iterations, and the local optimum nearest that plan. Without it, or of
         another shape, the straight line.
+    budget_cpu_s : float
+        CPU-seconds IPOPT may take (its ``max_cpu_time``); a solve that spends them is refused in one line that
+        names the budget. A kip kept in the cache costs none.
 
     Raises
     ------
@@ -191,6 +198,10 @@ def solve_kip(am: AnalyticModel, bound, objective="min-time", duration=None, int
             raise PaaError("the kip duration is one number [s]")
     if not (isinstance(max_iter, (int, np.integer)) and not isinstance(max_iter, bool) and max_iter >= 0):
         raise PaaError(f"max_iter must be a whole number >= 0 (IPOPT's iterations), got {max_iter!r}")
+    budget_cpu_s = float(_real(budget_cpu_s, "the kip's budget").reshape(-1)[0]) if np.size(budget_cpu_s) == 1 \
+        else np.nan
+    if not (np.isfinite(budget_cpu_s) and budget_cpu_s > 0):
+        raise PaaError("the kip's budget is one number of CPU-seconds > 0")
     if not np.all(np.isfinite(bound) & (bound > 0)):
         raise PaaError(f"torque bounds of the kip must be finite and > 0, got {bound.tolist()}")
     if objective == "min-effort" and not (duration is not None and np.isfinite(duration) and duration > 0):
@@ -217,7 +228,7 @@ def solve_kip(am: AnalyticModel, bound, objective="min-time", duration=None, int
         kept = _load_kept(path, am, bound, objective, duration, intervals, x0, xN)
         if kept is not None:
             return kept
-    kip = _solve(am, bound, objective, duration, intervals, x0, xN, max_iter, start)
+    kip = _solve(am, bound, objective, duration, intervals, x0, xN, max_iter, start, budget_cpu_s)
     if use_cache:
         try:
             write_npz(path, **kip.arrays())
@@ -269,7 +280,7 @@ def _check_interior(duration, bound):
                        " bounds")
 
 
-def _solve(am, bound, objective, duration, intervals, x0, xN, max_iter, start=None) -> Kip:
+def _solve(am, bound, objective, duration, intervals, x0, xN, max_iter, start=None, budget_cpu_s=BUDGET_CPU_S) -> Kip:
     ca = eq.casadi_module()
     f = dynamics_function(am)
     N = intervals
@@ -308,10 +319,12 @@ def _solve(am, bound, objective, duration, intervals, x0, xN, max_iter, start=No
             opti.set_initial(variable, values.T)
         if objective == "min-time":
             opti.set_initial(T, float(np.clip(start.duration, *TIME_RANGE)))
-    opti.solver("ipopt", {"print_time": False}, {"print_level": 0, "sb": "yes", "max_iter": max_iter, "tol": 1e-9})
+    opti.solver("ipopt", {"print_time": False}, {"print_level": 0, "sb": "yes", "max_iter": max_iter, "tol": 1e-9,
+                                                  "max_cpu_time": budget_cpu_s})
     # a solve of a long chain takes minutes: its iterations are its progress, out of at most max_iter; a solve that
     # converges sooner finishes its bar at the iterations it took
-    bar = progress(desc=f"planning the {objective} kip (IPOPT, {am.n_links} links, at most {max_iter} iterations)",
+    bar = progress(desc=f"planning the {objective} kip (IPOPT, {am.n_links} links, at most {max_iter} iterations"
+                        f" and {budget_cpu_s:g} CPU-s)",
                    unit="iteration", total=max_iter)
     opti.callback(lambda _: bar.update(1))
     try:
@@ -321,6 +334,10 @@ def _solve(am, bound, objective, duration, intervals, x0, xN, max_iter, start=No
         status = opti.debug.stats().get("return_status", "failed")
         if status == "NonIpopt_Exception_Thrown":  # this NLP has no Python callbacks: only Ctrl-C/SIGTERM throws
             raise KeyboardInterrupt from None
+        if status == "Maximum_CpuTime_Exceeded":
+            raise PaaError(f"the {objective} kip was not found within its budget of {budget_cpu_s:g} CPU-s (IPOPT's"
+                           " max_cpu_time): give it more (--plan-budget, or the controller's option budget) or fewer"
+                           " collocation intervals") from None
         raise PaaError(f"the {objective} kip did not converge (IPOPT: {status}) with torque bounds"
                        f" {bound.round(3).tolist()} N m" + (f" and duration {duration:g} s" if objective == "min-effort"
                                                              else "") + "; try higher bounds, a longer duration or"

@@ -36,7 +36,7 @@ from .combined import CombinedController, TimeCondition, time_condition
 from .lqr import LQRController, lqr_kernel
 from ..model.equations import casadi_module
 from .record import controller
-from .trajopt import INTERVALS, Kip, dynamics_function, solve_kip
+from .trajopt import BUDGET_CPU_S, INTERVALS, Kip, dynamics_function, solve_kip
 
 #: Table step of the tracking controller [s] (the physics step of the named robots).
 TABLE_DT = 1e-3
@@ -234,25 +234,26 @@ def _kip_bound(robot, limit):
     return HEADROOM * limits
 
 
-def _planned_kip(robot, task, limit, objective, duration, intervals, plant):
+def _planned_kip(robot, task, limit, objective, duration, intervals, plant, budget):
     """The kip ``robot`` plans within :data:`HEADROOM` of the torque limit (option ``limit``, or the robot's
     actuator ranges); a controller that believes in a model other than its ``plant``'s starts IPOPT from the
     plant's own kip (the same bounds and settings), so that a perturbed model re-plans near that plan."""
     bound = _kip_bound(robot, limit)
     start = None
     if plant is not None and plant.params != robot.params:
-        start = solve_kip(plant.analytic, bound, objective, duration=duration, intervals=intervals, task=task)
+        start = solve_kip(plant.analytic, bound, objective, duration=duration, intervals=intervals, task=task,
+                          budget_cpu_s=budget)
     return solve_kip(robot.analytic, bound, objective, duration=duration, intervals=intervals, task=task,
-                     start=start)
+                     start=start, budget_cpu_s=budget)
 
 
 @controller("trajopt", "minimum-time kip by collocation, tracked by TVLQR, then (67)", plans=True, lqr=True,
             passive=None, compare=True, device=True, kernels=(tvlqr_kernel, lqr_kernel, time_condition),
             checked=(("gymnast", "folded"),), check_options=(("limit", (470.0, 217.0)), ("intervals", 16)))
 def build_trajopt(robot, task, gains=None, check=True, limit=None, duration=None, intervals=INTERVALS,
-                  lqr_weights=None, plant=None):
-    """The minimum-time kip, tracked by TVLQR, then (67)."""
-    kip = _planned_kip(robot, task, limit, "min-time", duration, intervals, plant)
+                  lqr_weights=None, plant=None, budget=BUDGET_CPU_S):
+    """The minimum-time kip, tracked by TVLQR, then (67); IPOPT's CPU-seconds at most ``budget``."""
+    kip = _planned_kip(robot, task, limit, "min-time", duration, intervals, plant, budget)
     return kip_controller(robot.analytic, kip, task, name="trajopt", lqr_weights=lqr_weights)
 
 
@@ -260,7 +261,8 @@ def build_trajopt(robot, task, gains=None, check=True, limit=None, duration=None
             lqr=True, passive=None, compare=True, device=True, kernels=(tvlqr_kernel, lqr_kernel, time_condition),
             checked=(("gymnast", "folded"),), check_options=(("limit", (470.0, 217.0)), ("intervals", 16)))
 def build_trajopt_effort(robot, task, gains=None, check=True, limit=None, duration=EFFORT_DURATION,
-                         intervals=INTERVALS, lqr_weights=None, plant=None):
-    """The kip of least effort over ``duration`` seconds, tracked by TVLQR, then (67)."""
-    kip = _planned_kip(robot, task, limit, "min-effort", duration, intervals, plant)
+                         intervals=INTERVALS, lqr_weights=None, plant=None, budget=BUDGET_CPU_S):
+    """The kip of least effort over ``duration`` seconds, tracked by TVLQR, then (67); IPOPT's CPU-seconds at most
+    ``budget``."""
+    kip = _planned_kip(robot, task, limit, "min-effort", duration, intervals, plant, budget)
     return kip_controller(robot.analytic, kip, task, name="trajopt-effort", lqr_weights=lqr_weights)

@@ -156,14 +156,20 @@ def _chosen_levels(factors, levels, model_error) -> dict:
     return chosen
 
 
+def believed_params(params, percent):
+    """The parameters a controller believes in at a model error of ``percent`` [%]: masses x (1 + e), lengths
+    x (1 - e), e = percent / 100."""
+    e = percent / 100
+    return params.scaled(1 + e, 1 - e)
+
+
 def check_model_error(robot: Robot, percents, lower: str):
-    """Refuse, before any run, model-error levels ``percents`` [%] whose believed model (masses x (1 + e), lengths
-    x (1 - e)) lies outside the plausible parameters of :class:`~paa_mj.model.params.RobotParams` (a robot made at
-    the edge of that range, a 1e6-kg chain): one line naming the level and ``lower``, what to change."""
+    """Refuse, before any run, model-error levels ``percents`` [%] whose believed model (:func:`believed_params`)
+    lies outside the plausible parameters of :class:`~paa_mj.model.params.RobotParams` (a robot made at the edge of
+    that range, a 1e6-kg chain): one line naming the level and ``lower``, what to change."""
     for percent in sorted(set(float(p) for p in percents), reverse=True):
-        e = percent / 100
         try:
-            robot.params.scaled(1 + e, 1 - e)
+            believed_params(robot.params, percent)
         except PaaError as err:
             raise PaaError(f"a model error of {percent:g} % makes the controller's model non-physical:"
                            f" {str(err).removeprefix('non-physical parameters: ')}; {lower}") from None
@@ -186,10 +192,9 @@ def _rollouts(robot, spec, task, chosen, runs, base, base_limit, peak, seed):
                 if factor == "initial_state" and level > 0:
                     x_start += rng.uniform(-level, level, 2 * links)
                 x0.append(x_start)
-                e = level / 100 if factor == "model_error" else 0.0
-                specs.append(ControllerSpec(spec.name, spec.gains, robot.params.scaled(1 + e, 1 - e), check=False,
+                specs.append(ControllerSpec(spec.name, spec.gains, believed_params(robot.params, level), check=False,
                                             options=spec.options, task=task)
-                             if e else quiet)
+                             if factor == "model_error" and level else quiet)
                 limit.append(np.minimum(base_limit, level * peak if factor == "torque_limit" else math.inf))
                 noise.append([level, level] if factor == "noise" else [0.0, 0.0])
                 tau_noise.append(level * peak if factor == "torque_noise" else 0.0)
